@@ -1,0 +1,143 @@
+"""The robot's physical constants, in one place, each with its source.
+
+Everything here is a fact about the machine (geometry, masses, motor data,
+wiring), not a tuning choice; tuning lives in ``controller/params.py``.
+The MuJoCo model (``emulators/robot/robot.xml``), the LQR design script
+(``controller/design/lqr.py``) and the controller all read these numbers, and
+``tests/test_model.py`` checks that the MJCF agrees with them.
+
+Sources:
+  [seed]   ../shared/seeds/000_6527c9111757cbbd.txt, mechanical and mass tables
+  [CG]     ../shared/protocols.md §1 (Xiaomi CyberGear manual, S1/S2)
+  [DJI]    ../shared/protocols.md §2 (C620 guide D1, M3508 data D3/D4)
+  [derived] chosen here to fit the seed's totals; marked as such, to be
+            replaced by CAD values when the team has them.
+
+Conventions (SI units throughout; angles in rad):
+  body frame  x forward, y left, z up; roll/pitch/yaw ZYX, pitch > 0 nose DOWN
+              (right hand about +y). The LQR's body angle phi is -pitch
+              (nose up positive), as in the seed's ``phi = -pitch_angle``.
+  leg plane   the seed's five-bar frame, one per leg, both seen alike ("both
+              legs are controlled as seen from the left", seed): origin at hip
+              A (front hip), x_fb pointing BACKWARD towards hip E (rear hip,
+              at x_fb = L5), y_fb pointing DOWN. phi1 is the angle of link AB,
+              phi4 of link ED, measured from x_fb towards y_fb. The wheel
+              axle is point C; the virtual leg runs from the midpoint of AE to C.
+  leg angle   theta = pi/2 - phi0 - phi: theta > 0 when the wheel is behind
+              the hip ("leg swung back positive", seed model table).
+  motors      every shaft points outwards from the body. A left shaft turning
+              positive (right hand about +y) lowers phi; a right shaft raises
+              it. The joint motors were zeroed (CyberGear type 6) with the
+              thighs on the mechanical stop, so phi = stop + sign * q.
+              A left wheel turning positive rolls forward; a right one rolls
+              backward.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+GRAVITY = 9.81  # m/s^2
+
+# --- five-bar leg geometry [seed: 尺寸相关] ---------------------------------
+L1 = 0.11  # m, hip A to knee B (front thigh)
+L2 = 0.18  # m, knee B to wheel axle C
+L3 = 0.18  # m, knee D to wheel axle C
+L4 = 0.11  # m, hip E to knee D (rear thigh)
+L5 = 0.09  # m, hip A to hip E
+WHEEL_RADIUS = 0.05  # m
+HALF_TRACK = 0.1577  # m, yaw radius: body centre to wheel contact ("底盘绕Z轴旋转半径")
+STOP_ANGLE = 0.10472  # rad, thighs lying on the mechanical stop ("大腿趴下机械限位"):
+PHI1_STOP = math.pi - STOP_ANGLE  # rad, front thigh on its stop
+PHI4_STOP = STOP_ANGLE  # rad, rear thigh on its stop
+HIP_SWEEP = 1.40  # rad, how far each hip turns off its stop before the links
+#                   lock (phi1 = 95 deg, the leg's geometric maximum) [derived
+#                   from the geometry in control_notes.md §1.4]
+
+# --- masses [seed: 质量相关]: 4.635 = 2.839 + 2 * 0.715 + 2 * 0.183 ---------
+MASS_TOTAL = 4.635  # kg
+MASS_BODY = 2.839  # kg, includes the four CyberGear hip motors
+MASS_LEG = 0.715  # kg per leg: four links plus the M3508 wheel motor at C
+MASS_WHEEL = 0.183  # kg per wheel (tyre and hub)
+# how one leg's 0.715 kg splits [derived: M3508 0.365 kg (DJI, D3) plus its
+# mount at C, the rest in the links]
+MASS_LINK_THIGH = 0.05  # kg, each of AB and ED
+MASS_LINK_SHIN = 0.075  # kg, each of BC and DC
+MASS_WHEEL_MOTOR = MASS_LEG - 2 * MASS_LINK_THIGH - 2 * MASS_LINK_SHIN  # kg at C
+
+# --- body and wheel shape [derived: a box that holds the seed's parts] -----
+BODY_SIZE = (0.26, 0.24, 0.08)  # m, x, y, z extent of the body box
+BODY_COM_ABOVE_HIP = 0.02  # m, "l" in the seed model: body CoM above the hip axis
+LEG_PLANE_Y = 0.12  # m, each leg's plane from the body's mid-plane
+WHEEL_WIDTH = 0.03  # m
+
+
+def box_inertia(mass: float, size: tuple[float, float, float]) -> tuple[float, float, float]:
+    """Principal inertias (kg m^2) of a solid box of ``mass`` kg and ``size`` m."""
+    x, y, z = size
+    return (mass * (y * y + z * z) / 12, mass * (x * x + z * z) / 12, mass * (x * x + y * y) / 12)
+
+
+BODY_INERTIA = box_inertia(MASS_BODY, BODY_SIZE)  # kg m^2, (Ixx, Iyy, Izz)
+WHEEL_INERTIA = 0.5 * MASS_WHEEL * WHEEL_RADIUS**2  # kg m^2 about the axle (solid disc)
+
+
+# --- CyberGear hip motors on CAN2 [CG §1.2, §1.5] ---------------------------
+CG_TORQUE_LIMIT = 12.0  # N m, protocol range and peak torque
+CG_SPEED_LIMIT = 30.0  # rad/s, protocol velocity range
+CG_POSITION_LIMIT = 12.5  # rad, default position field range (+-4 pi option)
+CG_KP_MAX = 500.0
+CG_KD_MAX = 5.0
+CG_TORQUE_CONSTANT = 0.87  # N m / A
+CG_OVER_TEMP = 80.0  # degC, over-temperature fault default
+CG_WARN_TEMP = 75.0  # degC, warning
+CG_HOST_ID = 0xFD  # the host id the controller puts in bits 15..8 (debugger's)
+
+# --- C620 + M3508 wheel drives on CAN1 [DJI §2.2, §2.7] ---------------------
+M3508_GEAR = 3591 / 187  # reduction, rotor to output shaft
+M3508_TORQUE_CONSTANT = 0.3  # N m / A at the output shaft
+C620_CURRENT_LIMIT = 20.0  # A, command range -16384..16384 <-> -20..20 A
+M3508_NO_LOAD_SPEED = 482 * 2 * math.pi / 60  # rad/s at the output, with a C620
+WHEEL_TORQUE_LIMIT = C620_CURRENT_LIMIT * M3508_TORQUE_CONSTANT  # 6 N m
+
+
+@dataclass(frozen=True)
+class Joint:
+    """One CyberGear hip motor: where it sits and how its shaft maps to phi."""
+
+    name: str  # also the MJCF joint/actuator name and the DBC node name
+    motor_id: int  # CyberGear CAN id on CAN2
+    leg: str  # "left" | "right"
+    hip: str  # "A" (front, phi1) | "E" (rear, phi4)
+    sign: int  # phi = stop + sign * q_motor
+
+    @property
+    def stop(self) -> float:
+        """phi (rad) when the shaft reads 0: the thigh on its mechanical stop."""
+        return PHI1_STOP if self.hip == "A" else PHI4_STOP
+
+
+# Shafts point outwards, so a left shaft turning positive lowers phi (see the
+# module docstring); ids follow the seed's cyber_gear_data order, front first.
+JOINTS = (
+    Joint("left_front_hip", 1, "left", "A", -1),
+    Joint("left_rear_hip", 2, "left", "E", -1),
+    Joint("right_front_hip", 3, "right", "A", +1),
+    Joint("right_rear_hip", 4, "right", "E", +1),
+)
+
+
+@dataclass(frozen=True)
+class Wheel:
+    """One M3508 wheel drive behind a C620 on CAN1."""
+
+    name: str
+    esc_id: int  # C620 id 1..8: command slot esc_id-1 of 0x200, feedback 0x200+id
+    leg: str
+    forward_sign: int  # +1 when a positive output turn rolls the robot forward
+
+
+WHEELS = (Wheel("left_wheel", 1, "left", +1), Wheel("right_wheel", 2, "right", -1))
+
+# Offline-detection device order: bit i of the heartbeat's offline mask.
+DEVICES = tuple(j.name for j in JOINTS) + tuple(w.name for w in WHEELS) + ("imu", "remote")

@@ -1,0 +1,85 @@
+"""The rig's DBC files and the small codecs that read them.
+
+Every byte layout on both buses lives in the ``*.dbc`` files beside this
+module; nothing else in the project hard-codes one. This package only loads
+them (through cantools) and adds what a DBC cannot say by itself: the
+CyberGear fields that live in the 29-bit identifier (``dbc.cybergear``) and
+the manual's truncating float-to-uint encoder.
+
+Buses (DESIGN.md): CAN1 carries the wheel ESCs, the IMU, the remote, SYNC and
+heartbeat; CAN2 carries the four CyberGear joint motors, SYNC and heartbeat.
+"""
+from __future__ import annotations
+
+import functools
+import math
+from importlib import resources
+from pathlib import Path
+
+import cantools
+
+DBC_DIR = Path(__file__).resolve().parent
+BUS_FILES = {
+    "can1": ("c620.dbc", "rig.dbc"),
+    "can2": ("cybergear.dbc", "rig.dbc"),
+}
+CYBERGEAR_FILES = {"12.5": "cybergear.dbc", "4pi": "cybergear_4pi.dbc"}
+
+
+def dbc_path(name: str) -> Path:
+    """Path of one DBC file of this package."""
+    path = DBC_DIR / name
+    if not path.is_file():
+        raise FileNotFoundError(f"no DBC file {name!r} in {DBC_DIR}")
+    return path
+
+
+def all_dbc_files() -> list[Path]:
+    """Every DBC file the rig ships, sorted by name."""
+    return sorted(DBC_DIR.glob("*.dbc"))
+
+
+@functools.lru_cache(maxsize=None)
+def load_file(name: str) -> cantools.database.Database:
+    """Load one DBC by file name; a malformed file raises with its name."""
+    try:
+        return cantools.database.load_file(str(dbc_path(name)))
+    except cantools.database.UnsupportedDatabaseFormatError as exc:
+        raise ValueError(f"{name}: not a valid DBC file: {exc}") from exc
+
+
+@functools.lru_cache(maxsize=None)
+def load_bus(bus: str, position_range: str = "12.5") -> cantools.database.Database:
+    """One cantools database holding every message that can appear on ``bus``.
+
+    ``bus`` is ``"can1"`` (wheels) or ``"can2"`` (joints); ``position_range``
+    picks the CyberGear position scale (``"12.5"`` default or ``"4pi"``).
+    """
+    if bus not in BUS_FILES:
+        raise ValueError(f"unknown bus {bus!r}; expected one of {sorted(BUS_FILES)}")
+    db = cantools.database.Database()
+    for name in BUS_FILES[bus]:
+        if name == "cybergear.dbc":
+            name = CYBERGEAR_FILES[position_range]
+        db.add_dbc_file(str(dbc_path(name)))
+    return db
+
+
+def truncating_raw(signal, value: float) -> int:
+    """Raw value of an unsigned, ranged signal the CyberGear way.
+
+    The manual's ``float_to_uint`` clamps to [min, max] and truncates
+    ``(x - min) * (2^bits - 1) / (max - min)``; cantools would round. NaN
+    encodes as the minimum (the clamp of a comparison that is always false).
+    """
+    lo, hi = signal.minimum, signal.maximum
+    full = (1 << signal.length) - 1
+    if value != value:  # NaN
+        return 0
+    value = min(max(value, lo), hi)
+    return min(int((value - lo) * full / (hi - lo)), full)
+
+
+def is_finite_number(value) -> bool:
+    """True for an int or a finite float (decoded signals can carry NaN/inf)."""
+    return isinstance(value, int) or (isinstance(value, float) and math.isfinite(value))

@@ -1,0 +1,130 @@
+"""The CyberGear 29-bit identifier codec.
+
+A CyberGear identifier is ``type << 24 | data16 << 8 | target`` (protocols.md
+§1.3); what ``data16`` holds depends on the type: the host id, a torque
+feed-forward (type 1), mode and fault bits (type 2 and other replies) or a new
+id (type 7). The DBC describes those fields with four pseudo messages
+(``CG_Id_*``: the identifier read as a little-endian u32); this module reads
+their bit positions and scales once and does the arithmetic, because a field
+that lives in the id cannot be decoded by cantools from the payload.
+
+Payloads sit in ``cybergear.dbc`` at a canonical id: the type alone.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from dbc import load_file, truncating_raw
+
+TYPE_SHIFT = 24
+DEVICE_ID_TARGET = 0xFE  # replies to type 0/7/22 go to this address
+FAULT_NAMES = ("FaultUnderVoltage", "FaultOverCurrent", "FaultOverTemp",
+               "FaultMagEncoder", "FaultHallEncoder", "FaultNotCalibrated")
+
+# communication types (protocols.md §1.4)
+T_DEVICE_ID, T_MOTION, T_FEEDBACK, T_ENABLE, T_STOP = 0, 1, 2, 3, 4
+T_SET_ZERO, T_SET_ID, T_PARAM_READ, T_PARAM_WRITE = 6, 7, 17, 18
+T_FAULT_WARN, T_SET_BAUD = 21, 22
+
+
+@dataclass(frozen=True)
+class _Field:
+    shift: int
+    mask: int
+
+    def get(self, word: int) -> int:
+        return (word >> self.shift) & self.mask
+
+    def put(self, value: int) -> int:
+        return (int(value) & self.mask) << self.shift
+
+
+def _fields(message_name: str) -> dict[str, _Field]:
+    msg = load_file("cybergear.dbc").get_message_by_name(message_name)
+    return {s.name: _Field(s.start, (1 << s.length) - 1) for s in msg.signals}
+
+
+_REQ = _fields("CG_Id_Request")
+_MOT = _fields("CG_Id_Motion")
+_REP = _fields("CG_Id_Reply")
+_SET = _fields("CG_Id_SetId")
+_TORQUE_SIGNAL = load_file("cybergear.dbc").get_message_by_name("CG_Id_Motion").get_signal_by_name("TorqueRef")
+_FAULT_FIELDS = [(name, _REP[name]) for name in FAULT_NAMES]
+
+
+def comm_type(can_id: int) -> int:
+    """Communication type (bits 28..24)."""
+    return _REQ["Type"].get(can_id)
+
+
+def canonical_id(can_id: int) -> int:
+    """The id under which the payload layout sits in cybergear.dbc."""
+    return _REQ["Type"].put(comm_type(can_id))
+
+
+def target(can_id: int) -> int:
+    """Bits 7..0: the receiver's address."""
+    return _REQ["Target"].get(can_id)
+
+
+# --- host -> motor -----------------------------------------------------------
+def request_id(ctype: int, host: int, motor: int) -> int:
+    """Id of a host->motor request of type 0, 3, 4, 6, 17, 18, 21 or 22."""
+    return _REQ["Type"].put(ctype) | _REQ["Host"].put(host) | _REQ["Target"].put(motor)
+
+
+def request_host(can_id: int) -> int:
+    """Host id (bits 15..8) of a request."""
+    return _REQ["Host"].get(can_id)
+
+
+def motion_id(torque_nm: float, motor: int) -> int:
+    """Id of a type-1 motion command carrying ``torque_nm`` (truncating encoder)."""
+    raw = truncating_raw(_TORQUE_SIGNAL, torque_nm)
+    return _MOT["Type"].put(T_MOTION) | _MOT["TorqueRef"].put(raw) | _MOT["Target"].put(motor)
+
+
+def motion_torque(can_id: int) -> float:
+    """Feed-forward torque (N m) of a type-1 id."""
+    raw = _MOT["TorqueRef"].get(can_id)
+    return raw * _TORQUE_SIGNAL.scale + _TORQUE_SIGNAL.offset
+
+
+def set_id_id(new_id: int, host: int, motor: int) -> int:
+    """Id of a type-7 change-id request."""
+    return (_SET["Type"].put(T_SET_ID) | _SET["NewId"].put(new_id)
+            | _SET["Host"].put(host) | _SET["Target"].put(motor))
+
+
+def set_id_new_id(can_id: int) -> int:
+    return _SET["NewId"].get(can_id)
+
+
+# --- motor -> host -----------------------------------------------------------
+@dataclass(frozen=True)
+class ReplyId:
+    """Fields of a motor->host identifier."""
+
+    ctype: int
+    motor_id: int
+    host: int
+    mode: int = 0  # 0 reset, 1 cali, 2 run, 3 brake
+    faults: frozenset = frozenset()  # names from FAULT_NAMES
+
+
+def reply_id(ctype: int, motor: int, host: int, mode: int = 0, faults=()) -> int:
+    """Id of a motor->host frame: type 2 carries mode and faults."""
+    word = _REP["Type"].put(ctype) | _REP["MotorId"].put(motor) | _REP["Host"].put(host)
+    if ctype == T_FEEDBACK:
+        word |= _REP["Mode"].put(mode)
+        for name, field in _FAULT_FIELDS:
+            if name in faults:
+                word |= field.put(1)
+    return word
+
+
+def parse_reply_id(can_id: int) -> ReplyId:
+    ctype = _REP["Type"].get(can_id)
+    faults = frozenset(name for name, field in _FAULT_FIELDS if field.get(can_id))
+    return ReplyId(ctype, _REP["MotorId"].get(can_id), _REP["Host"].get(can_id),
+                   _REP["Mode"].get(can_id), faults if ctype == T_FEEDBACK else frozenset())
