@@ -18,3 +18,43 @@ LEG_LENGTH_MIN = 0.12  # m, lower end of the K(L0) fit and of leg commands
 LEG_LENGTH_MAX = 0.26  # m, upper end (geometric max 0.28, singular at 0.2865)
 LEG_LENGTH_NOMINAL = 0.17  # m
 LQR_GRID_POINTS = 50
+
+# --- leg length (VMC force along the leg) [control_notes §6, scaled from Reborn] --
+LEG_KP = 400.0  # N/m
+LEG_KD = 25.0  # N s/m
+LEG_FORCE_LIMIT = 80.0  # N, PID output clamp (feed-forward comes on top)
+LEG_GRAVITY_FF = 17.0  # N per leg: (M_body/2 + m_leg/2) g, control_notes §6
+LEG_LENGTH_RATE = 0.25  # m/s, slew of the leg-length set point (seed 002's compliant height)
+
+# --- roll levelling ------------------------------------------------------------
+ROLL_KP = 400.0  # N/rad, force difference between the legs (McMaster 600/10 at 5 kg)
+ROLL_KD = 15.0  # N s/rad
+ROLL_FORCE_LIMIT = 25.0  # N
+ROLL_LEVEL_KI = 0.5  # (m/s)/rad: seed 002's integral levelling of the leg-length difference
+ROLL_LEVEL_LIMIT = 0.08  # m, largest left/right leg-length difference it may build
+
+# --- split legs (keep both legs at the same angle) ------------------------------
+SPLIT_KP = 12.0  # N m/rad on Tp (Reborn 8/2, SZTU 10/1)
+SPLIT_KD = 1.0  # N m s/rad
+SPLIT_LIMIT = 3.0  # N m
+
+# --- yaw ------------------------------------------------------------------------
+YAW_KP = 6.0  # (rad/s)/rad, heading hold -> rate set point
+YAW_RATE_KP = 1.0  # N m per (rad/s) of wheel torque difference
+YAW_TORQUE_LIMIT = 2.0  # N m
+
+# --- motion commands --------------------------------------------------------------
+SPEED_LIMIT = 2.0  # m/s
+ACCEL_LIMIT = 2.0  # m/s^2, slew of the speed set point
+POSITION_ERROR_LIMIT = 0.15  # m, position error fed to the LQR is clamped (Skythinker)
+YAW_RATE_LIMIT = 4.0  # rad/s
+
+# --- torque limits ----------------------------------------------------------------
+HIP_TORQUE_LIMIT = 10.0  # N m, normal clamp below the CyberGear's 12 (control_notes §6)
+WHEEL_TORQUE_LIMIT = 5.5  # N m, below the C620's 20 A x 0.3 N m/A
+
+# --- safety -------------------------------------------------------------------------
+FALL_PITCH = 0.6  # rad, beyond it the robot has fallen (rm_controllers)
+FALL_THETA = 0.9  # rad
+FALL_ROLL = 0.8  # rad
+STAND_UP_TIME = 1.0  # s, leg length ramps from where it is to the set point

@@ -1,0 +1,235 @@
+"""The chassis task of seed 000: LQR on the wheel-legged pendulum, VMC legs.
+
+One ``ChassisController.step`` per control period turns what the buses said
+(``BusState``) and what is asked (``Command``) into hip shaft torques and wheel
+output torques. The pieces follow the seed's chassis_control(): forward
+kinematics, K(L0) fitting, state references, LQR torques, leg-length PID with
+gravity feed-forward, VMC to joint torques; plus yaw, split-leg and roll
+control from control_notes.md §1.5-1.7.
+
+Sign conventions are those of controller/constants.py: theta > 0 with the
+wheel behind the hip, phi (body) nose-up positive, T forward-rolling positive.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+from controller import constants as C
+from controller import fivebar, lqr
+from controller import params as P
+from controller.state import BusState, ImuReading
+
+LEGS = ("left", "right")
+
+
+@dataclass(frozen=True)
+class Attitude:
+    """Body attitude from the IMU: ZYX angles (rad), body rates (rad/s)."""
+
+    roll: float
+    pitch: float  # nose down positive
+    yaw: float
+    wx: float
+    wy: float
+    wz: float
+
+
+def attitude(imu: ImuReading) -> Attitude:
+    """Euler angles of the IMU quaternion (ZYX) and its body rates."""
+    w, x, y, z = imu.quat
+    roll = math.atan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
+    pitch = math.asin(max(-1.0, min(1.0, 2 * (w * y - z * x))))
+    yaw = math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+    return Attitude(roll, pitch, yaw, *imu.gyro)
+
+
+@dataclass(frozen=True)
+class LegState:
+    """One leg's virtual-leg state, from its two hip motors and the IMU."""
+
+    kin: object  # fivebar.LegKinematics
+    L0: float  # m
+    dL0: float  # m/s
+    theta: float  # rad, from vertical, wheel behind hip positive
+    dtheta: float  # rad/s
+    wheel_speed: float  # m/s, axle speed along the ground, forward positive
+
+
+@dataclass
+class Command:
+    """What the chassis is asked to do this tick (already limited by the mode)."""
+
+    speed: float = 0.0  # m/s
+    yaw_rate: float = 0.0  # rad/s
+    leg_length: float = P.LEG_LENGTH_NOMINAL  # m
+    pitch: float = 0.0  # rad, nose down positive
+    roll: float = 0.0  # rad
+
+
+@dataclass
+class Output:
+    """Torques for the motors (N m) and what the controller saw (for traces)."""
+
+    hip_torque: dict = field(default_factory=dict)  # motor id -> shaft torque
+    wheel_torque: dict = field(default_factory=dict)  # esc id -> output torque
+    debug: dict = field(default_factory=dict)
+
+
+def _joints(leg: str) -> tuple[C.Joint, C.Joint]:
+    front = next(j for j in C.JOINTS if j.leg == leg and j.hip == "A")
+    rear = next(j for j in C.JOINTS if j.leg == leg and j.hip == "E")
+    return front, rear
+
+
+_LEG_JOINTS = {leg: _joints(leg) for leg in LEGS}
+_LEG_WHEEL = {w.leg: w for w in C.WHEELS}
+
+
+def leg_state(bus: BusState, leg: str, att: Attitude) -> LegState:
+    """Virtual-leg state of ``leg`` from its joint feedback and the attitude."""
+    front, rear = _LEG_JOINTS[leg]
+    fa, fe = bus.joints[front.motor_id], bus.joints[rear.motor_id]
+    phi1, phi4 = fivebar.phi_from_shaft(front, fa.position), fivebar.phi_from_shaft(rear, fe.position)
+    dphi1, dphi4 = front.sign * fa.speed, rear.sign * fe.speed
+    kin = fivebar.forward_kinematics(phi1, phi4)
+    dL0, dphi0 = fivebar.leg_velocity(kin, dphi1, dphi4)
+    body_rate = -att.wy  # nose-up pitch rate
+    theta = math.pi / 2 - kin.phi0 + att.pitch  # phi = -pitch
+    dtheta = -dphi0 - body_rate
+    # The wheel motor's stator sits on link BC, so its encoder reads the wheel
+    # relative to that link: add the link's own rotation (wy - dphi2).
+    eps = 1e-4
+    phi2_ahead = fivebar.forward_kinematics(phi1 + eps * dphi1, phi4 + eps * dphi4).phi2
+    dphi2 = _wrap(phi2_ahead - kin.phi2) / eps
+    wheel = _LEG_WHEEL[leg]
+    spin = wheel.forward_sign * bus.wheels[wheel.esc_id].speed + att.wy - dphi2
+    return LegState(kin, kin.L0, dL0, theta, dtheta, spin * C.WHEEL_RADIUS)
+
+
+def _wrap(angle: float) -> float:
+    return (angle + math.pi) % (2 * math.pi) - math.pi
+
+
+def _clamp(value: float, limit: float) -> float:
+    return max(-limit, min(limit, value))
+
+
+class ChassisController:
+    """Seed 000's chassis_control(), one call per control period."""
+
+    def __init__(self, dt: float = P.CONTROL_PERIOD):
+        self.dt = dt
+        self.x = 0.0  # m, wheel travel since reset
+        self.x_ref = 0.0  # m
+        self.speed_ref = 0.0  # m/s, slewed
+        self.yaw_ref = 0.0  # rad
+        self.leg_ref = {leg: P.LEG_LENGTH_NOMINAL for leg in LEGS}
+        self.roll_offset = 0.0  # m, integral levelling: left minus right leg length
+
+    def reset(self, bus: BusState) -> None:
+        """Take the present pose as the reference (on enable, after a fall)."""
+        att = attitude(bus.imu)
+        self.x = self.x_ref = 0.0
+        self.speed_ref = 0.0
+        self.yaw_ref = att.yaw
+        self.roll_offset = 0.0
+        for leg in LEGS:
+            self.leg_ref[leg] = leg_state(bus, leg, att).L0
+
+    def step(self, bus: BusState, cmd: Command) -> Output:
+        att = attitude(bus.imu)
+        legs = {leg: leg_state(bus, leg, att) for leg in LEGS}
+        speed = 0.5 * (legs["left"].wheel_speed + legs["right"].wheel_speed)
+        self.x += speed * self.dt
+        self._track_references(cmd, att)
+        out = Output()
+        wheel_t, tp = {}, {}
+        for leg in LEGS:
+            wheel_t[leg], tp[leg] = self._lqr(legs[leg], speed, att, cmd)
+        split = self._split(legs)
+        tp["left"] += split
+        tp["right"] -= split
+        yaw_t = self._yaw(att, cmd)
+        wheel_t["left"] -= yaw_t
+        wheel_t["right"] += yaw_t
+        roll_f = self._roll(att, cmd)
+        for leg, sign in (("left", 1.0), ("right", -1.0)):
+            force = self._leg_force(legs[leg], leg) + sign * roll_f
+            self._hips(out, leg, legs[leg], force, tp[leg])
+            wheel = _LEG_WHEEL[leg]
+            out.wheel_torque[wheel.esc_id] = wheel.forward_sign * _clamp(wheel_t[leg], P.WHEEL_TORQUE_LIMIT)
+        self._limit_hips(out)
+        out.debug = self._debug(legs, att, speed, wheel_t, tp)
+        return out
+
+    # -- pieces ----------------------------------------------------------------
+    def _track_references(self, cmd: Command, att: Attitude) -> None:
+        target = _clamp(cmd.speed, P.SPEED_LIMIT)
+        step = P.ACCEL_LIMIT * self.dt
+        self.speed_ref += _clamp(target - self.speed_ref, step)
+        self.x_ref += self.speed_ref * self.dt
+        # keep the position error bounded so a push or a stall cannot wind it up
+        self.x_ref = self.x + _clamp(self.x_ref - self.x, P.POSITION_ERROR_LIMIT)
+        self.yaw_ref = _wrap(self.yaw_ref + _clamp(cmd.yaw_rate, P.YAW_RATE_LIMIT) * self.dt)
+        half = _clamp(self.roll_offset, P.ROLL_LEVEL_LIMIT) / 2
+        length = min(max(cmd.leg_length, P.LEG_LENGTH_MIN), P.LEG_LENGTH_MAX)
+        for leg, sign in (("left", 1.0), ("right", -1.0)):
+            target_leg = min(max(length + sign * half, P.LEG_LENGTH_MIN), P.LEG_LENGTH_MAX)
+            self.leg_ref[leg] += _clamp(target_leg - self.leg_ref[leg], P.LEG_LENGTH_RATE * self.dt)
+
+    def _lqr(self, leg: LegState, speed: float, att: Attitude, cmd: Command) -> tuple[float, float]:
+        """u = -K (x - x_ref): wheel torque T and virtual hip torque Tp (N m)."""
+        k = lqr.gain_matrix(leg.L0)
+        phi, dphi = -att.pitch, att.wy * -1.0
+        err = (leg.theta, leg.dtheta, self.x - self.x_ref, speed - self.speed_ref,
+               phi - (-cmd.pitch), dphi)
+        t = -sum(g * e for g, e in zip(k[0], err))
+        tp = -sum(g * e for g, e in zip(k[1], err))
+        return t, tp
+
+    def _split(self, legs: dict) -> float:
+        """Tp added to the left leg (and taken from the right) to keep them together."""
+        diff = legs["left"].theta - legs["right"].theta
+        ddiff = legs["left"].dtheta - legs["right"].dtheta
+        return _clamp(-(P.SPLIT_KP * diff + P.SPLIT_KD * ddiff), P.SPLIT_LIMIT)
+
+    def _yaw(self, att: Attitude, cmd: Command) -> float:
+        rate_ref = P.YAW_KP * _wrap(self.yaw_ref - att.yaw) + cmd.yaw_rate
+        return _clamp(P.YAW_RATE_KP * (rate_ref - att.wz), P.YAW_TORQUE_LIMIT)
+
+    def _roll(self, att: Attitude, cmd: Command) -> float:
+        """Force added to the left leg (taken from the right): level the body."""
+        err = cmd.roll - att.roll  # roll > 0: left side up
+        # seed 002: integrate the roll error into a leg-length difference
+        self.roll_offset += P.ROLL_LEVEL_KI * err * self.dt
+        self.roll_offset = _clamp(self.roll_offset, P.ROLL_LEVEL_LIMIT)
+        return _clamp(P.ROLL_KP * err - P.ROLL_KD * att.wx, P.ROLL_FORCE_LIMIT)
+
+    def _leg_force(self, leg: LegState, name: str) -> float:
+        pid = P.LEG_KP * (self.leg_ref[name] - leg.L0) - P.LEG_KD * leg.dL0
+        return _clamp(pid, P.LEG_FORCE_LIMIT) + P.LEG_GRAVITY_FF * math.cos(leg.theta)
+
+    def _hips(self, out: Output, leg: str, state: LegState, force: float, tp: float) -> None:
+        t1, t4 = fivebar.joint_torques(state.kin, force, tp)
+        front, rear = _LEG_JOINTS[leg]
+        out.hip_torque[front.motor_id] = front.sign * t1
+        out.hip_torque[rear.motor_id] = rear.sign * t4
+
+    @staticmethod
+    def _limit_hips(out: Output) -> None:
+        """On saturation scale all four hips by one factor (McMaster): keeps direction."""
+        peak = max(abs(t) for t in out.hip_torque.values())
+        if peak > P.HIP_TORQUE_LIMIT:
+            scale = P.HIP_TORQUE_LIMIT / peak
+            for key in out.hip_torque:
+                out.hip_torque[key] *= scale
+
+    def _debug(self, legs, att, speed, wheel_t, tp) -> dict:
+        d = {"x": self.x, "x_ref": self.x_ref, "speed": speed, "speed_ref": self.speed_ref,
+             "pitch": att.pitch, "roll": att.roll, "yaw": att.yaw, "yaw_ref": self.yaw_ref}
+        for leg in LEGS:
+            s = legs[leg]
+            d.update({f"{leg}_L0": s.L0, f"{leg}_L0_ref": self.leg_ref[leg], f"{leg}_theta": s.theta,
+                      f"{leg}_T": wheel_t[leg], f"{leg}_Tp": tp[leg]})
+        return d

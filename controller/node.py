@@ -1,0 +1,232 @@
+"""The controller as the robot runs it: frames in, one tick, frames out.
+
+``Controller`` is the program without I/O: ``on_frame`` takes each received
+frame, ``tick`` returns the frames to send (the rig's replay feeds it recorded
+frames the same way). ``ControllerNode`` owns the two buses and the clock:
+
+- sync mode (the rig's lockstep, DESIGN.md): a tick runs when SYNC with the
+  same counter has arrived on both buses; the controller's clock is the tick
+  count times the control period;
+- free-run mode (the robot, real time): a tick runs every control period of
+  the monotonic clock.
+Each tick ends with a heartbeat on both buses.
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import can
+
+from controller import constants as C
+from controller import detect, messages
+from controller import params as P
+from controller.chassis import ChassisController, Command, attitude
+from controller.modes import ENABLED, Inputs, Mode, Switch, next_mode
+from controller.state import CAN1, CAN2, BusState
+
+_DEVICE_OF_JOINT = {j.motor_id: j.name for j in C.JOINTS}
+_DEVICE_OF_WHEEL = {w.esc_id: w.name for w in C.WHEELS}
+
+
+@dataclass
+class TickResult:
+    """What one tick decided: frames per bus (heartbeat last) and a summary."""
+
+    frames: dict = field(default_factory=lambda: {CAN1: [], CAN2: []})
+    mode: Mode = Mode.IDLE
+    report: detect.Report | None = None
+    debug: dict = field(default_factory=dict)
+
+
+class Controller:
+    """Seed 000's chassis and detect tasks over CAN frames, without I/O."""
+
+    def __init__(self, period_s: float = P.CONTROL_PERIOD):
+        self.period_s = period_s
+        self.bus = BusState()
+        self.chassis = ChassisController(period_s)
+        self.mode = Mode.IDLE
+        self._last_buttons = (False, False)  # reenable, jump
+
+    def on_frame(self, msg: can.Message, bus: str, now_s: float) -> int | None:
+        """Take one received frame; returns the SYNC tick counter if it is a SYNC."""
+        return self.bus.update(msg, bus, now_s)
+
+    def last_seen(self) -> dict[str, float]:
+        seen = {_DEVICE_OF_JOINT[i]: fb.received_s for i, fb in self.bus.joints.items()}
+        seen.update({_DEVICE_OF_WHEEL[i]: fb.received_s for i, fb in self.bus.wheels.items()})
+        seen["imu"] = self.bus.imu.received_s
+        seen["remote"] = self.bus.operator.received_s
+        return seen
+
+    def tick(self, tick: int, now_s: float) -> TickResult:
+        report = detect.check(self.last_seen(), now_s)
+        faulted = any(fb.faults for fb in self.bus.joints.values())
+        inputs = self._inputs(report.balance_ok and not faulted)
+        previous, self.mode = self.mode, next_mode(self.mode, inputs)
+        result = TickResult(mode=self.mode, report=report)
+        if self.mode in ENABLED and previous not in ENABLED:
+            self._enable(result, now_s)
+        elif self.mode in ENABLED:
+            self._run(result, now_s)
+        else:
+            self._disabled(result, now_s, stop=previous in ENABLED)
+        hb = messages.heartbeat(
+            tick, int(self.mode), report.warning_level, report.offline_mask, report.offline_count,
+            motors_enabled=self.mode in ENABLED, off_ground=self.mode == Mode.AIRBORNE,
+            fallen=self.mode == Mode.FALLEN, fault_latched=faulted, bad_frames=self.bus.bad_frames,
+            t_s=now_s)
+        result.frames[CAN1].append(hb)
+        result.frames[CAN2].append(hb)
+        return result
+
+    # -- mode inputs -----------------------------------------------------------
+    def _inputs(self, devices_ok: bool) -> Inputs:
+        op = self.bus.operator
+        reenable_edge = op.reenable and not self._last_buttons[0]
+        jump_edge = op.jump and not self._last_buttons[1]
+        self._last_buttons = (op.reenable, op.jump)
+        att = attitude(self.bus.imu)
+        fallen = abs(att.pitch) > P.FALL_PITCH or abs(att.roll) > P.FALL_ROLL
+        stood = False
+        if self.mode == Mode.STAND_UP:
+            debug = self._last_debug
+            stood = all(abs(debug.get(f"{leg}_L0", 0) - op.leg_length) < 0.01 for leg in ("left", "right")) \
+                and abs(att.pitch) < 0.1
+            fallen = fallen or any(abs(debug.get(f"{leg}_theta", 0)) > P.FALL_THETA for leg in ("left", "right"))
+        try:
+            switch = Switch(op.mode)
+        except ValueError:
+            switch = Switch.ESTOP  # an unknown switch position is treated as E-stop
+        return Inputs(switch=switch, devices_ok=devices_ok, reenable=reenable_edge, jump=jump_edge,
+                      fallen=fallen, stood_up=stood, off_ground=False, jump_done=True,
+                      can_rise=not fallen)
+
+    _last_debug: dict = {}
+
+    # -- what each kind of tick sends --------------------------------------------
+    def _enable(self, result: TickResult, now_s: float) -> None:
+        """Stop-and-clear, MIT run mode, enable: the CyberGear start sequence."""
+        for joint in C.JOINTS:
+            result.frames[CAN2] += [messages.joint_stop(joint.motor_id, clear_fault=True, t_s=now_s),
+                                    messages.joint_run_mode(joint.motor_id, 0, t_s=now_s),
+                                    messages.joint_enable(joint.motor_id, t_s=now_s)]
+        result.frames[CAN1].append(messages.wheel_currents({}, t_s=now_s))
+        self.chassis.reset(self.bus)
+
+    def _run(self, result: TickResult, now_s: float) -> None:
+        op = self.bus.operator
+        moving = self.mode == Mode.MOVE
+        cmd = Command(speed=op.speed if moving else 0.0, yaw_rate=op.yaw_rate if moving else 0.0,
+                      leg_length=op.leg_length, pitch=op.pitch, roll=op.roll)
+        out = self.chassis.step(self.bus, cmd)
+        for joint in C.JOINTS:
+            result.frames[CAN2].append(messages.joint_torque(joint.motor_id, out.hip_torque[joint.motor_id], now_s))
+        currents = {esc: t / C.M3508_TORQUE_CONSTANT for esc, t in out.wheel_torque.items()}
+        result.frames[CAN1].append(messages.wheel_currents(currents, now_s))
+        result.debug = self._last_debug = out.debug
+
+    def _disabled(self, result: TickResult, now_s: float, stop: bool) -> None:
+        """Motors off: stop frames once, then zero torque (which keeps feedback coming)."""
+        for joint in C.JOINTS:
+            if stop:
+                result.frames[CAN2].append(messages.joint_stop(joint.motor_id, t_s=now_s))
+            result.frames[CAN2].append(messages.joint_torque(joint.motor_id, 0.0, now_s))
+        # the C620 holds its last command: send zero every tick
+        result.frames[CAN1].append(messages.wheel_currents({}, t_s=now_s))
+
+    def shutdown_frames(self, now_s: float) -> dict:
+        """Frames that leave the robot safe: every joint stopped, zero current."""
+        return {CAN2: [messages.joint_stop(j.motor_id, t_s=now_s) for j in C.JOINTS],
+                CAN1: [messages.wheel_currents({}, t_s=now_s)]}
+
+
+class ControllerNode:
+    """The controller on its two buses: CAN1 = wheels (``wheels_bus``), CAN2 = joints."""
+
+    def __init__(self, wheels_bus: can.BusABC, joints_bus: can.BusABC, *, sync: bool = True,
+                 period_s: float = P.CONTROL_PERIOD, listener=None):
+        self.buses = {CAN1: wheels_bus, CAN2: joints_bus}
+        self.sync = sync
+        self.controller = Controller(period_s)
+        self.period_s = period_s
+        self.listener = listener  # called as listener(bus, msg, sent: bool) for logging
+        self._sync_tick = {CAN1: None, CAN2: None}
+        self._last_tick = -1
+        self._start = time.monotonic()
+        self.ticks = 0
+        self.last_result: TickResult | None = None
+
+    def now(self) -> float:
+        if self.sync:
+            return max(self._last_tick, 0) * self.period_s
+        return time.monotonic() - self._start
+
+    def service(self, timeout_s: float = 0.0) -> bool:
+        """Drain both buses; run a tick if one is due. True when a tick ran."""
+        for name, bus in self.buses.items():
+            while True:
+                msg = bus.recv(timeout=0.0)
+                if msg is None:
+                    break
+                self._received(name, msg)
+        if self.sync:
+            tick = self._sync_tick[CAN1]
+            if tick is not None and tick == self._sync_tick[CAN2] and tick != self._last_tick:
+                self._run_tick(tick, tick * self.period_s)
+                return True
+            return False
+        now = self.now()
+        due = int(now / self.period_s)
+        if due > self._last_tick:
+            self._run_tick(due, now)
+            return True
+        return False
+
+    def _received(self, name: str, msg: can.Message) -> None:
+        if self.listener:
+            self.listener(name, msg, False)
+        stamp = self._sync_tick[name]
+        now = self.now() if not self.sync else ((stamp + 1) if stamp is not None else 0) * self.period_s
+        tick = self.controller.on_frame(msg, name, now)
+        if tick is not None:
+            self._sync_tick[name] = tick
+
+    def _run_tick(self, tick: int, now_s: float) -> None:
+        self._last_tick = tick
+        result = self.controller.tick(tick, now_s)
+        self.ticks += 1
+        self.last_result = result
+        for name, frames in result.frames.items():
+            for msg in frames:
+                self._send(name, msg)
+
+    def _send(self, name: str, msg: can.Message) -> None:
+        try:
+            self.buses[name].send(msg)
+        except can.CanError:
+            pass  # a full queue or bus-off: the next tick sends again; detect notices silence
+        if self.listener:
+            self.listener(name, msg, True)
+
+    def run(self, stop, idle_s: float = 0.0002) -> None:
+        """Blocking loop until ``stop`` (a threading.Event) is set; disables on exit."""
+        try:
+            while not stop.is_set():
+                if not self.service():
+                    time.sleep(idle_s)
+        finally:
+            self.disable()
+
+    def disable(self) -> None:
+        """Send the frames that stop every motor (SIGINT/SIGTERM, end of a run)."""
+        for name, frames in self.controller.shutdown_frames(self.now()).items():
+            for msg in frames:
+                self._send(name, msg)
+
+
+def frame_time(msg: can.Message) -> float:
+    """A frame's timestamp, or NaN when it has none."""
+    return msg.timestamp if msg.timestamp else math.nan

@@ -1,0 +1,191 @@
+"""State parser: frames from both buses -> what the controller knows.
+
+Only what the robot's own buses say reaches the controller: CyberGear type-2
+feedback (and type-21 fault words) on CAN2; C620 feedback, IMU, operator and
+SYNC on CAN1. A frame that fails its checks (wrong DLC, undecodable, NaN or out
+of its DBC range, an IMU quaternion that is not unit) is counted in
+``bad_frames`` and ignored: a frame never raises out of ``BusState.update``.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import can
+
+from controller import constants as C
+from dbc import cybergear as cg
+from dbc import load_bus
+
+CAN1, CAN2 = "can1", "can2"
+_DBS = {CAN1: load_bus(CAN1), CAN2: load_bus(CAN2)}
+_SYNC_ID = _DBS[CAN1].get_message_by_name("SYNC").frame_id
+_JOINT_BY_ID = {j.motor_id: j for j in C.JOINTS}
+_WHEEL_BY_FEEDBACK_ID = {0x200 + w.esc_id: w for w in C.WHEELS}
+_IMU_PARTS = {"IMU_Orientation": "quat", "IMU_Gyro": "gyro", "IMU_Accel": "accel"}
+RPM_TO_OUTPUT_RAD_S = 2 * math.pi / 60 / C.M3508_GEAR
+
+
+@dataclass
+class JointFeedback:
+    """Latest CyberGear type-2 feedback of one hip motor (shaft side, SI)."""
+
+    position: float = 0.0  # rad
+    speed: float = 0.0  # rad/s
+    torque: float = 0.0  # N m
+    temperature: float = 25.0  # degC
+    mode: int = 0  # 0 reset, 2 run
+    faults: frozenset = frozenset()
+    received_s: float = -math.inf  # controller clock time of the last good frame
+
+
+@dataclass
+class WheelFeedback:
+    """Latest C620 feedback of one wheel drive."""
+
+    rotor_angle: float = 0.0  # deg, 0..360 of the rotor
+    speed: float = 0.0  # rad/s of the output shaft
+    current: float = 0.0  # A
+    temperature: float = 25.0  # degC
+    received_s: float = -math.inf
+
+
+@dataclass
+class ImuReading:
+    quat: tuple = (1.0, 0.0, 0.0, 0.0)  # w, x, y, z body->world
+    gyro: tuple = (0.0, 0.0, 0.0)  # rad/s, body frame
+    accel: tuple = (0.0, 0.0, 9.81)  # m/s^2 specific force, body frame
+    received_s: float = -math.inf  # last time all three parts had arrived
+
+
+@dataclass
+class OperatorCommand:
+    """What the remote asks (rig.dbc Operator). Defaults: E-stop, standing still."""
+
+    mode: int = 0  # 0 ESTOP, 1 STAND, 2 MOVE
+    jump: bool = False
+    jump_forward: bool = False
+    reenable: bool = False
+    speed: float = 0.0  # m/s forward
+    yaw_rate: float = 0.0  # rad/s, left positive
+    leg_length: float = 0.17  # m
+    pitch: float = 0.0  # rad, nose-down positive (IMU convention)
+    roll: float = 0.0  # rad
+    received_s: float = -math.inf
+
+
+@dataclass
+class BusState:
+    """Everything the controller has heard, updated one frame at a time."""
+
+    joints: dict = field(default_factory=lambda: {j.motor_id: JointFeedback() for j in C.JOINTS})
+    wheels: dict = field(default_factory=lambda: {w.esc_id: WheelFeedback() for w in C.WHEELS})
+    imu: ImuReading = field(default_factory=ImuReading)
+    operator: OperatorCommand = field(default_factory=OperatorCommand)
+    bad_frames: int = 0
+    frames: int = 0
+    _imu_parts: dict = field(default_factory=dict)
+
+    def update(self, msg: can.Message, bus: str, now_s: float) -> int | None:
+        """Take one received frame; returns the SYNC tick when it is a SYNC."""
+        self.frames += 1
+        try:
+            if msg.is_error_frame or msg.is_remote_frame:
+                return None
+            if bus == CAN2 and msg.is_extended_id:
+                self._cybergear(msg, now_s)
+                return None
+            if msg.is_extended_id:
+                return None
+            if msg.arbitration_id == _SYNC_ID:
+                return self._decode(CAN1, msg)["Tick"] if bus in _DBS else None
+            if bus == CAN1:
+                self._can1(msg, now_s)
+        except _BadFrame:
+            self.bad_frames += 1
+        except Exception:  # never let a frame take the controller down
+            self.bad_frames += 1
+        return None
+
+    # -- per-bus parsers -------------------------------------------------------
+    def _cybergear(self, msg: can.Message, now_s: float) -> None:
+        rid = cg.parse_reply_id(msg.arbitration_id)
+        joint = _JOINT_BY_ID.get(rid.motor_id)
+        if joint is None or rid.host != C.CG_HOST_ID:
+            return  # not one of ours, or a request from another host
+        if rid.ctype == cg.T_FEEDBACK:
+            sig = self._decode(CAN2, msg, cg.canonical_id(msg.arbitration_id))
+            fb = self.joints[joint.motor_id]
+            fb.position, fb.speed, fb.torque = sig["Pos"], sig["Vel"], sig["Torque"]
+            fb.temperature, fb.mode, fb.faults = sig["Temp"], rid.mode, rid.faults
+            fb.received_s = now_s
+        elif rid.ctype == cg.T_FAULT_WARN:
+            sig = self._decode(CAN2, msg, cg.canonical_id(msg.arbitration_id))
+            if any(v for k, v in sig.items() if k.startswith("Fault")):
+                fb = self.joints[joint.motor_id]
+                fb.faults = fb.faults | {"FaultWord"}
+
+    def _can1(self, msg: can.Message, now_s: float) -> None:
+        wheel = _WHEEL_BY_FEEDBACK_ID.get(msg.arbitration_id)
+        if wheel is not None:
+            sig = self._decode(CAN1, msg)
+            fb = self.wheels[wheel.esc_id]
+            fb.rotor_angle, fb.current = sig["RotorAngle"], sig["TorqueCurrent"]
+            fb.speed = sig["RotorSpeed"] * RPM_TO_OUTPUT_RAD_S
+            fb.temperature, fb.received_s = sig["MotorTemp"], now_s
+            return
+        name = _MESSAGE_NAMES.get(msg.arbitration_id)
+        if name in _IMU_PARTS:
+            self._imu(name, self._decode(CAN1, msg), now_s)
+        elif name == "Operator":
+            self._operator(self._decode(CAN1, msg), now_s)
+
+    def _imu(self, name: str, sig: dict, now_s: float) -> None:
+        part = _IMU_PARTS[name]
+        if part == "quat":
+            quat = (sig["QuatW"], sig["QuatX"], sig["QuatY"], sig["QuatZ"])
+            norm = math.sqrt(sum(q * q for q in quat))
+            if abs(norm - 1.0) > 0.05:
+                raise _BadFrame("quaternion not unit")
+            self.imu.quat = tuple(q / norm for q in quat)
+        elif part == "gyro":
+            self.imu.gyro = (sig["RateX"], sig["RateY"], sig["RateZ"])
+        else:
+            self.imu.accel = (sig["AccX"], sig["AccY"], sig["AccZ"])
+        self._imu_parts[part] = now_s
+        if len(self._imu_parts) == 3:
+            self.imu.received_s = min(self._imu_parts.values())
+
+    def _operator(self, sig: dict, now_s: float) -> None:
+        op = self.operator
+        op.mode, op.jump, op.jump_forward = int(sig["Mode"]), bool(sig["Jump"]), bool(sig["JumpForward"])
+        op.reenable, op.speed, op.yaw_rate = bool(sig["Reenable"]), sig["SpeedX"], sig["YawRate"]
+        op.leg_length, op.pitch, op.roll = sig["LegLength"], sig["Pitch"], sig["Roll"]
+        op.received_s = now_s
+
+    @staticmethod
+    def _decode(bus: str, msg: can.Message, frame_id: int | None = None) -> dict:
+        """DBC-decode with the checks every frame gets: DLC, finite, in range."""
+        try:
+            message = _DBS[bus].get_message_by_frame_id(
+                msg.arbitration_id if frame_id is None else frame_id)
+        except KeyError:
+            raise _BadFrame("unknown id") from None
+        if msg.dlc != message.length or len(msg.data) < message.length:
+            raise _BadFrame("wrong DLC")
+        values = message.decode(bytes(msg.data[:message.length]), decode_choices=False)
+        for sig in message.signals:
+            value = values.get(sig.name)
+            if value is None:
+                continue
+            if not math.isfinite(value) or (sig.minimum is not None and value < sig.minimum - 1e-9) \
+                    or (sig.maximum is not None and value > sig.maximum + 1e-9):
+                raise _BadFrame(f"{sig.name} out of range")
+        return values
+
+
+class _BadFrame(Exception):
+    """A frame that failed its checks; counted, never propagated."""
+
+
+_MESSAGE_NAMES = {m.frame_id: m.name for m in _DBS[CAN1].messages if not m.is_extended_frame}

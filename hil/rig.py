@@ -1,0 +1,224 @@
+"""The rig: plant, controller and recorder on two CAN buses, in lockstep.
+
+Lockstep (DESIGN.md): each control period the rig sends SYNC(T) on both
+buses after the period's feedback; the controller runs one tick per SYNC and
+ends it with a heartbeat on both buses; the plant handles the commands that
+came before the heartbeats (they are in bus order) and only then steps the
+physics. A heartbeat that does not come within ``deadline_s`` of wall time is
+a deadline miss: reported in the trace and the summary, never waited on.
+
+With the in-process controller (the default, on python-can's virtual bus)
+the rig hands the controller the turn itself instead of sleeping: the same
+frames in the same order, just no thread switches.
+"""
+from __future__ import annotations
+
+import json
+import subprocess
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import can
+import numpy as np
+
+from controller import params as P
+from controller.node import ControllerNode
+from dbc import all_dbc_files, load_bus
+from emulators.physics import Physics
+from emulators.plant import CAN1, CAN2, Plant, PlantConfig
+from hil.candump import CandumpWriter
+from hil.recorder import Recorder, RecordingBus
+from hil.scenario import Scenario
+from hil.trace import TraceWriter
+
+_RIG_DB = load_bus(CAN1)
+_SYNC = _RIG_DB.get_message_by_name("SYNC")
+_HEARTBEAT = _RIG_DB.get_message_by_name("Heartbeat")
+MODEL_DIR = Path(__file__).resolve().parent.parent / "emulators" / "robot"
+
+
+@dataclass
+class RigConfig:
+    """How to run: transport, channels (CAN1 = wheels, CAN2 = joints), seed, timing."""
+
+    interface: str = "virtual"
+    channels: tuple = ("vcan0", "vcan1")
+    seed: int = 0
+    period_s: float = P.CONTROL_PERIOD
+    physics_dt_s: float = 0.001
+    in_process_controller: bool = True  # False: an external `wheelleg controller` answers
+    deadline_s: float = 0.5  # wall-clock bound for the heartbeats of one tick
+    realtime: bool = False
+    record_debug: bool = True  # the in-process controller's internals on /controller/debug
+    plant: PlantConfig = field(default_factory=PlantConfig)
+
+
+@dataclass
+class RunOutcome:
+    trace_path: Path
+    log_path: Path
+    ticks: int
+    deadline_misses: int
+    wall_s: float
+    sim_s: float
+
+
+def git_revision() -> str:
+    try:
+        out = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True,
+                             cwd=Path(__file__).parent, timeout=5)
+        return out.stdout.strip() or "unknown"
+    except (OSError, subprocess.SubprocessError):
+        return "unknown"
+
+
+def _open_bus(config: RigConfig, channel: str) -> can.BusABC:
+    kwargs = {"receive_own_messages": False}
+    if config.interface == "virtual":
+        kwargs["preserve_timestamps"] = True
+    return can.Bus(interface=config.interface, channel=channel, **kwargs)
+
+
+class Rig:
+    """One scenario run: build everything, step it, record it."""
+
+    def __init__(self, scenario: Scenario, config: RigConfig, out_dir: Path):
+        self.scenario, self.config = scenario, config
+        out_dir.mkdir(parents=True, exist_ok=True)
+        self.trace_path = out_dir / f"{scenario.name}.mcap"
+        self.log_path = out_dir / f"{scenario.name}.log"
+        self.names = {CAN1: config.channels[0], CAN2: config.channels[1]}
+        self.rng = np.random.default_rng(config.seed)
+        self.physics = Physics(terrain=scenario.terrain, timestep_s=config.physics_dt_s)
+        scenario.start(self.physics)
+        self.trace = TraceWriter(self.trace_path, metadata=self._metadata(),
+                                 attachments=self._attachments(),
+                                 dbs={self.names[CAN1]: load_bus(CAN1), self.names[CAN2]: load_bus(CAN2)})
+        self.log = CandumpWriter(self.log_path)
+        self.recorder = Recorder(self.trace, self.log)
+        self._raw = {k: _open_bus(config, ch) for k, ch in self.names.items()}
+        self.plant_buses = {k: RecordingBus(b, self.names[k], self.recorder, self._watch)
+                            for k, b in self._raw.items()}
+        self.plant = Plant(self.physics, self.plant_buses, self.rng, config.plant)
+        self.controller = None
+        if config.in_process_controller:
+            self.controller = ControllerNode(_open_bus(config, self.names[CAN1]),
+                                             _open_bus(config, self.names[CAN2]),
+                                             sync=True, period_s=config.period_s)
+        self._heartbeat_seen = {CAN1: -1, CAN2: -1}
+        self.deadline_misses = 0
+        self.tick = 0
+
+    # -- metadata ------------------------------------------------------------
+    def _metadata(self) -> dict:
+        params = {k: v for k, v in vars(P).items() if k.isupper()}
+        return {"run": {"scenario": self.scenario.name, "seed": str(self.config.seed),
+                        "control_period_s": repr(self.config.period_s),
+                        "physics_dt_s": repr(self.config.physics_dt_s),
+                        "duration_s": repr(self.scenario.duration_s),
+                        "interface": self.config.interface, "can1": self.names[CAN1],
+                        "can2": self.names[CAN2], "git_revision": git_revision(),
+                        "controller_params": json.dumps(params, sort_keys=True, default=repr)}}
+
+    @staticmethod
+    def _attachments() -> list:
+        files = [(p.name, p.read_bytes(), "text/x-dbc") for p in all_dbc_files()]
+        files += [(p.name, p.read_bytes(), "application/xml") for p in sorted(MODEL_DIR.glob("*.xml"))]
+        return files
+
+    # -- lockstep ------------------------------------------------------------
+    def _watch(self, channel: str, msg: can.Message) -> bool:
+        if msg.arbitration_id == _HEARTBEAT.frame_id and not msg.is_extended_id and msg.dlc == 8:
+            bus = CAN1 if channel == self.names[CAN1] else CAN2
+            try:
+                self._heartbeat_seen[bus] = _HEARTBEAT.decode(bytes(msg.data))["Tick"]
+            except Exception:
+                pass
+        return True
+
+    def _send_sync(self, tick: int, t_s: float) -> None:
+        data = _SYNC.encode({"Tick": tick})
+        for bus in self.plant_buses.values():
+            bus.send(can.Message(arbitration_id=_SYNC.frame_id, data=data, is_extended_id=False,
+                                 timestamp=t_s, check=False))
+
+    def _serve_plant(self, t_s: float) -> None:
+        for node in self.plant.nodes.values():
+            node.service(t_s)
+
+    def _await_heartbeats(self, tick: int, t_s: float) -> bool:
+        deadline = time.monotonic() + self.config.deadline_s
+        while True:
+            self._serve_plant(t_s)
+            if all(seen == tick for seen in self._heartbeat_seen.values()):
+                return True
+            if self.controller is not None or time.monotonic() > deadline:
+                return False
+            time.sleep(0.00005)
+
+    def step_tick(self) -> None:
+        cfg = self.config
+        tick, t_s = self.tick, self.tick * cfg.period_s
+        self.recorder.now_ns = round(t_s * 1e9)
+        self._apply_actions(t_s)
+        self._send_sync(tick, t_s)
+        if self.controller is not None:
+            self.controller.service()
+        if not self._await_heartbeats(tick, t_s):
+            self.deadline_misses += 1
+            self.trace.event(self.recorder.now_ns, "deadline_miss", tick=tick)
+        self._record_debug()
+        substeps = round(cfg.period_s / cfg.physics_dt_s)
+        for k in range(substeps):
+            now = t_s + k * cfg.physics_dt_s
+            self.plant.step(now)
+            self.recorder.now_ns = round((now + cfg.physics_dt_s) * 1e9)
+            self._serve_plant(now + cfg.physics_dt_s)
+        self.trace.sim_state(self.recorder.now_ns, self.physics.ground_truth())
+        self.tick += 1
+
+    def _record_debug(self) -> None:
+        if self.controller is None or not self.config.record_debug:
+            return
+        result = self.controller.last_result
+        if result is not None and result.debug:
+            self.trace.message("/controller/debug", self.recorder.now_ns, result.debug, "ControllerDebug")
+
+    # -- scenario actions ------------------------------------------------------
+    _pending: list | None = None
+
+    def _apply_actions(self, t_s: float) -> None:
+        if self._pending is None:
+            self._pending = sorted(self.scenario.timeline, key=lambda a: a.t_s)
+        while self._pending and self._pending[0].t_s <= t_s + 1e-9:
+            action = self._pending.pop(0)
+            fields = action.fn(self) or {}
+            self.trace.event(self.recorder.now_ns, action.kind, **fields)
+
+    def run(self) -> RunOutcome:
+        ticks = round(self.scenario.duration_s / self.config.period_s)
+        wall0 = time.perf_counter()
+        try:
+            for _ in range(ticks):
+                self.step_tick()
+                if self.config.realtime:
+                    self._pace(wall0)
+        finally:
+            self.close()
+        return RunOutcome(self.trace_path, self.log_path, ticks, self.deadline_misses,
+                          time.perf_counter() - wall0, ticks * self.config.period_s)
+
+    def _pace(self, wall0: float) -> None:
+        ahead = self.tick * self.config.period_s - (time.perf_counter() - wall0)
+        if ahead > 0:
+            time.sleep(ahead)
+
+    def close(self) -> None:
+        if self.controller is not None:
+            for bus in self.controller.buses.values():
+                bus.shutdown()
+        for bus in self._raw.values():
+            bus.shutdown()
+        self.trace.finish()
+        self.log.close()

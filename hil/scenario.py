@@ -1,0 +1,75 @@
+"""What a scenario is: a start, a timeline of actions, and checks on the trace.
+
+A scenario never touches the controller: it sets up the world, acts on it as
+the outside world would (the remote, pushes, faults) and judges the run from
+the recorded trace alone, so the same checks work on any trace.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class CheckResult:
+    name: str
+    passed: bool
+    detail: str  # the measured figure against its bound, in words
+
+
+@dataclass(frozen=True)
+class Check:
+    """A named judgement of a run: ``fn(run) -> (passed, detail)``."""
+
+    name: str
+    fn: Callable
+
+    def __call__(self, run: "RunData") -> CheckResult:
+        try:
+            passed, detail = self.fn(run)
+        except Exception as exc:  # a check that cannot compute has failed, loudly
+            return CheckResult(self.name, False, f"check raised {type(exc).__name__}: {exc}")
+        return CheckResult(self.name, bool(passed), detail)
+
+
+@dataclass(frozen=True)
+class Action:
+    """Something the world does at ``t_s``: ``fn(rig) -> dict`` (the event's fields)."""
+
+    t_s: float
+    kind: str
+    fn: Callable
+
+
+@dataclass(frozen=True)
+class Scenario:
+    name: str
+    summary: str
+    duration_s: float
+    start: Callable  # start(physics) -> None: the robot's initial pose
+    timeline: tuple = ()  # Actions, any order
+    checks: tuple = ()
+    terrain: tuple = ()  # emulators.physics.TerrainFeature
+    tags: tuple = ()
+
+
+@dataclass
+class RunData:
+    """A run read back from its trace, as arrays (seconds, SI units)."""
+
+    state: dict  # /sim/state field -> (n,) array; "t" in s
+    heartbeat: dict  # decoded Heartbeat (CAN1): "t", "Mode", "WarningLevel", ...
+    hip_torque: dict  # motor id -> (t (n,), torque N m (n,)) commanded
+    wheel_current: dict  # esc id -> (t, current A) commanded
+    events: list = field(default_factory=list)  # /scenario/events dicts with "t"
+    meta: dict = field(default_factory=dict)
+
+    def window(self, key: str, t0: float, t1: float = np.inf) -> np.ndarray:
+        """Values of a /sim/state field with t0 <= t < t1."""
+        t = self.state["t"]
+        return self.state[key][(t >= t0) & (t < t1)]
+
+    def events_of(self, kind: str) -> list:
+        return [e for e in self.events if e.get("kind") == kind]

@@ -1,0 +1,108 @@
+"""Issue 3's scenarios: balance, stand up, drive, turn, change height."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from hil.scenario import Check, RunData, Scenario
+from hil.scenarios.common import (DEG, drift_below, never_tips, no_deadline_miss, pitch_below,
+                                  remote, stand)
+
+NOMINAL = 0.17  # m
+
+
+def standing(leg_length: float = NOMINAL):
+    return lambda physics: physics.reset_standing(leg_length_m=leg_length)
+
+
+def forward_speed(run: RunData) -> np.ndarray:
+    """Body speed along its heading (m/s), shape (n,)."""
+    s = run.state
+    return s["vx"] * np.cos(s["yaw"]) + s["vy"] * np.sin(s["yaw"])
+
+
+def forward_position(run: RunData) -> np.ndarray:
+    s = run.state
+    yaw0 = s["yaw"][0]
+    return (s["x"] - s["x"][0]) * np.cos(yaw0) + (s["y"] - s["y"][0]) * np.sin(yaw0)
+
+
+def speed_tracks(target: float, t0: float, t1: float, limit: float = 0.1) -> Check:
+    def fn(run: RunData):
+        t = run.state["t"]
+        err = forward_speed(run)[(t >= t0) & (t < t1)] - target
+        worst = float(np.max(np.abs(err)))
+        return worst < limit, f"max speed error {worst:.3f} m/s over {t0:g}-{t1:g} s (limit {limit:g})"
+
+    return Check(f"speed {target:+g} m/s within {limit:g} in steady state", fn)
+
+
+def stops_within(t_stop: float, limit_m: float, direction: float) -> Check:
+    def fn(run: RunData):
+        t, pos = run.state["t"], forward_position(run)
+        at_stop = np.interp(t_stop, t, pos)
+        after = pos[t >= t_stop]
+        travel = float(np.max(direction * (after - at_stop)))
+        return travel < limit_m, f"travelled {travel:.3f} m after the stop command (limit {limit_m:g})"
+
+    return Check(f"stops within {limit_m:g} m", fn)
+
+
+def yaw_reaches(target_rad: float, tol_rad: float, after_s: float) -> Check:
+    def fn(run: RunData):
+        yaw = np.unwrap(run.state["yaw"])
+        turned = yaw[run.state["t"] >= after_s] - yaw[0]
+        worst = float(np.max(np.abs(turned - target_rad)))
+        return worst < tol_rad, f"yaw {np.degrees(turned[-1]):.1f} deg, worst error {np.degrees(worst):.1f} deg after {after_s:g} s"
+
+    return Check(f"yaw within {tol_rad / DEG:g} deg of {target_rad / DEG:g}", fn)
+
+
+def legs_track(target: float, t0: float, t1: float, limit: float = 0.01) -> Check:
+    def fn(run: RunData):
+        worst = max(float(np.max(np.abs(run.window(f"{leg}_leg_length", t0, t1) - target)))
+                    for leg in ("left", "right"))
+        return worst < limit, f"leg length error {worst * 1000:.1f} mm at {target:g} m over {t0:g}-{t1:g} s"
+
+    return Check(f"legs at {target:g} m within {limit * 100:g} cm", fn)
+
+
+def upright_by(t_s: float, target_leg: float) -> Check:
+    """From some time <= t_s on, |pitch| < 5 deg and legs within 1 cm, to the end."""
+
+    def fn(run: RunData):
+        s = run.state
+        ok = (np.abs(s["pitch"]) < 5 * DEG) & (np.abs(s["left_leg_length"] - target_leg) < 0.01) \
+            & (np.abs(s["right_leg_length"] - target_leg) < 0.01)
+        bad = np.nonzero(~ok)[0]
+        since = float(s["t"][bad[-1] + 1]) if len(bad) and bad[-1] + 1 < len(ok) else (
+            float(s["t"][0]) if not len(bad) else float("inf"))
+        return since <= t_s, f"upright and at height from {since:.2f} s (by {t_s:g} s)"
+
+    return Check(f"upright within {t_s:g} s", fn)
+
+
+SCENARIOS = (
+    Scenario("balance", "stand still on flat ground for 10 s", 10.0, standing(),
+             timeline=(stand(),),
+             checks=(pitch_below(2 * DEG, 1.0), drift_below(0.05), no_deadline_miss())),
+    Scenario("stand-up", "start folded on the mechanical stop, rise to 0.17 m and balance", 5.0,
+             lambda physics: physics.reset_resting(),
+             timeline=(stand(0.0, NOMINAL),),
+             checks=(upright_by(2.0, NOMINAL), never_tips(20 * DEG), no_deadline_miss())),
+    Scenario("drive", "1 m/s forward for 3 s, stop, 1 m/s back for 3 s, stop", 11.0, standing(),
+             timeline=(stand(), remote(1.0, Mode=2, SpeedX=1.0), remote(4.0, SpeedX=0.0),
+                       remote(6.0, SpeedX=-1.0), remote(9.0, SpeedX=0.0)),
+             checks=(speed_tracks(1.0, 2.5, 4.0), stops_within(4.0, 0.5, 1.0),
+                     speed_tracks(-1.0, 7.5, 9.0), stops_within(9.0, 0.5, -1.0),
+                     never_tips(20 * DEG), no_deadline_miss())),
+    Scenario("turn", "turn 90 deg in place at 1 rad/s", 5.0, standing(),
+             timeline=(stand(), remote(1.0, Mode=2, YawRate=1.0),
+                       remote(1.0 + math.pi / 2, YawRate=0.0)),
+             checks=(yaw_reaches(math.pi / 2, 5 * DEG, 4.0), drift_below(0.10), no_deadline_miss())),
+    Scenario("height", "leg length 0.12 -> 0.25 -> 0.17 m while balancing", 10.0, standing(),
+             timeline=(stand(0.0, 0.12), remote(3.5, LegLength=0.25), remote(7.0, LegLength=0.17)),
+             checks=(legs_track(0.12, 2.5, 3.5), legs_track(0.25, 6.0, 7.0), legs_track(0.17, 9.0, 10.0),
+                     pitch_below(5 * DEG, 1.0), no_deadline_miss())),
+)

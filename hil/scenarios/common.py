@@ -1,0 +1,88 @@
+"""Building blocks the scenario modules share: actions and checks."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from hil.scenario import Action, Check, RunData
+
+DEG = math.pi / 180
+
+
+# -- actions -------------------------------------------------------------------
+def remote(t_s: float, **signals) -> Action:
+    """The operator changes what the remote sends (rig.dbc Operator signals)."""
+
+    def fn(rig):
+        rig.plant.remote.set(**signals)
+        return dict(signals)
+
+    return Action(t_s, "operator", fn)
+
+
+def stand(t_s: float = 0.0, leg_length: float = 0.17) -> Action:
+    return remote(t_s, Mode=1, LegLength=leg_length)
+
+
+def push(t_s: float, force_n, duration_s: float, point=(0.0, 0.0, 0.0)) -> list:
+    """A force on the body (world frame, N) held for ``duration_s``."""
+    force = np.asarray(force_n, dtype=float)
+
+    def on(rig):
+        rig.physics.apply_body_force(force, point)
+        return {"force_n": force.tolist(), "duration_s": duration_s, "impulse_ns": float(np.linalg.norm(force) * duration_s)}
+
+    def off(rig):
+        rig.physics.apply_body_force(np.zeros(3), point)
+        return {}
+
+    return [Action(t_s, "push", on), Action(t_s + duration_s, "push_end", off)]
+
+
+# -- checks --------------------------------------------------------------------
+def max_abs(values) -> float:
+    return float(np.max(np.abs(values))) if len(values) else float("nan")
+
+
+def pitch_below(limit_rad: float, after_s: float, until_s: float = np.inf) -> Check:
+    def fn(run: RunData):
+        worst = max_abs(run.window("pitch", after_s, until_s))
+        return worst < limit_rad, f"max |pitch| {worst / DEG:.2f} deg after {after_s:g} s (limit {limit_rad / DEG:g})"
+
+    return Check(f"|pitch| < {limit_rad / DEG:g} deg after {after_s:g} s", fn)
+
+
+def drift_below(limit_m: float) -> Check:
+    def fn(run: RunData):
+        x, y = run.state["x"], run.state["y"]
+        drift = float(np.max(np.hypot(x - x[0], y - y[0])))
+        return drift < limit_m, f"max drift {drift * 100:.1f} cm (limit {limit_m * 100:g})"
+
+    return Check(f"drift < {limit_m * 100:g} cm", fn)
+
+
+def never_tips(limit_rad: float) -> Check:
+    def fn(run: RunData):
+        worst = max_abs(run.state["pitch"])
+        return worst < limit_rad, f"max |pitch| {worst / DEG:.1f} deg (limit {limit_rad / DEG:g})"
+
+    return Check(f"never tips past {limit_rad / DEG:g} deg", fn)
+
+
+def no_deadline_miss() -> Check:
+    def fn(run: RunData):
+        misses = len(run.events_of("deadline_miss"))
+        return misses == 0, f"{misses} deadline misses"
+
+    return Check("no controller deadline miss", fn)
+
+
+def mode_reached(mode: int, by_s: float, name: str) -> Check:
+    def fn(run: RunData):
+        t, m = run.heartbeat["t"], run.heartbeat["Mode"]
+        hits = t[m == mode]
+        first = float(hits[0]) if len(hits) else float("inf")
+        return first <= by_s, f"first heartbeat in {name} at {first:.3f} s (by {by_s:g} s)"
+
+    return Check(f"{name} by {by_s:g} s", fn)
