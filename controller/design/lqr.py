@@ -1,0 +1,301 @@
+"""Design the LQR gain table K(L0) and write controller/lqr_gains.py.
+
+    python -m controller.design.lqr [--dt S] [--check]
+
+The wheel-legged pendulum of seed 000, (1.1)-(1.9) as control_notes.md §1.2
+writes them (the seed's (1.8)/(1.9) have cos/sin(theta) where phi belongs),
+with this robot's numbers from controller/constants.py:
+
+  state x = [theta, dtheta, x, dx, phi, dphi]   (rad, rad/s, m, m/s, rad, rad/s)
+  input u = [T, Tp]                             (N m, N m)
+  u = -K (x - x_ref),  K of shape (2, 6)
+
+  theta  virtual leg from vertical, > 0 with the wheel behind the hip
+  x      wheel travel, forward positive
+  phi    body pitch, nose up positive (= -pitch of the body frame)
+  T      wheel motor torque on ONE wheel, positive rolls it forward (its
+         reaction on the leg is -T in theta)
+  Tp     virtual hip torque on ONE leg from the body, positive drives theta
+         positive (its reaction drives phi positive); fivebar.joint_torques
+         maps it to the hips
+
+Per-side model (the convention of Skythinker/LJW0401): one leg, one wheel and
+half the body, M = MASS_BODY/2 and I_M = Iyy(body)/2, so T and Tp are per
+wheel and per leg, and Q, R weight per-side quantities. Leg CoM distances
+L (from the wheel axle), LM (from the hip) and the leg inertia Ip about its
+CoM come from the five-bar's mass split at each L0 (``leg_mass_properties``).
+
+The accelerations appear linearly, so sympy's linear_eq_to_matrix gives
+M(q) qdd = b(q, qd, u); at the upright equilibrium qdd = 0, hence
+d(qdd)/dx = M0^-1 db/dx and d(qdd)/du = M0^-1 db/du (control_notes §1.2).
+Exact zero-order-hold discretisation at dt, discrete LQR by
+scipy.linalg.solve_discrete_are, each of the 12 gains fitted as a cubic in L0.
+"""
+from __future__ import annotations
+
+import argparse
+import functools
+import importlib.util
+import math
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import scipy.linalg
+import sympy as sp
+
+from controller import constants as C
+from controller import fivebar
+from controller import params as P
+
+GAINS_PATH = Path(__file__).resolve().parent.parent / "lqr_gains.py"
+FIT_ORDER = 3
+FIT_SAMPLES = 200  # L0 samples on which the fit error is measured
+STATE_NAMES = ("theta", "dtheta", "x", "dx", "phi", "dphi")
+INPUT_NAMES = ("T", "Tp")
+# per-side body (see the module docstring)
+BODY_MASS_SIDE = C.MASS_BODY / 2  # kg
+BODY_PITCH_INERTIA_SIDE = C.BODY_INERTIA[1] / 2  # kg m^2
+
+
+# --- leg mass distribution ------------------------------------------------------
+@dataclass(frozen=True)
+class LegMass:
+    """The leg as the model's rigid pendulum at one L0 (m, kg m^2)."""
+
+    L: float  # leg CoM to wheel axle, along the virtual leg
+    LM: float  # leg CoM to hip (midpoint of AE), along the virtual leg
+    Ip: float  # pitch inertia about the leg CoM
+
+
+def leg_mass_properties(L0: float) -> LegMass:
+    """L, LM, Ip of one leg posed symmetrically (phi0 = pi/2) at length L0 (m).
+
+    Links are uniform rods (inertia m l^2/12 about their middle), the wheel
+    motor a point mass at C (its own spin inertia, ~1e-4 kg m^2, is left out).
+    The combined CoM is projected on the virtual leg; by symmetry it lies on it.
+    """
+    k = fivebar.forward_kinematics(*fivebar.inverse_kinematics(L0, math.pi / 2))
+    a, e = (0.0, 0.0), (C.L5, 0.0)
+    rods = ((C.MASS_LINK_THIGH, a, k.B, C.L1), (C.MASS_LINK_SHIN, k.B, k.C, C.L2),
+            (C.MASS_LINK_THIGH, e, k.D, C.L4), (C.MASS_LINK_SHIN, k.D, k.C, C.L3))
+    parts = [(m, np.add(p, q) / 2, m * length**2 / 12) for m, p, q, length in rods]
+    parts.append((C.MASS_WHEEL_MOTOR, np.array(k.C), 0.0))
+    mass = sum(m for m, _, _ in parts)
+    com = sum(m * r for m, r, _ in parts) / mass
+    ip = sum(i + m * float(np.dot(r - com, r - com)) for m, r, i in parts)
+    hip = np.array((C.L5 / 2, 0.0))
+    axis = (np.array(k.C) - hip) / k.L0
+    lm = float(np.dot(com - hip, axis))
+    return LegMass(L=L0 - lm, LM=lm, Ip=ip)
+
+
+# --- the symbolic model -----------------------------------------------------------
+@functools.lru_cache(maxsize=1)
+def _linearised_model():
+    """Lambdified (M0, db/dx, db/du) of the pendulum at the upright equilibrium.
+
+    Arguments of each function: (L, LM, Ip) of the leg; the rest is constants.
+    """
+    th, dth, x, dx, ph, dph = sp.symbols("theta dtheta x dx phi dphi")
+    ddth, ddx, ddph = sp.symbols("ddtheta ddx ddphi")
+    T, Tp = sp.symbols("T Tp")
+    L, LM, Ip = sp.symbols("L L_M I_p", positive=True)
+    R, l, mw, mp, M, Iw, IM, g = (C.WHEEL_RADIUS, C.BODY_COM_ABOVE_HIP, C.MASS_WHEEL, C.MASS_LEG,
+                                  BODY_MASS_SIDE, C.WHEEL_INERTIA, BODY_PITCH_INERTIA_SIDE, C.GRAVITY)
+    R, l, mw, mp, M, Iw, IM, g = (sp.Float(v, 17) for v in (R, l, mw, mp, M, Iw, IM, g))
+    # forces: leg on body (Nm, Pm), wheel on leg (N, P); seed (1.4), (1.5), (1.7), (1.8)
+    Nm = M * (ddx + (L + LM) * (ddth * sp.cos(th) - dth**2 * sp.sin(th))
+              - l * (ddph * sp.cos(ph) - dph**2 * sp.sin(ph)))
+    Pm = M * g + M * ((L + LM) * (-dth**2 * sp.cos(th) - ddth * sp.sin(th))
+                      - l * (dph**2 * sp.cos(ph) + ddph * sp.sin(ph)))
+    N = Nm + mp * (ddx + L * (ddth * sp.cos(th) - dth**2 * sp.sin(th)))
+    Pf = Pm + mp * g + mp * L * (-dth**2 * sp.cos(th) - ddth * sp.sin(th))
+    equations = [
+        ddx - (T - N * R) / (Iw / R + mw * R),  # (1.3)
+        Ip * ddth - ((Pf * L + Pm * LM) * sp.sin(th) - (N * L + Nm * LM) * sp.cos(th) - T + Tp),  # (1.6)
+        IM * ddph - (Tp + Nm * l * sp.cos(ph) + Pm * l * sp.sin(ph)),  # (1.9)
+    ]
+    mass, rhs = sp.linear_eq_to_matrix(equations, [ddth, ddx, ddph])
+    state, inputs = [th, dth, x, dx, ph, dph], [T, Tp]
+    upright = {s: 0 for s in state + inputs}
+    args = (L, LM, Ip)
+    return (sp.lambdify(args, mass.subs(upright), "numpy"),
+            sp.lambdify(args, rhs.jacobian(state).subs(upright), "numpy"),
+            sp.lambdify(args, rhs.jacobian(inputs).subs(upright), "numpy"))
+
+
+def continuous_model(L0: float) -> tuple[np.ndarray, np.ndarray]:
+    """(A (6, 6), B (6, 2)) of the pendulum linearised upright at leg length L0 (m)."""
+    mass_fn, dbdx_fn, dbdu_fn = _linearised_model()
+    leg = leg_mass_properties(L0)
+    args = (leg.L, leg.LM, leg.Ip)
+    mass = np.asarray(mass_fn(*args), dtype=float)
+    acc_x = np.linalg.solve(mass, np.asarray(dbdx_fn(*args), dtype=float))  # rows ddtheta, ddx, ddphi
+    acc_u = np.linalg.solve(mass, np.asarray(dbdu_fn(*args), dtype=float))
+    a = np.zeros((6, 6))
+    b = np.zeros((6, 2))
+    for row, pos in enumerate((0, 2, 4)):
+        a[pos, pos + 1] = 1.0
+        a[pos + 1] = acc_x[row]
+        b[pos + 1] = acc_u[row]
+    return a, b
+
+
+def discretise(a: np.ndarray, b: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """Exact zero-order hold: (Ad (n, n), Bd (n, m)) from expm([[A, B], [0, 0]] dt)."""
+    n, m = b.shape
+    block = np.zeros((n + m, n + m))
+    block[:n, :n], block[:n, n:] = a, b
+    phi = scipy.linalg.expm(block * dt)
+    return phi[:n, :n], phi[:n, n:]
+
+
+def dlqr(ad: np.ndarray, bd: np.ndarray, q: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """Discrete LQR gain K (m, n) for u = -K x: K = (R + B'PB)^-1 B'PA."""
+    p = scipy.linalg.solve_discrete_are(ad, bd, q, r)
+    return np.linalg.solve(r + bd.T @ p @ bd, bd.T @ p @ ad)
+
+
+def gains(L0: float, dt: float = P.CONTROL_PERIOD) -> np.ndarray:
+    """Exact discrete LQR gain K (2, 6) at leg length L0 (m), period dt (s)."""
+    ad, bd = discretise(*continuous_model(L0), dt)
+    return dlqr(ad, bd, np.diag(P.LQR_Q), np.diag(P.LQR_R))
+
+
+def evaluate_fit(coeffs: np.ndarray, L0) -> np.ndarray:
+    """K from fitted coefficients (2, 6, 4), highest power first, at L0 (m): (..., 2, 6)."""
+    L0 = np.asarray(L0, dtype=float)[..., None, None]
+    out = np.zeros(L0.shape[:-2] + coeffs.shape[:2])
+    for power in range(coeffs.shape[2]):
+        out = out * L0 + coeffs[:, :, power]
+    return out
+
+
+@dataclass(frozen=True)
+class Design:
+    """A gain table: the exact K at the grid and its cubic fit."""
+
+    dt: float  # s
+    grid: np.ndarray  # (n,) m
+    K: np.ndarray  # (n, 2, 6) exact gains at the grid
+    coeffs: np.ndarray  # (2, 6, 4) cubic in L0, highest power first
+    fit_error: float  # max|K_fit - K| / max|K| over FIT_SAMPLES leg lengths
+
+
+def design(dt: float = P.CONTROL_PERIOD, points: int = P.LQR_GRID_POINTS,
+           l0_min: float = P.LEG_LENGTH_MIN, l0_max: float = P.LEG_LENGTH_MAX) -> Design:
+    """K at ``points`` leg lengths over [l0_min, l0_max] (m) and its cubic fit."""
+    if not dt > 0:
+        raise ValueError(f"dt must be positive, got {dt}")
+    grid = np.linspace(l0_min, l0_max, points)
+    k = np.array([gains(L0, dt) for L0 in grid])
+    flat = k.reshape(points, -1)
+    coeffs = np.polyfit(grid, flat, FIT_ORDER).T.reshape(2, 6, FIT_ORDER + 1)
+    samples = np.linspace(l0_min, l0_max, FIT_SAMPLES)
+    exact = np.array([gains(L0, dt) for L0 in samples])
+    err = float(np.max(np.abs(evaluate_fit(coeffs, samples) - exact)) / np.max(np.abs(exact)))
+    return Design(dt, grid, k, coeffs, err)
+
+
+# --- the generated module -----------------------------------------------------------
+def render(d: Design) -> str:
+    """Source of controller/lqr_gains.py for design ``d`` (no timestamps: reproducible)."""
+    leg_lo, leg_hi = leg_mass_properties(d.grid[0]), leg_mass_properties(d.grid[-1])
+    lines = [
+        '"""LQR gains K(L0), each a cubic in the leg length L0.',
+        "",
+        "generated by python -m controller.design.lqr; do not edit.",
+        "",
+        f"dt = {d.dt!r} s (exact zero-order hold), discrete LQR",
+        f"Q = diag{tuple(P.LQR_Q)!r}  (theta, dtheta, x, dx, phi, dphi)",
+        f"R = diag{tuple(P.LQR_R)!r}  (T, Tp)",
+        f"L0 over [{float(d.grid[0])!r}, {float(d.grid[-1])!r}] m, {len(d.grid)} grid points",
+        f"fit error max|K_fit - K| / max|K| = {d.fit_error:.2e} over {FIT_SAMPLES} samples",
+        f"per-side model: M = {BODY_MASS_SIDE:.4f} kg, I_M = {BODY_PITCH_INERTIA_SIDE:.5f} kg m^2,",
+        f"m_p = {C.MASS_LEG} kg, m_w = {C.MASS_WHEEL} kg, l = {C.BODY_COM_ABOVE_HIP} m;",
+        f"leg L/LM/Ip = {leg_lo.L:.4f}/{leg_lo.LM:.4f}/{leg_lo.Ip:.5f} at L0 min, "
+        f"{leg_hi.L:.4f}/{leg_hi.LM:.4f}/{leg_hi.Ip:.5f} at max",
+        "",
+        "u = -K (x - x_ref), x = [theta, dtheta, x, dx, phi, dphi], u = [T, Tp]:",
+        "T wheel torque per wheel (forward rolling positive), Tp virtual hip",
+        "torque per leg (drives theta positive). See controller/design/lqr.py.",
+        "COEFFS[i][j] = (c3, c2, c1, c0): K[i][j] = ((c3 L0 + c2) L0 + c1) L0 + c0.",
+        '"""',
+        "",
+        f"DT = {d.dt!r}",
+        f"L0_MIN = {float(d.grid[0])!r}",
+        f"L0_MAX = {float(d.grid[-1])!r}",
+        f"GRID_POINTS = {len(d.grid)}",
+        f"Q = {tuple(float(v) for v in P.LQR_Q)!r}",
+        f"R = {tuple(float(v) for v in P.LQR_R)!r}",
+        "",
+        "COEFFS = (",
+    ]
+    for i, name in enumerate(INPUT_NAMES):
+        lines.append(f"    (  # {name}")
+        for j, state in enumerate(STATE_NAMES):
+            c = ", ".join(repr(float(v)) for v in d.coeffs[i, j])
+            lines.append(f"        ({c}),  # {state}")
+        lines.append("    ),")
+    lines.append(")")
+    return "\n".join(lines) + "\n"
+
+
+def load_table(path: Path = GAINS_PATH):
+    """The gain module at ``path``, loaded fresh from the file (not the import cache)."""
+    spec = importlib.util.spec_from_file_location("_lqr_gains_on_disk", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def table_matches(d: Design, table, rtol: float = 1e-9) -> list[str]:
+    """Differences between design ``d`` and a loaded gain table; [] when they agree."""
+    problems = []
+    for name, want in (("DT", d.dt), ("L0_MIN", float(d.grid[0])), ("L0_MAX", float(d.grid[-1])),
+                       ("GRID_POINTS", len(d.grid)), ("Q", tuple(map(float, P.LQR_Q))),
+                       ("R", tuple(map(float, P.LQR_R)))):
+        if getattr(table, name, None) != want:
+            problems.append(f"{name}: table {getattr(table, name, None)!r}, design {want!r}")
+    coeffs = np.array(getattr(table, "COEFFS", ()), dtype=float)
+    if coeffs.shape != d.coeffs.shape:
+        return problems + [f"COEFFS shape {coeffs.shape}, expected {d.coeffs.shape}"]
+    # compare per gain, relative to that gain's largest coefficient
+    scale = np.max(np.abs(d.coeffs), axis=2, keepdims=True)
+    worst = float(np.max(np.abs(coeffs - d.coeffs) / scale))
+    if worst > rtol:
+        problems.append(f"COEFFS differ by {worst:.3e} (relative), more than {rtol:g}")
+    return problems
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m controller.design.lqr", description=__doc__.split("\n")[0])
+    parser.add_argument("--dt", type=float, default=P.CONTROL_PERIOD, help="control period in s")
+    parser.add_argument("--check", action="store_true",
+                        help="do not write; exit 1 if the committed table differs from a fresh design")
+    args = parser.parse_args(argv)
+    d = design(args.dt)
+    k_nom = gains(P.LEG_LENGTH_NOMINAL, args.dt)
+    print(f"dt {d.dt} s, {len(d.grid)} points over [{float(d.grid[0])}, {float(d.grid[-1])}] m, fit error {d.fit_error:.2e}")
+    print(f"K at L0 = {P.LEG_LENGTH_NOMINAL} m:\n{np.array2string(k_nom, precision=4, suppress_small=True)}")
+    if args.check:
+        try:
+            problems = table_matches(d, load_table())
+        except (OSError, SyntaxError) as exc:
+            problems = [f"cannot load {GAINS_PATH}: {exc}"]
+        for p in problems:
+            print(f"stale table: {p}", file=sys.stderr)
+        if problems:
+            print("run: python -m controller.design.lqr", file=sys.stderr)
+            return 1
+        print(f"{GAINS_PATH.name} is up to date")
+        return 0
+    GAINS_PATH.write_text(render(d))
+    print(f"wrote {GAINS_PATH}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
