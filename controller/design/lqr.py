@@ -243,9 +243,9 @@ def render(d: Design) -> str:
     return "\n".join(lines) + "\n"
 
 
-def load_table(path: Path = GAINS_PATH):
-    """The gain module at ``path``, loaded fresh from the file (not the import cache)."""
-    spec = importlib.util.spec_from_file_location("_lqr_gains_on_disk", path)
+def load_table(path: Path | None = None):
+    """The gain module at ``path`` (default GAINS_PATH), loaded fresh from the file."""
+    spec = importlib.util.spec_from_file_location("_lqr_gains_on_disk", path or GAINS_PATH)
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
