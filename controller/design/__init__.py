@@ -1,0 +1,1 @@
+"""Offline design scripts (scipy, sympy allowed); the running controller never imports them."""
