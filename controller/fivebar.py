@@ -191,6 +191,8 @@ def support_force(F: float, Tp: float, theta: float, L0: float, dL0: float, ddL0
       zdd_w = zdd_body - ddL0 cos + 2 dL0 dtheta sin + L0 ddtheta sin + L0 dtheta^2 cos
       Fn = P + m (g + zdd_w).
     """
+    if not L0 > 0.0:
+        raise ValueError(f"leg length must be positive, got {L0}")
     s, c = math.sin(theta), math.cos(theta)
     push = F * c - Tp * s / L0
     wheel_accel_z = (body_accel_z - ddL0 * c + 2.0 * dL0 * dtheta * s
