@@ -1,0 +1,100 @@
+"""Benchmark (not a test): microseconds per recorded frame, trace and candump log.
+
+    python -m hil.bench_trace [--frames N]
+
+The frame mix is one control period of the rig, repeated: on CAN1 SYNC, the
+C620 current command, four C620 feedbacks, IMU and heartbeat; on CAN2 SYNC,
+four CyberGear type-1 torque commands (torque in the id), four type-2
+feedbacks and heartbeat. Payloads are encoded with the DBC beforehand, so
+only the recording is timed. Timings on a shared 2-core machine are noisy:
+take the best of a few repeats.
+"""
+from __future__ import annotations
+
+import argparse
+import tempfile
+import time
+from pathlib import Path
+
+import dbc
+from dbc import cybergear as cg
+from hil import trace as trace_module
+from hil.candump import CandumpWriter
+from hil.trace import TraceWriter
+
+PERIOD_NS = 2_000_000  # one tick of the mix below, ns
+
+
+def _encode(db, name: str, **values) -> tuple[int, bool, bytes]:
+    message = db.get_message_by_name(name)
+    full = {s.name: values.get(s.name, 0) for s in message.signals}
+    return message.frame_id, message.is_extended_frame, message.encode(full)
+
+
+def frame_mix() -> list[tuple[str, int, bool, bytes]]:
+    """(channel, id, extended, data) of one control period."""
+    db1, db2 = dbc.load_bus("can1"), dbc.load_bus("can2")
+    frames = [("can1", *_encode(db1, "SYNC")), ("can1", *_encode(db1, "C620_Cmd_1_4", ESC1_Current=1.5)),
+              ("can1", *_encode(db1, "IMU_Orientation")), ("can1", *_encode(db1, "IMU_Gyro")),
+              ("can1", *_encode(db1, "Heartbeat"))]
+    for i in range(1, 5):
+        frames.append(("can1", *_encode(db1, f"C620_Feedback_{i}", RotorSpeed=1000, TorqueCurrent=0.5)))
+    frames.append(("can2", *_encode(db2, "SYNC")))
+    _, _, feedback = _encode(db2, "CG_Feedback", Pos=0.3, Vel=1.0, Torque=2.0, Temp=30)
+    for motor in range(1, 5):
+        frames.append(("can2", cg.motion_id(0.25 * motor, motor), True, bytes(8)))
+        frames.append(("can2", cg.reply_id(cg.T_FEEDBACK, motor, 0xFD, mode=2), True, feedback))
+    frames.append(("can2", *_encode(db2, "Heartbeat")))
+    return frames
+
+
+def time_trace(path: Path, n_frames: int, decode: bool) -> float:
+    """Microseconds per frame through TraceWriter.frame (including the final flush)."""
+    mix = frame_mix()
+    dbs = {"can1": dbc.load_bus("can1"), "can2": dbc.load_bus("can2")}
+    writer = TraceWriter(path, metadata={"run": {"bench": "1"}}, dbs=dbs, decode=decode).start()
+    frame = writer.frame
+    ticks = n_frames // len(mix)
+    t0 = time.perf_counter()
+    for tick in range(ticks):
+        base = tick * PERIOD_NS
+        for k, (channel, can_id, ext, data) in enumerate(mix):
+            frame(channel, base + k * 100_000, can_id, ext, len(data), data)
+    writer.finish()
+    return (time.perf_counter() - t0) / (ticks * len(mix)) * 1e6
+
+
+def time_candump(path: Path, n_frames: int) -> float:
+    mix = frame_mix()
+    ticks = n_frames // len(mix)
+    with CandumpWriter(path) as log:
+        write = log.write
+        t0 = time.perf_counter()
+        for tick in range(ticks):
+            base = tick * PERIOD_NS
+            for k, (channel, can_id, ext, data) in enumerate(mix):
+                write(channel, base + k * 100_000, can_id, ext, data)
+    return (time.perf_counter() - t0) / (ticks * len(mix)) * 1e6
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--frames", type=int, default=100_000)
+    parser.add_argument("--repeats", type=int, default=3)
+    args = parser.parse_args(argv)
+    json_lib = "orjson" if trace_module.orjson is not None else "json (stdlib)"
+    print(f"{args.frames} frames per run, best of {args.repeats}; JSON encoder: {json_lib}")
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp)
+        for label, fn in [("trace, raw frames only (decode=False)", lambda: time_trace(out / "a.mcap", args.frames, False)),
+                          ("trace, raw + decoded (decode=True)", lambda: time_trace(out / "b.mcap", args.frames, True)),
+                          ("candump log", lambda: time_candump(out / "c.log", args.frames))]:
+            best = min(fn() for _ in range(args.repeats))
+            print(f"  {label:40s} {best:6.2f} us/frame")
+        size = (out / "b.mcap").stat().st_size
+        print(f"  decoded trace size: {size / args.frames:.1f} bytes/frame (zstd)")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,138 @@
+"""JSON Schemas of the trace's channels (MCAP schema encoding ``jsonschema``).
+
+Foxglove reads these to list and plot fields, so every numeric field is a
+JSON number and carries its unit in ``description``. Values that are not
+finite (NaN, inf) are written as ``null``: JSON has no NaN.
+
+Topics (the trace contract, issue 3 item 6):
+- ``/can/<channel>``: one message per frame (``CAN_FRAME``).
+- ``/decoded/<channel>/<Message>``: the DBC signals of one frame
+  (``decoded_schema``), plus the CyberGear fields that live in the 29-bit id.
+- ``/sim/state``: simulation ground truth each control period (``sim_state_schema``).
+- ``/scenario/events``: ``{"kind": ..., ...}`` (``EVENT``).
+- anything else: a generic JSON channel (``inferred_schema`` or the caller's).
+"""
+from __future__ import annotations
+
+import json
+from typing import Any
+
+NUMBER_OR_NULL = ["number", "null"]
+
+CAN_FRAME: dict = {
+    "title": "wheelleg.CanFrame",
+    "description": "One CAN frame as it crossed the bus; log time = bus time (ns).",
+    "type": "object",
+    "properties": {
+        "id": {"type": "integer", "minimum": 0, "maximum": 0x1FFFFFFF,
+               "description": "arbitration id (11 or 29 bit); error class bits for error frames"},
+        "extended": {"type": "boolean", "description": "29-bit identifier"},
+        "dlc": {"type": "integer", "minimum": 0, "maximum": 64, "description": "data length code"},
+        "data": {"type": "string", "pattern": "^([0-9a-f]{2})*$", "description": "payload, hex"},
+        "error": {"type": "boolean", "description": "error frame"},
+    },
+    "required": ["id", "extended", "dlc", "data", "error"],
+    "additionalProperties": False,
+}
+
+# /sim/state: field -> unit. Order is the order of the issue's contract.
+SIM_STATE_FIELDS: dict[str, str] = {
+    "t": "s",
+    "x": "m", "y": "m", "z": "m",
+    "roll": "rad", "pitch": "rad", "yaw": "rad",
+    "vx": "m/s", "vy": "m/s", "vz": "m/s",
+    "wx": "rad/s", "wy": "rad/s", "wz": "rad/s",
+    "left_leg_length": "m", "right_leg_length": "m",
+    "left_leg_angle": "rad", "right_leg_angle": "rad",
+    "left_normal_force": "N", "right_normal_force": "N",
+}
+_SIM_STATE_NOTES = {
+    "t": "simulated time", "x": "body position, world frame", "roll": "body attitude",
+    "vx": "body velocity, world frame", "wx": "body angular velocity, body frame",
+    "left_leg_length": "five-bar virtual leg length L0", "left_leg_angle": "virtual leg angle phi0",
+    "left_normal_force": "wheel-floor normal force",
+}
+
+EVENT: dict = {
+    "title": "wheelleg.ScenarioEvent",
+    "description": "A scenario event (push, fault, operator command, deadline miss...).",
+    "type": "object",
+    "properties": {"kind": {"type": "string", "description": "what happened"}},
+    "required": ["kind"],
+    "additionalProperties": True,
+}
+
+
+def _number(unit: str, note: str = "") -> dict:
+    text = f"[{unit}] {note}".strip() if unit else note
+    return {"type": NUMBER_OR_NULL, "description": text} if text else {"type": NUMBER_OR_NULL}
+
+
+def sim_state_schema(extra_fields: list[str] = ()) -> dict:
+    """Schema of ``/sim/state``: the contract's fields plus ``extra_fields`` (numbers)."""
+    props = {name: _number(unit, _SIM_STATE_NOTES.get(name, "")) for name, unit in SIM_STATE_FIELDS.items()}
+    for name in extra_fields:
+        props.setdefault(name, _number(""))
+    return {
+        "title": "wheelleg.SimState",
+        "description": "Simulation ground truth (never seen by the controller), SI units.",
+        "type": "object",
+        "properties": props,
+        "required": list(SIM_STATE_FIELDS),
+        "additionalProperties": {"type": NUMBER_OR_NULL},
+    }
+
+
+def _signal_property(signal) -> dict:
+    prop = _number(signal.unit or "", (signal.comment or "").strip())
+    if signal.choices:
+        names = ", ".join(f"{int(k)}={v}" for k, v in sorted(signal.choices.items()))
+        prop["description"] = (prop.get("description", "") + f" choices: {names}").strip()
+    return prop
+
+
+def decoded_schema(message, id_fields: dict[str, str] | None = None) -> dict:
+    """Schema of ``/decoded/<channel>/<message.name>`` for a cantools message.
+
+    ``id_fields`` maps the names of fields read from the identifier (CyberGear)
+    to their unit. Every signal is optional: a multiplexed message carries
+    only the signals of its multiplexer value.
+    """
+    props = {s.name: _signal_property(s) for s in message.signals}
+    for name, unit in (id_fields or {}).items():
+        props[name] = _number(unit, "from the 29-bit identifier")
+    required = [] if message.is_multiplexed() else [s.name for s in message.signals]
+    return {
+        "title": f"wheelleg.decoded.{message.name}",
+        "description": (message.comment or message.name).strip(),
+        "type": "object",
+        "properties": props,
+        "required": required,
+        "additionalProperties": False,
+    }
+
+
+def inferred_schema(title: str, payload: dict) -> dict:
+    """A permissive schema for a generic JSON channel, typed from its first payload."""
+    return {"title": title, "type": "object",
+            "properties": {k: _infer(v) for k, v in payload.items()},
+            "additionalProperties": True}
+
+
+def _infer(value: Any) -> dict:
+    if isinstance(value, bool):
+        return {"type": "boolean"}
+    if isinstance(value, (int, float)) or value is None:
+        return {"type": NUMBER_OR_NULL}
+    if isinstance(value, str):
+        return {"type": "string"}
+    if isinstance(value, dict):
+        return {"type": "object", "properties": {k: _infer(v) for k, v in value.items()}}
+    if isinstance(value, (list, tuple)):
+        return {"type": "array"}
+    return {}
+
+
+def schema_bytes(schema: dict) -> bytes:
+    """Canonical JSON text of a schema (sorted keys: the same schema, the same bytes)."""
+    return json.dumps(schema, sort_keys=True, separators=(",", ":")).encode()
