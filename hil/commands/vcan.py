@@ -1,0 +1,38 @@
+"""``wheelleg vcan up|down|status``: the virtual SocketCAN channels vcan0 (CAN1) and vcan1 (CAN2)."""
+from __future__ import annotations
+
+import argparse
+import sys
+
+from hil import vcan
+
+NAME = "vcan"
+HELP = ("create (up) or remove (down) the vcan0/vcan1 SocketCAN links, txqueuelen 1000; "
+        "status: exit 0 if both open")
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("action", choices=("up", "down", "status"))
+    parser.add_argument("--channels", nargs="+", default=list(vcan.CHANNELS), metavar="IF",
+                        help="interfaces (default: %(default)s)")
+    parser.add_argument("--txqueuelen", type=int, default=vcan.TXQUEUELEN, metavar="FRAMES",
+                        help="transmit queue length for 'up' (default: %(default)s)")
+
+
+def run(args: argparse.Namespace) -> int:
+    channels = tuple(args.channels)
+    if args.action == "status":
+        reason = vcan.unavailable_reason(channels)
+        print(reason or f"{', '.join(channels)}: up, python-can opens them")
+        return 0 if reason is None else 1
+    if args.txqueuelen < 1:
+        print(f"wheelleg vcan: --txqueuelen must be >= 1 frame, got {args.txqueuelen}",
+              file=sys.stderr)
+        return 2
+    try:
+        lines = vcan.up(channels, args.txqueuelen) if args.action == "up" else vcan.down(channels)
+    except vcan.VcanError as exc:
+        print(f"wheelleg vcan {args.action}: {exc}", file=sys.stderr)
+        return 1
+    print("\n".join(lines))
+    return 0

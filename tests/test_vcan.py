@@ -1,0 +1,256 @@
+"""Real SocketCAN: vcan0/vcan1 links, python-can over them, can-utils candump/canplayer.
+
+Tests marked ``socketcan`` need real vcan0/vcan1; they are deselected by
+default.  Run them with ``wheelleg vcan up && python3 -m pytest -m socketcan``
+or, where the kernel has no CAN, ``bash ci/uml-vcan.sh python3 -m pytest -q -m
+socketcan``.  The unmarked tests check the error path and the UML script's
+exit status, and run anywhere.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import shutil
+import subprocess
+import sys
+import threading
+from pathlib import Path
+
+import can
+import pytest
+
+from hil import vcan
+from hil.commands import vcan as vcan_command
+
+REPO = Path(__file__).resolve().parents[1]
+UML_SCRIPT = REPO / "ci" / "uml-vcan.sh"
+BURST_FRAMES = 500
+
+
+# -- the clear-error path (no kernel CAN needed) -------------------------------------------
+def _fake_ip(returncode: int, stderr: str):
+    def ip(*args):
+        return subprocess.CompletedProcess(["ip", *args], returncode, "", stderr)
+    return ip
+
+
+@pytest.mark.parametrize("ip_error, cause", [
+    ("Error: Unknown device type.", "no vcan support"),
+    ("RTNETLINK answers: Operation not permitted", "CAP_NET_ADMIN"),
+])
+def test_up_error_quotes_ip_and_says_how_to_run_anyway(monkeypatch, ip_error, cause):
+    monkeypatch.setattr(vcan, "exists", lambda channel: False)
+    monkeypatch.setattr(vcan, "_ip", _fake_ip(2, ip_error + "\n"))
+    monkeypatch.setattr(vcan, "_try_modprobe", lambda: "modprobe: FATAL: Module vcan not found")
+    with pytest.raises(vcan.VcanError) as info:
+        vcan.up(("vcan0",))
+    text = str(info.value)
+    assert ip_error in text
+    assert cause in text
+    assert "bash ci/uml-vcan.sh python3 -m pytest -q -m socketcan" in text
+
+
+def _run_command(argv: list[str]) -> int:
+    parser = argparse.ArgumentParser()
+    vcan_command.add_arguments(parser)
+    return vcan_command.run(parser.parse_args(argv))
+
+
+def test_vcan_up_command_exits_nonzero_with_the_reason(monkeypatch, capsys):
+    monkeypatch.setattr(vcan, "exists", lambda channel: False)
+    monkeypatch.setattr(vcan, "_ip", _fake_ip(2, "Error: Unknown device type.\n"))
+    monkeypatch.setattr(vcan, "_try_modprobe", lambda: "modprobe not found")
+    assert _run_command(["up"]) == 1
+    err = capsys.readouterr().err
+    assert "Error: Unknown device type." in err and "ci/uml-vcan.sh" in err
+
+
+def test_up_retries_after_modprobe(monkeypatch):
+    calls = []
+    def ip(*args):
+        calls.append(args)
+        ok = args[:2] == ("link", "set") or len([c for c in calls if c[1] == "add"]) > 1
+        return subprocess.CompletedProcess(["ip", *args], 0 if ok else 2, "", "Error: Unknown device type.")
+    monkeypatch.setattr(vcan, "exists", lambda channel: False)
+    monkeypatch.setattr(vcan, "_ip", ip)
+    monkeypatch.setattr(vcan, "_try_modprobe", lambda: "")
+    monkeypatch.setattr(vcan, "txqueuelen", lambda channel: 1000)
+    assert vcan.up(("vcan0",)) == ["vcan0: created up, txqueuelen 1000"]
+    assert calls == [("link", "add", "dev", "vcan0", "type", "vcan")] * 2 + [
+        ("link", "set", "vcan0", "txqueuelen", "1000", "up")]
+
+
+def test_txqueuelen_must_be_positive(capsys):
+    assert _run_command(["up", "--txqueuelen", "0"]) == 2
+    assert "--txqueuelen" in capsys.readouterr().err
+
+
+def test_missing_channel_is_unavailable_with_hint():
+    name = "wlnone9"  # interface names are at most 15 characters; this one is never created
+    assert not vcan.exists(name)
+    assert not vcan.available((name,))
+    reason = vcan.unavailable_reason((name,))
+    assert name in reason and "ci/uml-vcan.sh" in reason
+
+
+def test_status_command_fails_for_a_missing_channel(capsys):
+    assert _run_command(["status", "--channels", "wlnone9"]) == 1
+    assert "wlnone9 does not exist" in capsys.readouterr().out
+
+
+def test_down_leaves_absent_channels_alone(monkeypatch):
+    monkeypatch.setattr(vcan, "_ip", lambda *a: pytest.fail(f"ip called: {a}"))
+    assert vcan.down(("wlnone9",)) == ["wlnone9: not present"]
+
+
+def test_real_ip_error_is_quoted_where_the_kernel_cannot():
+    """On a host without vcan (like this one), the message carries ip's own words."""
+    if shutil.which("ip") is None:
+        pytest.skip("iproute2 not installed")
+    probe = subprocess.run(["ip", "link", "add", "dev", "wlprobe0", "type", "vcan"],
+                           capture_output=True, text=True)
+    if probe.returncode == 0:
+        subprocess.run(["ip", "link", "delete", "dev", "wlprobe0"], check=True)
+        pytest.skip("this kernel makes vcan links: no error path to see")
+    with pytest.raises(vcan.VcanError) as info:
+        vcan.up(("wlprobe0",))
+    assert probe.stderr.strip() in str(info.value)
+
+
+def test_uml_script_fails_clearly_without_linux_uml():
+    env = dict(os.environ, UML_VCAN_KERNEL="/nonexistent/linux.uml")
+    done = subprocess.run(["bash", str(UML_SCRIPT), "true"], capture_output=True, text=True,
+                          env=env, timeout=60)
+    assert done.returncode == 125
+    assert "apt-get install user-mode-linux" in done.stderr
+
+
+@pytest.mark.skipif(shutil.which("linux.uml") is None, reason="user-mode-linux not installed")
+def test_uml_script_streams_output_and_returns_the_command_status(tmp_path):
+    """One boot: vcan links inside, quoting and env kept, CMD's status is the script's."""
+    probe = ("import os, sys; from hil import vcan; "
+             "print('ENV', os.environ['WL_PROBE'], vcan.txqueuelen('vcan0'), vcan.txqueuelen('vcan1'),"
+             " os.getcwd(), sys.executable); sys.exit(7)")
+    env = dict(os.environ, WL_PROBE="a b'c", UML_VCAN_ENV="WL_PROBE", UML_VCAN_TIMEOUT="240")
+    done = subprocess.run(["bash", str(UML_SCRIPT), sys.executable, "-c", probe], cwd=REPO,
+                          capture_output=True, text=True, env=env, timeout=300)
+    assert done.returncode == 7, done.stderr
+    assert f"ENV a b'c 1000 1000 {REPO} {sys.executable}" in done.stdout.splitlines()
+    assert "\r" not in done.stdout
+
+
+# -- real SocketCAN (vcan0/vcan1) ------------------------------------------------------------
+@pytest.fixture
+def real_vcan():
+    reason = vcan.unavailable_reason()
+    if reason is not None:
+        pytest.fail(reason)  # asked for socketcan tests on a host that cannot run them
+
+
+def _frames() -> list[can.Message]:
+    """Standard and extended ids, 0..8 data bytes, distinct payloads."""
+    out = []
+    for i in range(9):
+        out.append(can.Message(arbitration_id=0x200 + i, is_extended_id=False, data=bytes(range(i))))
+        out.append(can.Message(arbitration_id=0x0200FD01 + (i << 8), is_extended_id=True,
+                               data=bytes((0xA0 + i,) * i)))
+    return out
+
+
+def _key(msg) -> tuple:
+    return msg.arbitration_id, msg.is_extended_id, bytes(msg.data)
+
+
+@pytest.mark.socketcan
+@pytest.mark.parametrize("channel", vcan.CHANNELS)
+def test_python_can_send_receive(real_vcan, channel):
+    with vcan.open_bus(channel) as rx, vcan.open_bus(channel) as tx:
+        sent = _frames()
+        for msg in sent:
+            tx.send(msg)
+        got = vcan.drain(rx, len(sent))
+        assert [_key(m) for m in got] == [_key(m) for m in sent]
+        assert all(m.channel == channel and m.dlc == len(m.data) for m in got)
+        assert rx.recv(0.2) is None  # nothing more, in particular no echo of our own frames
+
+
+@pytest.mark.socketcan
+def test_channels_are_separate_buses(real_vcan):
+    with vcan.open_bus("vcan0") as rx0, vcan.open_bus("vcan1") as tx1, vcan.open_bus("vcan1") as rx1:
+        tx1.send(can.Message(arbitration_id=0x123, is_extended_id=False, data=b"\x01"))
+        assert _key(rx1.recv(5.0)) == (0x123, False, b"\x01")
+        assert rx0.recv(0.2) is None
+
+
+@pytest.mark.socketcan
+@pytest.mark.parametrize("channel", vcan.CHANNELS)
+def test_txqueuelen_is_1000(real_vcan, channel):
+    assert vcan.txqueuelen(channel) == vcan.TXQUEUELEN
+
+
+@pytest.mark.socketcan
+def test_burst_of_500_frames_arrives_whole(real_vcan):
+    """500 back-to-back sends: none fails (ENOBUFS), all arrive in order."""
+    sent = [can.Message(arbitration_id=0x100 + i % 0x100, is_extended_id=False,
+                        data=i.to_bytes(2, "little") * 4) for i in range(BURST_FRAMES)]
+    with vcan.open_bus("vcan0") as rx, vcan.open_bus("vcan0") as tx:
+        got: list[can.Message] = []
+        reader = threading.Thread(target=lambda: got.extend(vcan.drain(rx, BURST_FRAMES)))
+        reader.start()
+        for msg in sent:
+            tx.send(msg, timeout=1.0)
+        reader.join(60)
+    assert [_key(m) for m in got] == [_key(m) for m in sent]
+
+
+def _candump_module():
+    return pytest.importorskip("hil.candump", reason="hil/candump.py not in the tree yet")
+
+
+@pytest.mark.socketcan
+def test_candump_capture_reads_back_as_our_own_log(real_vcan, tmp_path):
+    """can-utils candump records what python-can sent; hil.candump reads that capture
+    exactly as it reads the rig's own log of the same frames."""
+    candump = _candump_module()
+    sent = _frames()
+    capture = vcan.CandumpCapture("vcan0", tmp_path / "capture.log")
+    with capture, vcan.open_bus("vcan0") as tx:
+        for msg in sent:
+            tx.send(msg)
+    assert len(capture.frame_lines()) == len(sent)
+    captured = [f for f in candump.CandumpReader(capture.path) if f.arbitration_id != vcan.MARK_ID]
+
+    own_log = tmp_path / "own.log"
+    with candump.CandumpWriter(own_log) as writer:
+        for i, msg in enumerate(sent):
+            writer.write("vcan0", i * 1000, msg.arbitration_id, msg.is_extended_id, bytes(msg.data))
+    ours = list(candump.CandumpReader(own_log))
+
+    def fields(f):
+        return f.channel, f.arbitration_id, f.is_extended, f.data, f.dlc, f.is_error, f.is_remote
+    assert [fields(f) for f in captured] == [fields(f) for f in ours]
+    assert [(f.arbitration_id, f.is_extended, f.data) for f in captured] == [_key(m) for m in sent]
+    times = [f.t_ns for f in captured]
+    assert times == sorted(times)
+
+
+@pytest.mark.socketcan
+@pytest.mark.parametrize("log_channel, target", [("vcan0", "vcan0"), ("can1", "vcan1")])
+def test_canplayer_replays_a_rig_log(real_vcan, tmp_path, log_channel, target):
+    """canplayer puts a log written by hil.candump onto the bus; python-can reads the same frames."""
+    if shutil.which("canplayer") is None:
+        pytest.fail("canplayer not found (apt-get install can-utils)")
+    candump = _candump_module()
+    sent = _frames()
+    log = tmp_path / "rig.log"
+    with candump.CandumpWriter(log) as writer:
+        for i, msg in enumerate(sent):  # 1 ms apart: canplayer keeps the log's timing
+            writer.write(log_channel, 1_700_000_000_000_000_000 + i * 1_000_000,
+                         msg.arbitration_id, msg.is_extended_id, bytes(msg.data))
+    with vcan.open_bus(target) as rx:
+        done = subprocess.run(["canplayer", "-I", str(log), f"{target}={log_channel}"],
+                              capture_output=True, text=True, timeout=60)
+        assert done.returncode == 0, done.stderr
+        got = vcan.drain(rx, len(sent))
+        assert rx.recv(0.2) is None
+    assert [_key(m) for m in got] == [_key(m) for m in sent]
