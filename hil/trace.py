@@ -157,8 +157,8 @@ class TraceWriter:
         self.finish()
 
     def _writer(self) -> ChunkedMcapWriter:
-        if self._mcap is None:
-            self.start()
+        if self._mcap is None or self._finished:
+            self.start()  # raises once finished
         return self._mcap
 
     # -- channels --------------------------------------------------------------
@@ -174,7 +174,7 @@ class TraceWriter:
         return channel_id
 
     def _can_channel(self, channel: str) -> int:
-        if not channel or "/" in channel or channel.strip() != channel:
+        if not isinstance(channel, str) or not channel or "/" in channel or len(channel.split()) != 1:
             raise ValueError(f"bad CAN channel name {channel!r}")
         channel_id = self._can_ids[channel] = self._channel(CAN_PREFIX + channel, "wheelleg.CanFrame",
                                                             schemas.CAN_FRAME)
@@ -221,7 +221,7 @@ class TraceWriter:
         missing = [k for k in schemas.SIM_STATE_FIELDS if k != "t" and k not in state]
         if missing:
             raise ValueError(f"sim_state is missing {missing}")
-        record = {"t": t_ns * 1e-9}
+        record = {"t": t_ns / 1e9}
         for key, value in state.items():
             if key != "t":
                 record[key] = _number(key, value)
@@ -376,7 +376,7 @@ class TraceReader:
 
     def events(self) -> list[dict]:
         """``/scenario/events`` payloads, each with 't' (s)."""
-        return [{"t": t * 1e-9, **payload} for t, payload in self.topic(EVENTS_TOPIC)]
+        return [{"t": t / 1e9, **payload} for t, payload in self.topic(EVENTS_TOPIC)]
 
 
 def _columns(rows: list[tuple[int, dict]], time_key: str | None = None) -> dict[str, np.ndarray]:
@@ -391,7 +391,7 @@ def _columns(rows: list[tuple[int, dict]], time_key: str | None = None) -> dict[
     out = {}
     for key in keys:
         if key == time_key:
-            out[key] = np.array([t * 1e-9 for t, _ in rows], dtype=float)
+            out[key] = np.array([t / 1e9 for t, _ in rows], dtype=float)
         else:
             out[key] = np.array([_float(row.get(key)) for _, row in rows], dtype=float)
     return out

@@ -1,0 +1,362 @@
+"""The MCAP trace: round trip, decoding, schemas, crash recovery (hil.trace)."""
+from __future__ import annotations
+
+import json
+import math
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+from mcap.reader import make_reader
+
+import dbc
+from dbc import cybergear as cg
+from hil import schemas
+from hil.trace import Frame, TraceReader, TraceWriter
+from hil.trace_decode import CompiledLayout, FrameDecoder
+
+REPO = Path(__file__).resolve().parents[1]
+DBS = {"can1": dbc.load_bus("can1"), "can2": dbc.load_bus("can2")}
+HOST = 0xFD
+STATE_KEYS = [k for k in schemas.SIM_STATE_FIELDS if k != "t"]
+METADATA = {"run": {"scenario": "unit", "seed": "7", "control_period_s": "0.002",
+                    "git_revision": "abc123", "controller_params": json.dumps({"kp": 1.5})},
+            "extra": {"note": "ünïcode ok"}}
+ATTACHMENTS = [("c620.dbc", dbc.dbc_path("c620.dbc").read_bytes(), "text/x-dbc"),
+               ("robot.xml", b"<mujoco/>", "application/xml")]
+
+
+def _encode(bus: str, name: str, **values) -> tuple[int, bool, bytes]:
+    message = DBS[bus].get_message_by_name(name)
+    full = {s.name: values.get(s.name, 0) for s in message.signals}
+    return message.frame_id, message.is_extended_frame, message.encode(full)
+
+
+def _frames() -> list[Frame]:
+    """A mix of every frame kind of both buses, at distinct bus times."""
+    out, t = [], 1_000
+    feedback = _encode("can2", "CG_Feedback", Pos=0.5, Vel=-1.25, Torque=3.0, Temp=31.5)[2]
+    param = DBS["can2"].get_message_by_name("CG_ParamRead").encode(
+        {"Index": 0x7005, "run_mode": 0}, strict=False)
+    rows = [
+        ("can1", *_encode("can1", "C620_Cmd_1_4", ESC1_Current=2.5, ESC2_Current=-1.0)),
+        ("can1", *_encode("can1", "C620_Feedback_1", RotorAngle=90, RotorSpeed=-300, TorqueCurrent=0.75, MotorTemp=40)),
+        ("can1", *_encode("can1", "Heartbeat")),
+        ("can1", 0x555, False, b"\x01\x02"),  # no DBC message: raw only
+        ("can1", 0x201, False, b"\x01\x02\x03"),  # known id, wrong length: raw only
+        ("can2", cg.motion_id(-2.5, 3), True, bytes(8)),
+        ("can2", cg.reply_id(cg.T_FEEDBACK, 3, HOST, mode=2, faults={"FaultOverTemp"}), True, feedback),
+        ("can2", cg.request_id(cg.T_ENABLE, HOST, 4), True, bytes(8)),
+        ("can2", cg.request_id(cg.T_PARAM_READ, HOST, 2), True, param),
+        ("can2", cg.reply_id(cg.T_PARAM_READ, 2, HOST), True, param),
+        ("can2", cg.set_id_id(9, HOST, 2), True, bytes(8)),
+    ]
+    for k in range(20):
+        for channel, can_id, ext, data in rows:
+            out.append(Frame(channel, t, can_id, ext, len(data), data))
+            t += 37_000 + k
+    out.append(Frame("can1", t, 0x80, False, 8, bytes(8), is_error=True))
+    return out
+
+
+def _state(k: int) -> dict:
+    state = {key: 0.01 * k + i for i, key in enumerate(STATE_KEYS)}
+    state["pitch_motor_temp"] = 30.0 + k  # an extra field
+    return state
+
+
+def _write(path: Path, frames, decode: bool = True, **options) -> None:
+    with TraceWriter(path, metadata=METADATA, attachments=ATTACHMENTS, dbs=DBS, decode=decode,
+                     **options) as trace:
+        for i, f in enumerate(frames):
+            trace.frame(f.channel, f.t_ns, f.arbitration_id, f.is_extended, f.dlc, f.data,
+                        is_error=f.is_error)
+            if i % 10 == 0:
+                trace.sim_state(f.t_ns, _state(i))
+        trace.event(5_000, "push", force_n=12.5, body="base")
+        trace.event(7_000, "fault", motor=3)
+        trace.message("/controller/debug", 9_000, {"pitch_ref": 0.1, "nan_value": float("nan")}, "Debug")
+
+
+@pytest.fixture(scope="module")
+def trace_path(tmp_path_factory) -> Path:
+    path = tmp_path_factory.mktemp("trace") / "run.mcap"
+    _write(path, _frames())
+    return path
+
+
+def test_round_trip_of_every_channel_kind(trace_path):
+    reader = TraceReader(trace_path)
+    assert not reader.truncated
+    frames = _frames()
+    assert list(reader.frames()) == sorted(frames, key=lambda f: f.t_ns)
+    assert list(reader.frames("can2")) == [f for f in frames if f.channel == "can2"]
+    assert reader.metadata == METADATA
+    assert reader.attachments == {name: data for name, data, _ in ATTACHMENTS}
+    assert reader.attachment_media_types["robot.xml"] == "application/xml"
+
+    state = reader.sim_state()
+    written = [(f.t_ns, _state(i)) for i, f in enumerate(frames) if i % 10 == 0]
+    np.testing.assert_array_equal(state["t"], [t / 1e9 for t, _ in written])
+    for key in STATE_KEYS + ["pitch_motor_temp"]:
+        np.testing.assert_array_equal(state[key], [s[key] for _, s in written])
+        assert state[key].shape == (len(written),)
+
+    assert reader.events() == [{"t": 5e-6, "kind": "push", "force_n": 12.5, "body": "base"},
+                               {"t": 7e-6, "kind": "fault", "motor": 3}]
+    assert reader.topic("/controller/debug") == [(9_000, {"pitch_ref": 0.1, "nan_value": None})]
+
+
+def test_decoded_channels_match_cantools(trace_path):
+    reader = TraceReader(trace_path)
+    frames = _frames()
+    for name in ("C620_Cmd_1_4", "C620_Feedback_1", "Heartbeat"):
+        message = DBS["can1"].get_message_by_name(name)
+        mine = [f for f in frames if f.channel == "can1" and f.arbitration_id == message.frame_id
+                and len(f.data) == message.length and not f.is_error]
+        decoded = reader.decoded("can1", name)
+        np.testing.assert_array_equal(decoded["t"], [f.t_ns / 1e9 for f in mine])
+        for signal in message.signals:
+            expected = [message.decode(f.data, decode_choices=False)[signal.name] for f in mine]
+            np.testing.assert_array_equal(decoded[signal.name], expected)
+    assert "/decoded/can1/C620_Feedback_1" in reader.topics
+    # the short 0x201 frame and the unknown 0x555 are raw only
+    assert reader.topics["/decoded/can1/C620_Feedback_1"] == 20
+    assert not [t for t in reader.topics if "0x555" in t or t.endswith("/1365")]
+
+
+def test_cybergear_payload_and_id_fields(trace_path):
+    reader = TraceReader(trace_path)
+    feedback = reader.decoded("can2", "CG_Feedback")
+    message = DBS["can2"].get_message_by_name("CG_Feedback")
+    payload = _encode("can2", "CG_Feedback", Pos=0.5, Vel=-1.25, Torque=3.0, Temp=31.5)[2]
+    expected = message.decode(payload, decode_choices=False)
+    for name, value in expected.items():
+        assert np.all(feedback[name] == value)
+    assert np.all(feedback["MotorId"] == 3) and np.all(feedback["Host"] == HOST)
+    assert np.all(feedback["Mode"] == 2) and np.all(feedback["FaultOverTemp"] == 1)
+    assert np.all(feedback["FaultOverCurrent"] == 0)
+
+    motion = reader.decoded("can2", "CG_MotionCmd")
+    assert np.all(motion["Target"] == 3)
+    assert np.all(motion["TorqueRef"] == cg.motion_torque(cg.motion_id(-2.5, 3)))
+    assert abs(motion["TorqueRef"][0] + 2.5) < 1e-3
+
+    params = reader.topic("/decoded/can2/CG_ParamRead")
+    requests = [p for _, p in params if "Target" in p and "MotorId" not in p]
+    replies = [p for _, p in params if "MotorId" in p]
+    assert len(requests) == len(replies) == 20
+    assert requests[0]["Target"] == 2 and requests[0]["Host"] == HOST
+    assert replies[0]["MotorId"] == 2 and replies[0]["Host"] == HOST
+    assert requests[0]["Index"] == 0x7005 and requests[0]["run_mode"] == 0
+    set_id = reader.decoded("can2", "CG_SetId")
+    assert np.all(set_id["NewId"] == 9) and np.all(set_id["Target"] == 2)
+    enable = reader.decoded("can2", "CG_Enable")
+    assert np.all(enable["Type"] == cg.T_ENABLE) and np.all(enable["Target"] == 4)
+
+
+def test_schemas_are_valid_and_every_message_validates(trace_path):
+    jsonschema = pytest.importorskip("jsonschema")
+    seen = set()
+    with open(trace_path, "rb") as f:
+        reader = make_reader(f, validate_crcs=True)
+        validators = {}
+        for schema, channel, message in reader.iter_messages():
+            assert schema.encoding == "jsonschema" and channel.message_encoding == "json"
+            if schema.id not in validators:
+                body = json.loads(schema.data)
+                jsonschema.Draft202012Validator.check_schema(body)
+                jsonschema.Draft7Validator.check_schema(body)
+                validators[schema.id] = jsonschema.Draft202012Validator(body)
+            validators[schema.id].validate(json.loads(message.data))
+            seen.add(channel.topic)
+    assert {"/can/can1", "/can/can2", "/sim/state", "/scenario/events", "/controller/debug",
+            "/decoded/can2/CG_Feedback", "/decoded/can1/Heartbeat"} <= seen
+
+
+def test_schema_rejects_a_wrong_record():
+    jsonschema = pytest.importorskip("jsonschema")
+    validator = jsonschema.Draft202012Validator(schemas.CAN_FRAME)
+    good = {"id": 0x123, "extended": False, "dlc": 2, "data": "0aff", "error": False}
+    assert validator.is_valid(good)
+    for bad in ({**good, "data": "0AF"}, {**good, "id": -1}, {**good, "extra": 1},
+                {k: v for k, v in good.items() if k != "dlc"}):
+        assert not validator.is_valid(bad)
+    state = jsonschema.Draft202012Validator(schemas.sim_state_schema(["motor_temp"]))
+    assert not state.is_valid({"t": 0.0})  # the contract's fields are required
+    assert "motor_temp" in schemas.sim_state_schema(["motor_temp"])["properties"]
+
+
+def test_mcap_library_reads_the_finished_file(trace_path):
+    with open(trace_path, "rb") as f:
+        reader = make_reader(f, validate_crcs=True)
+        summary = reader.get_summary()
+        counts = {}
+        for _, channel, _ in reader.iter_messages():
+            counts[channel.topic] = counts.get(channel.topic, 0) + 1
+        attachments = {a.name: a.data for a in reader.iter_attachments()}
+        metadata = {m.name: m.metadata for m in reader.iter_metadata()}
+    stats = summary.statistics
+    assert stats.message_count == sum(counts.values())
+    by_topic = {summary.channels[cid].topic: n for cid, n in stats.channel_message_counts.items()}
+    assert by_topic == counts
+    assert counts["/can/can1"] == sum(1 for f in _frames() if f.channel == "can1")
+    assert attachments == {name: data for name, data, _ in ATTACHMENTS}
+    assert metadata == METADATA
+    with open(trace_path, "rb") as f:  # topic filtering uses the chunk's message indexes
+        only = list(make_reader(f).iter_messages(topics=["/sim/state"]))
+    assert len(only) == counts["/sim/state"]
+
+
+def test_decode_false_records_raw_only_and_the_reader_decodes_later(tmp_path, trace_path):
+    path = tmp_path / "raw.mcap"
+    _write(path, _frames(), decode=False)
+    raw = TraceReader(path)
+    assert not [t for t in raw.topics if t.startswith("/decoded/")]
+    assert raw.decoded("can2", "CG_Feedback") == {}
+    later = TraceReader(path, dbs=DBS)
+    eager = TraceReader(trace_path)
+    for channel, name in [("can2", "CG_Feedback"), ("can1", "C620_Cmd_1_4"), ("can2", "CG_MotionCmd")]:
+        a, b = later.decoded(channel, name), eager.decoded(channel, name)
+        assert a.keys() == b.keys() and a
+        for key in a:
+            np.testing.assert_array_equal(a[key], b[key])
+
+
+def test_chunking_options_give_the_same_content(tmp_path, trace_path):
+    path = tmp_path / "small.mcap"
+    _write(path, _frames(), compression="", chunk_size=2_000, flush_interval_s=None)
+    small, ref = TraceReader(path), TraceReader(trace_path)
+    assert small.scan.chunks > 5 * ref.scan.chunks
+    assert list(small.frames()) == list(ref.frames())
+    assert small.topic("/decoded/can2/CG_Feedback") == ref.topic("/decoded/can2/CG_Feedback")
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.data())
+def test_compiled_layouts_equal_cantools_decode(data):
+    """The fast decoder agrees with cantools on every message of every DBC, values and types."""
+    for path in dbc.all_dbc_files():
+        for message in dbc.load_file(path.name).messages:
+            layout = CompiledLayout.compile(message)
+            if layout is None:
+                assert message.is_multiplexed() or any(s.is_float for s in message.signals)
+                continue
+            payload = data.draw(st.binary(min_size=message.length, max_size=message.length))
+            mine, ref = layout.decode(payload), message.decode(payload, decode_choices=False)
+            assert mine == ref, message.name
+            assert [type(v) for v in mine.values()] == [type(v) for v in ref.values()], message.name
+
+
+def test_decoder_skips_what_it_cannot_decode():
+    decoder = FrameDecoder(DBS)
+    assert decoder.decode("can1", 0x555, False, b"\x00") is None
+    assert decoder.decode("can1", 0x201, False, b"\x00") is None  # 1 byte for an 8-byte message
+    assert decoder.decode("can1", 0x201, True, bytes(8)) is None  # standard id sent as extended
+    assert decoder.decode("can9", 0x201, False, bytes(8)) is None  # no DBC for the channel
+    plan, values = decoder.decode("can1", 0x201, False, bytes(8))
+    assert plan.name == "C620_Feedback_1" and set(values) == {s.name for s in plan.message.signals}
+
+
+def test_bad_input_gets_clear_errors(tmp_path):
+    trace = TraceWriter(tmp_path / "bad.mcap", metadata={"run": {"seed": "1"}})
+    with pytest.raises(ValueError, match="missing"):
+        trace.sim_state(0, {"x": 0.0})
+    with pytest.raises(TypeError, match="pitch"):
+        trace.sim_state(0, {**{k: 0.0 for k in STATE_KEYS}, "pitch": "up"})
+    with pytest.raises(ValueError, match="t_ns"):
+        trace.frame("can1", -5, 0x100, False, 0, b"")
+    with pytest.raises(ValueError, match="topic"):
+        trace.message("/sim/state", 0, {"a": 1}, "X")
+    with pytest.raises(ValueError, match="kind"):
+        trace.event(0, "")
+    with pytest.raises(ValueError, match="channel"):
+        trace.frame("can 1", 0, 0x100, False, 0, b"")
+    trace.finish()
+    with pytest.raises(RuntimeError, match="finished"):
+        trace.frame("can1", 0, 0x100, False, 0, b"")
+    with pytest.raises(TypeError, match="seed"):
+        TraceWriter(tmp_path / "m.mcap", metadata={"run": {"seed": 1}})
+    assert TraceReader(tmp_path / "bad.mcap").truncated is False
+
+
+_KILLED_WRITER = textwrap.dedent("""
+    import sys, time
+    from hil.trace import TraceWriter
+    mode, path = sys.argv[1], sys.argv[2]
+    if mode == "bus-time":  # bus time runs at about real time: chunks close on their span
+        trace = TraceWriter(path, metadata={"run": {"scenario": "killed"}},
+                            attachments=[("note.txt", b"kept", "text/plain")], flush_interval_s=None)
+        step_ns, per_report = 100_000, 200
+    else:  # bus time crawls: only the wall-clock flush closes chunks
+        trace = TraceWriter(path, metadata={"run": {"scenario": "killed"}}, chunk_size=1 << 30,
+                            chunk_span_s=1e6, flush_interval_s=0.25)
+        step_ns, per_report = 1, 200
+    trace.start()
+    t0, n = time.monotonic(), 0
+    while True:
+        trace.frame("can1", n * step_ns, 0x123, False, 8, n.to_bytes(8, "little"))
+        n += 1
+        if n % per_report == 0:
+            print(f"{n} {n * step_ns} {time.monotonic() - t0:.6f}", flush=True)
+            time.sleep(0.02)
+""")
+
+
+def _run_and_kill(path: Path, mode: str, until) -> list[tuple[int, int, float]]:
+    """Start a writer, SIGKILL it once ``until(reports)``; reports are (frames, bus ns, wall s)."""
+    env = dict(os.environ, PYTHONPATH=str(REPO))
+    proc = subprocess.Popen([sys.executable, "-c", _KILLED_WRITER, mode, str(path)], cwd=REPO,
+                            stdout=subprocess.PIPE, text=True, env=env)
+    reports = []
+    try:
+        deadline = time.monotonic() + 60
+        for line in proc.stdout:
+            n, t_ns, wall = line.split()
+            reports.append((int(n), int(t_ns), float(wall)))
+            if until(reports) or time.monotonic() > deadline:
+                break
+    finally:
+        proc.send_signal(signal.SIGKILL)
+        proc.wait()
+        proc.stdout.close()
+    assert proc.returncode == -signal.SIGKILL
+    return reports
+
+
+def _check_contiguous(frames: list[Frame]) -> None:
+    """Recovered frames are exactly the first ones written, none corrupt."""
+    assert [int.from_bytes(f.data, "little") for f in frames] == list(range(len(frames)))
+
+
+def test_killed_writer_leaves_a_trace_up_to_about_the_last_second(tmp_path):
+    path = tmp_path / "killed.mcap"
+    reports = _run_and_kill(path, "bus-time", lambda r: r[-1][1] >= 1_500_000_000)
+    reader = TraceReader(path)
+    assert reader.truncated and reader.scan.error
+    assert reader.metadata == {"run": {"scenario": "killed"}}
+    assert reader.attachments == {"note.txt": b"kept"}
+    frames = list(reader.frames("can1"))
+    _check_contiguous(frames)
+    last_reported_ns = reports[-1][1]
+    assert last_reported_ns >= 1_500_000_000
+    # at most one chunk span (0.5 s of bus time) may be lost; allow up to a second
+    assert frames[-1].t_ns >= last_reported_ns - 1_000_000_000
+    assert frames[-1].t_ns >= 0.6 * last_reported_ns
+
+
+def test_killed_writer_is_bounded_by_the_wall_clock_flush(tmp_path):
+    path = tmp_path / "slow.mcap"
+    reports = _run_and_kill(path, "wall", lambda r: r[-1][2] >= 1.5)
+    frames = list(TraceReader(path).frames("can1"))
+    _check_contiguous(frames)
+    # everything written 0.25 s (the flush interval) before the last report is on disk
+    safe = [n for n, _, wall in reports if wall <= reports[-1][2] - 0.25]
+    assert safe and len(frames) >= safe[-1]
