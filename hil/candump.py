@@ -42,7 +42,7 @@ CAN_ERR_MASK = 0x1FFFFFFF
 CAN_ERR_BUSERROR = 0x00000080  # python-can's reader needs this class bit to see an error frame
 CAN_SFF_MASK = 0x7FF
 CAN_EFF_MASK = 0x1FFFFFFF
-CANFD_BRS, CANFD_ESI = 0x01, 0x02
+CANFD_BRS, CANFD_ESI, CANFD_FDF = 0x01, 0x02, 0x04
 CAN_MAX_DLEN, CANFD_MAX_DLEN = 8, 64
 _NS_PER_S, _NS_PER_US = 1_000_000_000, 1_000
 
@@ -118,8 +118,9 @@ def format_frame(arbitration_id: int, is_extended: bool, data: bytes, is_error: 
             raise ValueError("a remote frame is classic CAN with a DLC of 0..8")
         return f"{ident}#R{remote_dlc}" if remote_dlc else f"{ident}#R"
     if is_fd:
-        if len(data) > CANFD_MAX_DLEN or not 0 <= fd_flags <= 0xF:
-            raise ValueError(f"CAN FD frame: {len(data)} bytes (max 64), flags {fd_flags} (0..15)")
+        # flags: BRS 1, ESI 2, FDF 4; python-can reads the nibble as a decimal digit
+        if len(data) > CANFD_MAX_DLEN or not 0 <= fd_flags <= 7:
+            raise ValueError(f"CAN FD frame: {len(data)} bytes (max 64), flags {fd_flags} (0..7)")
         return f"{ident}##{fd_flags:X}{data.hex().upper()}"
     if len(data) > CAN_MAX_DLEN:
         raise ValueError(f"classic CAN frame with {len(data)} data bytes (max 8)")
