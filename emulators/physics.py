@@ -22,6 +22,7 @@ bit-identical states.
 from __future__ import annotations
 
 import math
+import operator
 from pathlib import Path
 from typing import Sequence
 
@@ -117,26 +118,21 @@ class Physics:
     # -- names -> indices ------------------------------------------------------------
     def _index(self) -> None:
         m = self.model
-        jnt = lambda name: mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, name)  # noqa: E731
         self._joint_id = {m.joint(i).name: i for i in range(m.njnt)}
         self._shafts = {}
         for name in HIP_NAMES + WHEEL_NAMES:
-            j = jnt(name)
+            j = m.joint(name).id
             self._shafts[name] = (int(m.jnt_qposadr[j]), int(m.jnt_dofadr[j]))
-        self._actuator = {name: mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_ACTUATOR, name)
-                          for name in HIP_NAMES + WHEEL_NAMES}
-        self._body = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, "body")
-        self._body_box = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "body_box")
-        self._wheel_geom = {leg: mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, f"{leg}_wheel") for leg in LEGS}
+        self._actuator = {name: m.actuator(name).id for name in HIP_NAMES + WHEEL_NAMES}
+        self._body = m.body("body").id
+        self._body_box = m.geom("body_box").id
+        self._wheel_geom = {leg: m.geom(f"{leg}_wheel").id for leg in LEGS}
         self._wheel_size = tuple(float(v) for v in m.geom_size[self._wheel_geom["left"]][:2])  # radius, half width
         self._ground = {i for i in range(m.ngeom) if m.geom_bodyid[i] == 0 and m.geom_group[i] == GROUND_GROUP}
-        site = lambda name: mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, name)  # noqa: E731
-        self._leg_sites = {leg: (site(f"{leg}_hip_a"), site(f"{leg}_hip_e"), site(f"{leg}_front_c")) for leg in LEGS}
-        def sensor(name: str) -> slice:
-            i = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SENSOR, name)
-            return slice(int(m.sensor_adr[i]), int(m.sensor_adr[i] + m.sensor_dim[i]))
-
-        self._quat_s, self._gyro_s, self._accel_s = sensor("imu_quat"), sensor("imu_gyro"), sensor("imu_accel")
+        self._leg_sites = {leg: tuple(m.site(f"{leg}_{point}").id for point in ("hip_a", "hip_e", "front_c"))
+                           for leg in LEGS}
+        sensors = [m.sensor(name) for name in ("imu_quat", "imu_gyro", "imu_accel")]
+        self._quat_s, self._gyro_s, self._accel_s = (slice(int(s.adr[0]), int(s.adr[0] + s.dim[0])) for s in sensors)
         self._projectiles = [(name, f) for name, f in zip(self.terrain_names, self.terrain) if f.kind == "projectile"]
 
     def _qpos_adr(self, joint: str) -> int:
@@ -185,6 +181,9 @@ class Physics:
 
     def step(self, n: int = 1) -> None:
         """Advance ``n`` timesteps with the torques and force that are set."""
+        n = operator.index(n)  # an integer, numpy's too
+        if n < 0:
+            raise ValueError(f"n must be >= 0, got {n}")
         m, d = self.model, self.data
         held = bool(self._force_world.any())
         for _ in range(n):
