@@ -31,6 +31,8 @@ setup() {
 # The console is a tty: keep "\n" as is so the host sees plain lines.
 stty -onlcr 2>/dev/null
 if ! setup 2>"$work/setup.err"; then
+    echo "uml-vcan: guest setup failed:"
+    cat "$work/setup.err"
     finish 125
 fi
 boot_ns=$(date +%s%N)

@@ -100,7 +100,6 @@ if [[ $uml_rc == 124 || $uml_rc == 137 ]]; then
 else
     echo "uml-vcan: UML exited ($uml_rc) before CMD finished" >&2
 fi
-[[ -s $work/setup.err ]] && { echo "uml-vcan: guest setup failed:" >&2; cat "$work/setup.err" >&2; }
 echo "uml-vcan: last lines of the UML log:" >&2
 tail -n 30 "$work/uml.log" >&2
 exit "$status"
