@@ -1,0 +1,64 @@
+"""``wheelleg run SCENARIO``: run one scenario, write trace, log and plot, check it."""
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from hil import scenarios
+from hil.plot import plot_run
+from hil.rig import Rig, RigConfig
+from hil.rundata import load_run
+
+NAME = "run"
+HELP = "run a scenario in the rig; writes DIR/SCENARIO.mcap, .log and .png and checks the run"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("scenario", help="scenario name (see `wheelleg list`)")
+    parser.add_argument("--out", type=Path, default=Path("out"), help="output directory (default out/)")
+    parser.add_argument("--interface", default="virtual",
+                        help="python-can interface: virtual (default, in-process), socketcan, ...")
+    parser.add_argument("--channels", default="vcan0,vcan1",
+                        help="CAN1 (wheels) and CAN2 (joints) channel names, comma separated")
+    parser.add_argument("--seed", type=int, default=0, help="random seed (noise, faults)")
+    parser.add_argument("--duration", type=float, default=None, help="override the duration (s)")
+    parser.add_argument("--realtime", action="store_true", help="pace the plant at wall-clock speed")
+    parser.add_argument("--external-controller", action="store_true",
+                        help="do not start the controller in-process; wait for `wheelleg controller --sync`")
+    parser.add_argument("--no-plot", action="store_true", help="skip the PNG")
+
+
+def execute(args: argparse.Namespace):
+    """Run and check; returns (outcome, results) for callers such as the pytest plugin."""
+    scenario = scenarios.get(args.scenario)
+    if args.duration is not None:
+        from dataclasses import replace
+        scenario = replace(scenario, duration_s=args.duration)
+    channels = tuple(c.strip() for c in args.channels.split(","))
+    if len(channels) != 2:
+        raise SystemExit("--channels needs two names: CAN1 (wheels),CAN2 (joints)")
+    config = RigConfig(interface=args.interface, channels=channels, seed=args.seed,
+                       realtime=args.realtime, in_process_controller=not args.external_controller)
+    outcome = Rig(scenario, config, args.out).run()
+    run = load_run(outcome.trace_path)
+    results = [check(run) for check in scenario.checks]
+    if not args.no_plot:
+        plot_run(run, args.out / f"{scenario.name}.png", title=f"{scenario.name}: {scenario.summary}")
+    return outcome, results
+
+
+def run(args: argparse.Namespace) -> int:
+    try:
+        outcome, results = execute(args)
+    except KeyError as exc:
+        print(exc.args[0])
+        return 2
+    rtf = outcome.sim_s / outcome.wall_s if outcome.wall_s > 0 else float("inf")
+    print(f"{args.scenario}: {outcome.sim_s:.2f} s simulated in {outcome.wall_s:.2f} s "
+          f"({rtf:.1f}x real time), {outcome.ticks} ticks, {outcome.deadline_misses} deadline misses")
+    print(f"  trace {outcome.trace_path}\n  log   {outcome.log_path}")
+    for r in results:
+        print(f"  [{'PASS' if r.passed else 'FAIL'}] {r.name}: {r.detail}")
+    ok = all(r.passed for r in results)
+    print(f"{args.scenario}: {'PASSED' if ok else 'FAILED'}")
+    return 0 if ok else 1

@@ -1,0 +1,45 @@
+"""Read a run's trace back into arrays for checks and plots (``RunData``)."""
+from __future__ import annotations
+
+from collections import defaultdict
+from pathlib import Path
+
+import numpy as np
+
+from dbc import cybergear as cg
+from hil.scenario import RunData
+from hil.trace import TraceReader
+
+
+def _commands(reader: TraceReader, joints_channel: str) -> dict:
+    """Hip torques commanded in type-1 frames: motor id -> (t (n,), N m (n,))."""
+    series = defaultdict(lambda: ([], []))
+    for frame in reader.frames(joints_channel):
+        if frame.is_extended and cg.comm_type(frame.arbitration_id) == cg.T_MOTION:
+            t, tau = series[cg.target(frame.arbitration_id)]
+            t.append(frame.t_ns / 1e9)
+            tau.append(cg.motion_torque(frame.arbitration_id))
+    return {k: (np.array(t), np.array(v)) for k, (t, v) in series.items()}
+
+
+def _currents(reader: TraceReader, wheels_channel: str) -> dict:
+    decoded = reader.decoded(wheels_channel, "C620_Cmd_1_4")
+    if not decoded or "t" not in decoded:
+        return {}
+    return {i: (decoded["t"], decoded[f"ESC{i}_Current"]) for i in range(1, 5)
+            if f"ESC{i}_Current" in decoded}
+
+
+def load_run(path: Path | str) -> RunData:
+    """Everything the checks need from a trace file."""
+    reader = TraceReader(path)
+    run_meta = reader.metadata.get("run", {})
+    can1, can2 = run_meta.get("can1", "vcan0"), run_meta.get("can2", "vcan1")
+    return RunData(
+        state=reader.sim_state(),
+        heartbeat=reader.decoded(can1, "Heartbeat"),
+        hip_torque=_commands(reader, can2),
+        wheel_current=_currents(reader, can1),
+        events=reader.events(),
+        meta=dict(run_meta, truncated=reader.truncated),
+    )
