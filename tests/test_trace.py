@@ -360,3 +360,36 @@ def test_killed_writer_is_bounded_by_the_wall_clock_flush(tmp_path):
     # everything written 0.25 s (the flush interval) before the last report is on disk
     safe = [n for n, _, wall in reports if wall <= reports[-1][2] - 0.25]
     assert safe and len(frames) >= safe[-1]
+
+
+def test_a_file_cut_anywhere_reads_back_a_prefix(tmp_path):
+    """Cut a finished trace at many byte offsets: reading never fails and keeps whole chunks."""
+    full = tmp_path / "full.mcap"
+    _write(full, _frames(), chunk_size=1_500, flush_interval_s=None)
+    blob = full.read_bytes()
+    reference = list(TraceReader(full).frames("can2"))
+    cut = tmp_path / "cut.mcap"
+    seen_lengths = set()
+    for size in range(0, len(blob), max(1, len(blob) // 97)):
+        cut.write_bytes(blob[:size])
+        reader = TraceReader(cut)
+        assert reader.truncated
+        frames = list(reader.frames("can2"))
+        assert frames == reference[:len(frames)]
+        seen_lengths.add(len(frames))
+    assert len(seen_lengths) > 5  # the cuts fell inside many different chunks
+
+
+def test_a_corrupt_chunk_ends_the_read_there(tmp_path):
+    path = tmp_path / "corrupt.mcap"
+    _write(path, _frames(), compression="", chunk_size=1_500, flush_interval_s=None)
+    blob = bytearray(path.read_bytes())
+    reference = list(TraceReader(path).frames("can1"))
+    marker = b'"id":513'  # a C620 feedback frame on can1, inside some chunk near the middle
+    at = blob.index(marker, len(blob) // 2)
+    blob[at + 6] = ord("9")  # still valid JSON, but the chunk's CRC no longer matches
+    path.write_bytes(bytes(blob))
+    reader = TraceReader(path)
+    assert reader.truncated and "CRC" in reader.scan.error
+    frames = list(reader.frames("can1"))
+    assert 0 < len(frames) < len(reference) and frames == reference[:len(frames)]
