@@ -6,7 +6,7 @@
 finish() {  # finish STATUS: hand STATUS to the host, then power off
     echo "$1" >"$work/status.tmp" && mv "$work/status.tmp" "$work/status"
     sync
-    halt -f
+    halt -f -d
 }
 
 setup() {

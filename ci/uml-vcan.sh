@@ -84,7 +84,7 @@ set +e
 env -u TMPDIR -u TMP -u TEMP ${preload:+LD_PRELOAD=$preload} \
     timeout --kill-after=20 "$limit" "$kernel" \
     mem="$mem" root=/dev/root rootfstype=hostfs rootflags=/ rw quiet loglevel=1 \
-    init="$work/init" con=null con0=null,fd:3 \
+    init="$work/init" uml_dir="$work" con=null con0=null,fd:3 \
     3>&1 >"$work/uml.log" 2>&1 </dev/null |
     sed -u -e 's/\r$//' -e '/^Halting\.$/d' -e '/^reboot: System halted$/d'
 uml_rc=${PIPESTATUS[0]}
