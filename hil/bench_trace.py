@@ -18,7 +18,7 @@ from pathlib import Path
 
 import dbc
 from dbc import cybergear as cg
-from hil import trace as trace_module
+from hil import schemas, trace as trace_module
 from hil.candump import CandumpWriter
 from hil.trace import TraceWriter
 
@@ -64,6 +64,17 @@ def time_trace(path: Path, n_frames: int, decode: bool) -> float:
     return (time.perf_counter() - t0) / (ticks * len(mix)) * 1e6
 
 
+def time_sim_state(path: Path, n_calls: int) -> float:
+    """Microseconds per TraceWriter.sim_state call (once per control period in the rig)."""
+    state = {key: 0.1 * i for i, key in enumerate(schemas.SIM_STATE_FIELDS) if key != "t"}
+    writer = TraceWriter(path, metadata={"run": {"bench": "1"}}).start()
+    t0 = time.perf_counter()
+    for k in range(n_calls):
+        writer.sim_state(k * PERIOD_NS, state)
+    writer.finish()
+    return (time.perf_counter() - t0) / n_calls * 1e6
+
+
 def time_candump(path: Path, n_frames: int) -> float:
     mix = frame_mix()
     ticks = n_frames // len(mix)
@@ -88,9 +99,10 @@ def main(argv=None) -> int:
         out = Path(tmp)
         for label, fn in [("trace, raw frames only (decode=False)", lambda: time_trace(out / "a.mcap", args.frames, False)),
                           ("trace, raw + decoded (decode=True)", lambda: time_trace(out / "b.mcap", args.frames, True)),
-                          ("candump log", lambda: time_candump(out / "c.log", args.frames))]:
+                          ("candump log", lambda: time_candump(out / "c.log", args.frames)),
+                          ("sim_state (per call)", lambda: time_sim_state(out / "s.mcap", args.frames // 20))]:
             best = min(fn() for _ in range(args.repeats))
-            print(f"  {label:40s} {best:6.2f} us/frame")
+            print(f"  {label:40s} {best:6.2f} us/{'call' if 'call' in label else 'frame'}")
         size = (out / "b.mcap").stat().st_size
         print(f"  decoded trace size: {size / args.frames:.1f} bytes/frame (zstd)")
     return 0

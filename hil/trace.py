@@ -21,6 +21,10 @@ Usage::
         trace.sim_state(t_ns, state)
     reader = TraceReader(path)
     reader.sim_state()["pitch"]   # (n,) rad
+
+Cost (hil/bench_trace.py, this 2-core machine, with orjson): ~3 us per raw
+frame, ~6 us more per frame with ``/decoded/`` channels. Without orjson the
+stdlib json module is used and decoding costs ~11 us more per frame.
 """
 from __future__ import annotations
 
@@ -49,6 +53,7 @@ CAN_PREFIX, DECODED_PREFIX = "/can/", "/decoded/"
 SIM_STATE_TOPIC, EVENTS_TOPIC = "/sim/state", "/scenario/events"
 _RESERVED = (CAN_PREFIX, DECODED_PREFIX, SIM_STATE_TOPIC, EVENTS_TOPIC)
 _JSON_BOOL = {False: "false", True: "true"}
+_MAX_ID = 0x1FFFFFFF  # 29-bit identifier
 
 
 # -- JSON --------------------------------------------------------------------------
@@ -120,7 +125,7 @@ class TraceWriter:
         self._finished = False
         self._can_ids: dict[str, int] = {}  # channel -> MCAP channel id of /can/<channel>
         self._topic_ids: dict[str, int] = {}  # any topic -> MCAP channel id
-        self._decoded_ids: dict[tuple[str, str], int] = {}
+        self._decoded_ids: dict[object, int] = {}  # DecodePlan (one per channel and message) -> id
         self._schema_ids: dict[bytes, int] = {}
 
     # -- lifecycle ---------------------------------------------------------
@@ -183,7 +188,7 @@ class TraceWriter:
     def _decoded_channel(self, channel: str, plan) -> int:
         schema = schemas.decoded_schema(plan.message, dict(plan.id_units))
         channel_id = self._channel(f"{DECODED_PREFIX}{channel}/{plan.name}", schema["title"], schema)
-        self._decoded_ids[(channel, plan.name)] = channel_id
+        self._decoded_ids[plan] = channel_id
         return channel_id
 
     # -- records -------------------------------------------------------------------
@@ -196,6 +201,8 @@ class TraceWriter:
         mcap = self._mcap
         if mcap is None or self._finished:
             mcap = self._writer()
+        if not 0 <= arbitration_id <= _MAX_ID:
+            raise ValueError(f"{channel}: arbitration id {arbitration_id!r} outside 0..0x1FFFFFFF")
         # hand-formatted: 2x faster than any encoder; the fields are fixed (schemas.CAN_FRAME)
         record = (f'{{"id":{arbitration_id:d},"extended":{_JSON_BOOL[is_extended]},"dlc":{dlc:d},'
                   f'"data":"{data.hex()}","error":{_JSON_BOOL[is_error]}}}').encode()
@@ -208,7 +215,7 @@ class TraceWriter:
         hit = self._decoder.decode(channel, arbitration_id, is_extended, data)
         if hit is not None:
             plan, values = hit
-            decoded_id = self._decoded_ids.get((channel, plan.name))
+            decoded_id = self._decoded_ids.get(plan)
             if decoded_id is None:
                 decoded_id = self._decoded_channel(channel, plan)
             mcap.add_message(decoded_id, t_ns, dumps(values))

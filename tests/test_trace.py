@@ -393,3 +393,22 @@ def test_a_corrupt_chunk_ends_the_read_there(tmp_path):
     assert reader.truncated and "CRC" in reader.scan.error
     frames = list(reader.frames("can1"))
     assert 0 < len(frames) < len(reference) and frames == reference[:len(frames)]
+
+
+def test_stdlib_json_fallback_writes_the_same_values(tmp_path, trace_path):
+    """Without orjson the json module encodes (NaN -> null too); the values read back are equal."""
+    script = textwrap.dedent(f"""
+        import sys
+        sys.modules["orjson"] = None  # import fails: hil.trace falls back to json
+        sys.path.insert(0, {str(REPO)!r})
+        import tests.test_trace as t
+        import hil.trace
+        assert hil.trace.orjson is None
+        t._write(__import__("pathlib").Path(sys.argv[1]), t._frames())
+    """)
+    path = tmp_path / "stdlib.mcap"
+    subprocess.run([sys.executable, "-c", script, str(path)], cwd=REPO, check=True)
+    mine, ref = TraceReader(path), TraceReader(trace_path)
+    assert mine.topics == ref.topics
+    for topic in mine.topics:
+        assert mine.topic(topic) == ref.topic(topic), topic
