@@ -126,6 +126,7 @@ class ChassisController:
         self.yaw_ref = 0.0  # rad
         self.leg_ref = {leg: P.LEG_LENGTH_NOMINAL for leg in LEGS}
         self.roll_offset = 0.0  # m, integral levelling: left minus right leg length
+        self.leg_integral = {leg: 0.0 for leg in LEGS}  # N
 
     def reset(self, bus: BusState) -> None:
         """Take the present pose as the reference (on enable, after a fall)."""
@@ -135,6 +136,7 @@ class ChassisController:
         self.yaw_ref = att.yaw
         self.roll_offset = 0.0
         for leg in LEGS:
+            self.leg_integral[leg] = 0.0
             self.leg_ref[leg] = leg_state(bus, leg, att).L0
 
     def step(self, bus: BusState, cmd: Command) -> Output:
@@ -181,7 +183,7 @@ class ChassisController:
     def _lqr(self, leg: LegState, speed: float, att: Attitude, cmd: Command) -> tuple[float, float]:
         """u = -K (x - x_ref): wheel torque T and virtual hip torque Tp (N m)."""
         k = lqr.gain_matrix(leg.L0)
-        phi, dphi = -att.pitch, att.wy * -1.0
+        phi, dphi = -att.pitch, -att.wy  # nose-up body angle and rate
         err = (leg.theta, leg.dtheta, self.x - self.x_ref, speed - self.speed_ref,
                phi - (-cmd.pitch), dphi)
         t = -sum(g * e for g, e in zip(k[0], err))
@@ -207,7 +209,10 @@ class ChassisController:
         return _clamp(P.ROLL_KP * err - P.ROLL_KD * att.wx, P.ROLL_FORCE_LIMIT)
 
     def _leg_force(self, leg: LegState, name: str) -> float:
-        pid = P.LEG_KP * (self.leg_ref[name] - leg.L0) - P.LEG_KD * leg.dL0
+        err = self.leg_ref[name] - leg.L0
+        self.leg_integral[name] = _clamp(self.leg_integral[name] + P.LEG_KI * err * self.dt,
+                                         P.LEG_INTEGRAL_LIMIT)
+        pid = P.LEG_KP * err - P.LEG_KD * leg.dL0 + self.leg_integral[name]
         return _clamp(pid, P.LEG_FORCE_LIMIT) + P.LEG_GRAVITY_FF * math.cos(leg.theta)
 
     def _hips(self, out: Output, leg: str, state: LegState, force: float, tp: float) -> None:

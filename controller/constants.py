@@ -91,6 +91,12 @@ CG_KD_MAX = 5.0
 CG_TORQUE_CONSTANT = 0.87  # N m / A
 CG_OVER_TEMP = 80.0  # degC, over-temperature fault default
 CG_WARN_TEMP = 75.0  # degC, warning
+CG_GEAR = 7.75  # reduction (debugger parameter GearRatio 0x200F)
+# Rotor inertia: not published; [derived] from a 28-pole pancake rotor of
+# about 0.08 kg at 22 mm radius (0.5 m r^2). Reflected through the gear it is
+# the hip joint's armature, felt by every fast leg motion.
+CG_ROTOR_INERTIA = 2.0e-5  # kg m^2, motor side
+HIP_ARMATURE = CG_ROTOR_INERTIA * CG_GEAR**2  # kg m^2 at the joint (1.2e-3)
 CG_HOST_ID = 0xFD  # the host id the controller puts in bits 15..8 (debugger's)
 
 # --- C620 + M3508 wheel drives on CAN1 [DJI §2.2, §2.7] ---------------------
@@ -99,6 +105,11 @@ M3508_TORQUE_CONSTANT = 0.3  # N m / A at the output shaft
 C620_CURRENT_LIMIT = 20.0  # A, command range -16384..16384 <-> -20..20 A
 M3508_NO_LOAD_SPEED = 482 * 2 * math.pi / 60  # rad/s at the output, with a C620
 WHEEL_TORQUE_LIMIT = C620_CURRENT_LIMIT * M3508_TORQUE_CONSTANT  # 6 N m
+# Rotor inertia: not published; [derived] from the M3508's inrunner rotor,
+# about 0.07 kg at 13 mm radius (0.5 m r^2). Through the 19.2:1 gear it is
+# ten times the wheel's own inertia, so it dominates how fast a wheel can spin up.
+M3508_ROTOR_INERTIA = 6.0e-6  # kg m^2, motor side
+WHEEL_ARMATURE = M3508_ROTOR_INERTIA * M3508_GEAR**2  # kg m^2 at the wheel axle (2.2e-3)
 
 
 @dataclass(frozen=True)

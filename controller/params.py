@@ -22,6 +22,8 @@ LQR_GRID_POINTS = 50
 # --- leg length (VMC force along the leg) [control_notes §6, scaled from Reborn] --
 LEG_KP = 400.0  # N/m
 LEG_KD = 25.0  # N s/m
+LEG_KI = 1500.0  # N/(m s): removes the feed-forward's error (the seed's pid_calc is a full PID)
+LEG_INTEGRAL_LIMIT = 15.0  # N
 LEG_FORCE_LIMIT = 80.0  # N, PID output clamp (feed-forward comes on top)
 LEG_GRAVITY_FF = 17.0  # N per leg: (M_body/2 + m_leg/2) g, control_notes §6
 LEG_LENGTH_RATE = 0.25  # m/s, slew of the leg-length set point (seed 002's compliant height)
@@ -45,7 +47,7 @@ YAW_TORQUE_LIMIT = 2.0  # N m
 
 # --- motion commands --------------------------------------------------------------
 SPEED_LIMIT = 2.0  # m/s
-ACCEL_LIMIT = 2.0  # m/s^2, slew of the speed set point
+ACCEL_LIMIT = 4.0  # m/s^2, slew of the speed set point (Reborn, control_notes §3)
 POSITION_ERROR_LIMIT = 0.15  # m, position error fed to the LQR is clamped (Skythinker)
 YAW_RATE_LIMIT = 4.0  # rad/s
 

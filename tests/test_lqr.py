@@ -42,7 +42,7 @@ def lagrangian_model(L0: float) -> tuple[np.ndarray, np.ndarray]:
     leg = design.leg_mass_properties(L0)
     L, LM = leg.L, leg.LM
     mw, mp, M = C.MASS_WHEEL, C.MASS_LEG, C.MASS_BODY / 2
-    Iw, Ip, IM = C.WHEEL_INERTIA, leg.Ip, C.BODY_INERTIA[1] / 2
+    Iw, Ip, IM = C.WHEEL_INERTIA + C.WHEEL_ARMATURE, leg.Ip, C.BODY_INERTIA[1] / 2
     R, l, g = C.WHEEL_RADIUS, C.BODY_COM_ABOVE_HIP, C.GRAVITY
     H = L + LM
     mass = np.array([

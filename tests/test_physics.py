@@ -123,13 +123,13 @@ def test_reset_resting_lies_on_the_stops_and_stays():
 # --- torques and signs ----------------------------------------------------------------
 @pytest.mark.parametrize("wheel", C.WHEELS, ids=lambda w: w.name)
 def test_positive_wheel_torque_rolls_as_constants_say(wheel):
-    """Legs held, +0.2 N m on one wheel for 0.1 s: the left wheel rolls forward,
+    """Legs held, +0.5 N m on one wheel for 0.1 s: the left wheel rolls forward,
     the right one backward (constants.WHEELS forward_sign); either way the
     robot turns clockwise seen from above."""
     phys = Physics()
     phys.reset_standing(0.17)
     before = wheel_x(phys, wheel.name)
-    hold_legs(phys, 0.17, 0.1, wheels_nm={wheel.name: 0.2})
+    hold_legs(phys, 0.17, 0.1, wheels_nm={wheel.name: 0.5})
     moved = wheel_x(phys, wheel.name) - before
     assert moved * wheel.forward_sign > 0.01
     assert phys.shaft_state(wheel.name)[1] > 0  # the shaft turns the way it is pushed

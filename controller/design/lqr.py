@@ -56,6 +56,7 @@ STATE_NAMES = ("theta", "dtheta", "x", "dx", "phi", "dphi")
 INPUT_NAMES = ("T", "Tp")
 # per-side body (see the module docstring)
 BODY_MASS_SIDE = C.MASS_BODY / 2  # kg
+WHEEL_SPIN_INERTIA = C.WHEEL_INERTIA + C.WHEEL_ARMATURE  # kg m^2: wheel plus the M3508 rotor reflected (it spins with the wheel)
 BODY_PITCH_INERTIA_SIDE = C.BODY_INERTIA[1] / 2  # kg m^2
 
 
@@ -103,7 +104,7 @@ def _linearised_model():
     T, Tp = sp.symbols("T Tp")
     L, LM, Ip = sp.symbols("L L_M I_p", positive=True)
     R, l, mw, mp, M, Iw, IM, g = (C.WHEEL_RADIUS, C.BODY_COM_ABOVE_HIP, C.MASS_WHEEL, C.MASS_LEG,
-                                  BODY_MASS_SIDE, C.WHEEL_INERTIA, BODY_PITCH_INERTIA_SIDE, C.GRAVITY)
+                                  BODY_MASS_SIDE, WHEEL_SPIN_INERTIA, BODY_PITCH_INERTIA_SIDE, C.GRAVITY)
     R, l, mw, mp, M, Iw, IM, g = (sp.Float(v, 17) for v in (R, l, mw, mp, M, Iw, IM, g))
     # forces: leg on body (Nm, Pm), wheel on leg (N, P); seed (1.4), (1.5), (1.7), (1.8)
     Nm = M * (ddx + (L + LM) * (ddth * sp.cos(th) - dth**2 * sp.sin(th))
