@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import select
 import shutil
 import subprocess
 import sys
@@ -310,3 +311,89 @@ def test_controller_over_socketcan_sends_what_it_sends_over_virtual(real_vcan):
             bus.shutdown()
     assert got == expected
     assert all(len(frames) >= ticks for frames in got.values())
+
+
+# -- the device emulators over socketcan -----------------------------------------------------
+def _bus_pair(transport: str, channel: str) -> tuple[can.BusABC, can.BusABC]:
+    """(host side, device side) on one bus of the given transport."""
+    if transport == "socketcan":
+        return vcan.open_bus(channel), vcan.open_bus(channel)
+    return (can.Bus(interface="virtual", channel=f"wl-{channel}"),
+            can.Bus(interface="virtual", channel=f"wl-{channel}"))
+
+
+def _wait_readable(bus: can.BusABC, timeout_s: float = 5.0) -> None:
+    """Block until a socketcan bus has a frame; a virtual bus has it as soon as it is sent."""
+    try:
+        fd = bus.fileno()
+    except NotImplementedError:
+        return
+    ready, _, _ = select.select([fd], [], [], timeout_s)
+    assert ready, "the device side received nothing"
+
+
+def _serve(transport: str, channel: str, device, requests: list[can.Message],
+           feedback_times_s: tuple[float, ...] = ()) -> list[can.Message]:
+    """Each request from a host bus to a DeviceNode serving ``device`` (at t = 0 s), then
+    the node's periodic frames at ``feedback_times_s``; returns what the host received."""
+    node_module = pytest.importorskip("emulators.node", reason="emulators/node.py not in the tree yet")
+    host, device_bus = _bus_pair(transport, channel)
+    try:
+        node = node_module.DeviceNode(device_bus, [device])
+        for request in requests:
+            host.send(request)
+            _wait_readable(device_bus)
+            assert node.service(0.0) == 1
+        for t_s in feedback_times_s:
+            node.service(t_s)
+        return vcan.drain(host, 10_000, timeout_s=0.3)
+    finally:
+        host.shutdown()
+        device_bus.shutdown()
+
+
+def _same_on_both_transports(channel, make_device, requests, feedback_times_s=()) -> list:
+    """What the host receives over socketcan, checked equal to the virtual bus's."""
+    over_virtual = _serve("virtual", channel, make_device(), requests, feedback_times_s)
+    over_vcan = _serve("socketcan", channel, make_device(), requests, feedback_times_s)
+    assert [_key(m) for m in over_vcan] == [_key(m) for m in over_virtual]
+    return over_vcan
+
+
+@pytest.mark.socketcan
+def test_cybergear_emulator_answers_over_vcan1(real_vcan):
+    """Enable, a type-1 torque command, stop: one type-2 reply each, run mode then reset."""
+    emulator = pytest.importorskip("emulators.cybergear", reason="emulators/cybergear.py not yet")
+    from controller import constants as C
+    from controller import messages
+    from dbc import cybergear as cg
+
+    motor = C.JOINTS[0].motor_id
+    enable = messages.joint_enable(motor)
+    requests = [enable, messages.joint_torque(motor, 0.5), messages.joint_stop(motor)]
+    replies = _same_on_both_transports("vcan1", lambda: emulator.CyberGear(motor_id=motor), requests)
+    ids = [cg.parse_reply_id(m.arbitration_id) for m in replies]
+    assert all(m.is_extended_id and m.dlc == 8 for m in replies)
+    assert [(r.ctype, r.motor_id, r.host) for r in ids] == [
+        (cg.T_FEEDBACK, motor, cg.request_host(enable.arbitration_id))] * 3
+    assert [r.mode for r in ids] == [emulator.MODE_RUN, emulator.MODE_RUN, emulator.MODE_RESET]
+
+
+@pytest.mark.socketcan
+def test_c620_emulator_answers_over_vcan0(real_vcan):
+    """A current command, then 1 kHz feedback frames that report that current."""
+    emulator = pytest.importorskip("emulators.c620", reason="emulators/c620.py not yet")
+    from controller import constants as C
+    from controller import messages
+    from dbc import load_file
+
+    esc = C.WHEELS[0].esc_id
+    current_a = 2.0
+    feedback = load_file("c620.dbc").get_message_by_name(f"C620_Feedback_{esc}")
+    frames = _same_on_both_transports("vcan0", lambda: emulator.C620(esc_id=esc),
+                                      [messages.wheel_currents({esc: current_a})],
+                                      feedback_times_s=(0.001, 0.002, 0.003))
+    assert [m.arbitration_id for m in frames] == [feedback.frame_id] * 4  # t = 0 and 3 periods
+    lsb_a = feedback.get_signal_by_name("TorqueCurrent").scale
+    for m in frames:
+        assert abs(feedback.decode(m.data)["TorqueCurrent"] - current_a) <= lsb_a
