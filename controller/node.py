@@ -13,7 +13,6 @@ Each tick ends with a heartbeat on both buses.
 """
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import dataclass, field
 
@@ -49,6 +48,7 @@ class Controller:
         self.chassis = ChassisController(period_s)
         self.mode = Mode.IDLE
         self._last_buttons = (False, False)  # reenable, jump
+        self._last_debug: dict = {}
 
     def on_frame(self, msg: can.Message, bus: str, now_s: float) -> int | None:
         """Take one received frame; returns the SYNC tick counter if it is a SYNC."""
@@ -72,7 +72,7 @@ class Controller:
         elif self.mode in ENABLED:
             self._run(result, now_s)
         else:
-            self._disabled(result, now_s, stop=previous in ENABLED)
+            self._disabled(result, now_s)
         hb = messages.heartbeat(
             tick, int(self.mode), report.warning_level, report.offline_mask, report.offline_count,
             motors_enabled=self.mode in ENABLED, off_ground=self.mode == Mode.AIRBORNE,
@@ -104,8 +104,6 @@ class Controller:
                       fallen=fallen, stood_up=stood, off_ground=False, jump_done=True,
                       can_rise=not fallen)
 
-    _last_debug: dict = {}
-
     # -- what each kind of tick sends --------------------------------------------
     def _enable(self, result: TickResult, now_s: float) -> None:
         """Stop-and-clear, MIT run mode, enable: the CyberGear start sequence."""
@@ -128,12 +126,15 @@ class Controller:
         result.frames[CAN1].append(messages.wheel_currents(currents, now_s))
         result.debug = self._last_debug = out.debug
 
-    def _disabled(self, result: TickResult, now_s: float, stop: bool) -> None:
-        """Motors off: stop frames once, then zero torque (which keeps feedback coming)."""
+    def _disabled(self, result: TickResult, now_s: float) -> None:
+        """Motors off: a stop frame to every joint each tick.
+
+        A CyberGear only talks when spoken to, and it answers a type-1 frame to
+        the last host id it saw; a type-4 stop carries ours, keeps the motor in
+        reset and brings its feedback back for offline detection.
+        """
         for joint in C.JOINTS:
-            if stop:
-                result.frames[CAN2].append(messages.joint_stop(joint.motor_id, t_s=now_s))
-            result.frames[CAN2].append(messages.joint_torque(joint.motor_id, 0.0, now_s))
+            result.frames[CAN2].append(messages.joint_stop(joint.motor_id, t_s=now_s))
         # the C620 holds its last command: send zero every tick
         result.frames[CAN1].append(messages.wheel_currents({}, t_s=now_s))
 
@@ -225,8 +226,3 @@ class ControllerNode:
         for name, frames in self.controller.shutdown_frames(self.now()).items():
             for msg in frames:
                 self._send(name, msg)
-
-
-def frame_time(msg: can.Message) -> float:
-    """A frame's timestamp, or NaN when it has none."""
-    return msg.timestamp if msg.timestamp else math.nan

@@ -1,27 +1,28 @@
 """The operator's remote: sends rig.dbc's Operator frame on CAN1 at 50 Hz.
 
-The scenario (or a person, through ``wheelleg emulate remote``) sets what the
-remote asks; the frame goes out every ``period_s`` whatever changes, as a
-radio receiver bridged onto CAN would. ``silent`` models the remote dropping out.
+The scenario (or a person) sets what the remote asks; the frame goes out
+every ``period_s`` whatever changes, as a radio receiver bridged onto CAN
+would. ``silent`` models the remote dropping out.
 """
 from __future__ import annotations
 
 import can
 
 from dbc import load_bus
+from emulators.device import EmulatedDevice, PeriodicSchedule
 
 _OPERATOR = load_bus("can1").get_message_by_name("Operator")
 
 
-class Remote:
+class Remote(EmulatedDevice):
     """A CAN node that only talks: the Operator frame, periodically."""
 
     def __init__(self, period_s: float = 0.02):
-        self.period_s = period_s
+        super().__init__()
+        self._schedule = PeriodicSchedule(period_s)
         self.command = {"Mode": 0, "Jump": 0, "JumpForward": 0, "Reenable": 0, "SpeedX": 0.0,
                         "YawRate": 0.0, "LegLength": 0.17, "Pitch": 0.0, "Roll": 0.0}
         self.silent = False
-        self._next_s = 0.0
 
     def set(self, **signals) -> None:
         """Change what the remote asks, by Operator signal name (SI units)."""
@@ -30,14 +31,11 @@ class Remote:
             raise ValueError(f"not Operator signals: {sorted(unknown)}")
         self.command.update(signals)
 
-    def handle(self, msg: can.Message, now_s: float) -> list[can.Message]:
+    def _handle(self, msg: can.Message, now_s: float) -> list[can.Message]:
         return []  # a remote listens to nobody
 
     def periodic(self, now_s: float) -> list[can.Message]:
-        if now_s + 1e-9 < self._next_s:
-            return []
-        self._next_s = now_s + self.period_s
-        if self.silent:
+        if not self._schedule.due(now_s) or self.silent:
             return []
         data = _OPERATOR.encode(self.command, strict=False)
         return [can.Message(arbitration_id=_OPERATOR.frame_id, data=data, is_extended_id=False,

@@ -92,12 +92,12 @@ def test_random_frames_never_raise_out_of_the_controller():
     assert ctl.bus.frames == 3000
 
 
-def test_disabled_controller_sends_zero_torque_and_zero_current():
+def test_disabled_controller_stops_every_joint_and_sends_zero_current():
     ctl = Controller()
     result = ctl.tick(0, 0.0)
-    torques = [cg.motion_torque(m.arbitration_id) for m in result.frames[CAN2]
-               if cg.comm_type(m.arbitration_id) == cg.T_MOTION]
-    assert len(torques) == 4 and all(abs(t) < 1e-3 for t in torques)
+    kinds = [cg.comm_type(m.arbitration_id) for m in result.frames[CAN2] if m.is_extended_id]
+    assert kinds == [cg.T_STOP] * 4
+    assert sorted(cg.target(m.arbitration_id) for m in result.frames[CAN2] if m.is_extended_id) == [1, 2, 3, 4]
     esc = [m for m in result.frames[CAN1] if m.arbitration_id == 0x200]
     assert esc and bytes(esc[0].data) == bytes(8)
 
