@@ -1,0 +1,126 @@
+"""DJI RoboMaster C620 ESC driving an M3508 P19 (../shared/protocols.md §2).
+
+The ESC takes its slot of the 0x200 (ESC 1-4) or 0x1FF (ESC 5-8) current
+frame, clamps it to +-16384 (+-20 A) and drives the motor; it never answers a
+frame. Every 1 ms of simulated time it sends 0x200 + id: rotor angle 0..8191
+of the ROTOR (output angle * 3591/187), rotor rpm, torque current and motor
+temperature.
+
+Choices where the sources are silent:
+
+* A command frame must be standard-id, data, DLC 8 (the manual's frame);
+  anything else is ignored.
+* When commands stop, the last current is held forever unless
+  ``command_timeout_s`` is set (§2.5: undocumented; hold is the worst case).
+* Back-EMF: the drive torque available at output speed w is
+  ``K_EMF * (W_NO_LOAD - |w|)``, capped by the current. K_EMF comes from the
+  M3508+C620 speed-torque data (§2.7): rated 3 N m at 469 rpm, no load at
+  482 rpm, so 3 N m / 13 rpm = 2.2 N m s/rad; the torque falls to zero at the
+  no-load speed. Braking is not limited.
+* Motor temperature: first order, ``THERMAL_TAU_S`` and ``HEAT_K_PER_A2``
+  are assumptions (DJI publishes no thermal data): the rated 10 A settles at
+  100 degC. The ESC's optional 125 degC cut-off is not modelled.
+* The feedback current is the current the ESC achieves (after the back-EMF
+  limit), on the command's scale (community convention, §2.10).
+"""
+from __future__ import annotations
+
+import math
+
+import can
+
+from controller import constants as C
+from dbc import load_file
+from emulators.device import (EmulatedDevice, FieldScale, FrameCodec, PeriodicSchedule, Shaft, frame,
+                              is_data_frame)
+
+FEEDBACK_PERIOD_S = 0.001  # 1 kHz default feedback rate (D1 p.17)
+FULL_DLC = 8
+RATED_TORQUE_NM = 3.0  # output shaft, max continuous (§2.7)
+RATED_SPEED_RAD_S = 469 * 2 * math.pi / 60  # output, at rated torque with a C620 (§2.7)
+BACK_EMF_NM_S_PER_RAD = RATED_TORQUE_NM / (C.M3508_NO_LOAD_SPEED - RATED_SPEED_RAD_S)
+THERMAL_TAU_S = 600.0  # s, assumed
+HEAT_K_PER_A2 = 0.75  # K/A^2, assumed: 10 A continuous settles 75 K above ambient
+
+
+class C620(EmulatedDevice):
+    """One C620 + M3508 on CAN1 (standard ids)."""
+
+    def __init__(self, esc_id: int = 1, command_timeout_s: float | None = None,
+                 ambient_c: float = 25.0, rotor_offset_rad: float = 0.0, shaft: Shaft | None = None):
+        super().__init__(shaft)
+        if not 1 <= esc_id <= 8:
+            raise ValueError(f"C620 id must be 1..8, got {esc_id}")
+        if command_timeout_s is not None and not command_timeout_s > 0.0:
+            raise ValueError(f"command_timeout_s must be > 0 s or None, got {command_timeout_s!r}")
+        db = load_file("c620.dbc")
+        cmd = db.get_message_by_name("C620_Cmd_1_4" if esc_id <= 4 else "C620_Cmd_5_8")
+        self._slot = f"ESC{esc_id}_Current"
+        slot_signal = cmd.get_signal_by_name(self._slot)
+        self._cmd = FrameCodec(cmd, [slot_signal])
+        self._raw_limit = round(slot_signal.maximum / slot_signal.scale)  # 16384
+        self._amps_per_raw = slot_signal.scale
+        self._fb = FrameCodec(db.get_message_by_name(f"C620_Feedback_{esc_id}"))
+        self._speed_field, self._current_field, self._temp_field = (
+            FieldScale(self._fb.signals[name]) for name in ("RotorSpeed", "TorqueCurrent", "MotorTemp"))
+        self._angle_counts = round(360.0 / self._fb.signals["RotorAngle"].scale)  # 8192 per rotor turn
+        self._schedule = PeriodicSchedule(FEEDBACK_PERIOD_S)
+        self.esc_id = esc_id
+        self.command_timeout_s = command_timeout_s
+        self.rotor_offset_rad = rotor_offset_rad
+        self.ambient_c = ambient_c
+        self.temperature_c = ambient_c
+        self.command_raw = 0
+        self.last_command_s: float | None = None
+
+    # -- frames ------------------------------------------------------------------
+    def _handle(self, msg: can.Message, now_s: float) -> list[can.Message]:
+        if (msg.arbitration_id != self._cmd.frame_id or msg.is_extended_id or msg.dlc != FULL_DLC
+                or not is_data_frame(msg)):
+            return []
+        raw = self._cmd.decode_raw(bytes(msg.data))[self._slot]
+        self.command_raw = max(-self._raw_limit, min(self._raw_limit, raw))
+        self.last_command_s = now_s
+        return []
+
+    def periodic(self, now_s: float) -> list[can.Message]:
+        if not self._schedule.due(now_s):
+            return []
+        return [self.feedback_frame(now_s)]
+
+    def feedback_frame(self, now_s: float) -> can.Message:
+        rotor = (self.shaft.angle * C.M3508_GEAR + self.rotor_offset_rad) % (2 * math.pi)
+        counts = int(rotor / (2 * math.pi) * self._angle_counts) % self._angle_counts
+        rotor_rpm = self.shaft.speed * C.M3508_GEAR * 60.0 / (2 * math.pi)
+        raw = {"RotorAngle": counts,
+               "RotorSpeed": self._speed_field.rounded(rotor_rpm),
+               "TorqueCurrent": self._current_field.rounded(self.output_current(now_s)),
+               "MotorTemp": self._temp_field.rounded(self.temperature_c)}
+        return frame(self._fb.frame_id, self._fb.encode_raw(raw), False, now_s)
+
+    # -- physics -----------------------------------------------------------------
+    def commanded_current(self, now_s: float) -> float:
+        """A the host asks for now (0 after a command timeout)."""
+        if self.command_timeout_s is not None and (
+                self.last_command_s is None or now_s - self.last_command_s > self.command_timeout_s):
+            return 0.0
+        return self.command_raw * self._amps_per_raw
+
+    def output_torque(self, now_s: float) -> float:
+        tau = self.commanded_current(now_s) * C.M3508_TORQUE_CONSTANT
+        speed = self.shaft.speed
+        if tau * speed > 0.0:  # driving: back-EMF leaves less torque near no-load speed
+            available = max(0.0, BACK_EMF_NM_S_PER_RAD * (C.M3508_NO_LOAD_SPEED - abs(speed)))
+            tau = max(-available, min(available, tau))
+        return tau
+
+    def output_current(self, now_s: float) -> float:
+        """A the motor carries now (what the feedback reports)."""
+        return self.output_torque(now_s) / C.M3508_TORQUE_CONSTANT
+
+    def advance(self, dt_s: float, now_s: float) -> None:
+        if not dt_s > 0.0:
+            return
+        current = self.output_current(now_s)
+        settle = self.ambient_c + HEAT_K_PER_A2 * current * current
+        self.temperature_c += (settle - self.temperature_c) * (1.0 - math.exp(-dt_s / THERMAL_TAU_S))

@@ -1,0 +1,363 @@
+"""Xiaomi CyberGear micro-motor, frame for frame (../shared/protocols.md §1).
+
+Reply rules (§1.11): every accepted host->motor frame of types 0, 1, 2 (a
+poll), 3, 4, 6, 7, 17, 18, 21 and 22 gets exactly one reply; the motor sends
+nothing on its own. Types 0/7/22 answer with a type-0 device-id frame to
+0xFE, 17 with a type-17 frame, 21 with a type-21 fault/warning frame and
+everything else with a type-2 feedback frame. Replies go to the host id in
+bits 15..8 of the request; type 1 carries none and is answered to the last
+host seen (initially 0x00, CAN_MASTER's example value).
+
+Choices where the sources are silent (⚠ in protocols.md), made once here:
+
+* DLC: types whose payload the motor reads (1, 4, 6, 17, 18, 22) need DLC 8,
+  otherwise silence; types whose payload it ignores (0, 2, 3, 7, 21) accept
+  any DLC (the debugger sends type 0 with DLC 1, §1.12).
+* Undocumented types (5, 8-16, 19, 20, 23-31), remote/error/FD frames,
+  standard ids and frames for other targets: silence.
+* Type 17 of an index outside 0x7005-0x7020's table: silence (the manual
+  does not say; a driver then times out, which it must handle anyway).
+* Type 18 always answers type 2. Unknown indices and read-only ones
+  (0x7019-0x701C) are ignored; run_mode is only taken in reset mode (the
+  manual's precaution) and only 0..3; NaN/inf floats are ignored; finite
+  values are clamped to the manual's range (the DBC signal's range).
+* A latched fault cuts the torque and drops the motor to reset mode; only
+  type 4 with byte0 = 1 clears it; type 3 then enables again. A latched
+  fault makes type 3 answer in mode 0.
+* Type 6 zeroes only when byte0 = 1 (the manual's payload); it answers
+  type 2 either way.
+* Type 7 to a new id above 127 (CAN_ID's range) keeps the old id and
+  answers type 0 from it.
+* Type 1 while in reset mode, or while run_mode is not 0, answers type 2
+  and changes no torque.
+
+Model: the output torque per run mode (0 motion, 1 position, 2 speed,
+3 current) is limited to +-limit_torque, then +-12 N m, then by a back-EMF
+line so that the motor cannot push the shaft beyond 30 rad/s; the winding
+temperature follows a first-order model (``THERMAL_TAU_S``) and latches the
+over-temperature fault at 80 degC.
+"""
+from __future__ import annotations
+
+import math
+
+import can
+
+from controller import constants as C
+from dbc import CYBERGEAR_FILES, load_file
+from dbc import cybergear as cg
+from emulators.device import EmulatedDevice, FieldScale, FrameCodec, Shaft, frame, is_data_frame
+
+MODE_RESET, MODE_CALI, MODE_RUN = 0, 1, 2
+RUN_MODES = (0, 1, 2, 3)  # operation (motion), position, speed, current
+MAX_MOTOR_ID = 127  # parameter CAN_ID 0x200A range (§1.3)
+CURRENT_LIMIT_A = 23.0  # peak phase current; iq_ref / limit_cur range (§1.2, §1.7)
+FULL_DLC = 8
+
+# Back-EMF: the drive torque available at speed v is K_EMF * (V_MAX - |v|),
+# capped at 12 N m. K_EMF = Kt * ke / R with Kt 0.87 N m/A, R 0.45 ohm and
+# ke = 0.055 Vrms/rpm (output rpm) * sqrt(2) * 60 / (2 pi) = 0.743 V s/rad
+# (§1.2): 1.44 N m s/rad. V_MAX is the protocol's 30 rad/s (no-load ~31): full
+# torque up to ~21.7 rad/s, none beyond 30 rad/s, so the motor alone cannot
+# drive the shaft past the range of its velocity field. Braking is not limited.
+BACK_EMF_NM_S_PER_RAD = 1.44
+SPEED_LIMIT_RAD_S = C.CG_SPEED_LIMIT
+
+# Winding temperature, first order: dT/dt = (T_amb + HEAT * I^2 - T) / TAU.
+# Fitted to the overload table (§1.2, 25 degC ambient) so that the fault at
+# 80 degC trips at the table's times: 12 N m for 28 s and 6 N m for 700 s give
+# two equations 55 K = a tau_i^2 (1 - exp(-t_i / TAU)) (a in K/(N m)^2);
+# solving: TAU = 97.4 s, a = 1.529 K/(N m)^2, i.e. HEAT = a Kt^2 = 1.157 K/A^2.
+# Then 4 N m (rated, continuous) settles at 49 degC and never trips; 10 N m
+# trips in 43 s and 8 N m in 80 s, earlier than the table's 60 s and 160 s
+# (the table's limit is the 120 degC winding, a first-order model cannot
+# match all five points; erring early is the safe side for a test rig).
+THERMAL_TAU_S = 97.4
+HEAT_K_PER_A2 = 1.157
+# Speed-loop integral: spd_ki is taken as amperes per (rad/s) of error per
+# loop tick at an assumed 1 kHz speed loop (the manual gives no unit).
+SPEED_LOOP_HZ = 1000.0
+
+DEFAULT_PARAMS = {  # runtime table defaults (§1.7; S1 config table); ⚠ limit_spd assumed 2 rad/s
+    "run_mode": 0, "iq_ref": 0.0, "spd_ref": 0.0, "limit_torque": 12.0, "cur_kp": 0.125,
+    "cur_ki": 0.0158, "cur_filt_gain": 0.1, "loc_ref": 0.0, "limit_spd": 2.0,
+    "limit_cur": CURRENT_LIMIT_A, "loc_kp": 30.0, "spd_kp": 1.0, "spd_ki": 0.002,
+}
+READ_ONLY = frozenset({"mechPos", "iqf", "mechVel", "VBUS"})  # 0x7019-0x701C
+# id fault bit -> type-21 fault word bit (§1.6, §1.8); the encoder faults have no word bit
+FAULT_WORD = {"FaultOverTemp": "FaultOverTemp", "FaultUnderVoltage": "FaultUnderVoltage",
+              "FaultOverCurrent": "FaultPhaseAOverCurrent", "FaultNotCalibrated": "FaultNotCalibrated"}
+BAUD_CODES = (1, 2, 3, 4)  # type 22: 1M, 500k, 250k, 125k
+
+
+def _clamp(x: float, lo: float, hi: float) -> float:
+    return lo if x < lo else hi if x > hi else x
+
+
+class _Layouts:
+    """cantools messages and codecs of one CyberGear DBC, built once per position range."""
+
+    _cache: dict[str, "_Layouts"] = {}
+
+    def __init__(self, position_range: str):
+        db = load_file(CYBERGEAR_FILES[position_range])
+        msg = db.get_message_by_name
+        self.motion = FrameCodec(msg("CG_MotionCmd"))
+        self.motion_fields = tuple(FieldScale(self.motion.signals[name])
+                                   for name in ("PosRef", "VelRef", "Kp", "Kd"))
+        self.feedback = FrameCodec(msg("CG_Feedback"))
+        self.fb_fields = tuple(FieldScale(self.feedback.signals[name])
+                               for name in ("Pos", "Vel", "Torque", "Temp"))
+        self.device_id = FrameCodec(msg("CG_DeviceId"))
+        self.stop = FrameCodec(msg("CG_Stop"))
+        self.set_zero = FrameCodec(msg("CG_SetZero"))
+        self.set_baud = FrameCodec(msg("CG_SetBaud"))
+        self.fault_warn = FrameCodec(msg("CG_FaultWarn"))
+        write, read = msg("CG_ParamWrite"), msg("CG_ParamRead")
+        self.index = FrameCodec(write, [write.get_signal_by_name("Index")])
+        self.params = {}  # index -> (name, index, write codec, read-reply codec)
+        for sig in write.signals:
+            for index in sig.multiplexer_ids or ():
+                self.params[index] = (
+                    sig.name, index, FrameCodec(write, [write.get_signal_by_name("Index"), sig]),
+                    FrameCodec(read, [read.get_signal_by_name("Index"), read.get_signal_by_name(sig.name)]))
+
+    @classmethod
+    def get(cls, position_range: str) -> "_Layouts":
+        if position_range not in CYBERGEAR_FILES:
+            raise ValueError(f"position_range must be one of {sorted(CYBERGEAR_FILES)}, got {position_range!r}")
+        if position_range not in cls._cache:
+            cls._cache[position_range] = cls(position_range)
+        return cls._cache[position_range]
+
+
+class CyberGear(EmulatedDevice):
+    """One CyberGear on a CAN bus (29-bit ids); see the module docstring for the rules."""
+
+    def __init__(self, motor_id: int = 0x7F, position_range: str = "12.5", uid: int | None = None,
+                 ambient_c: float = 25.0, host_id: int = 0x00, vbus_v: float = 24.0,
+                 shaft: Shaft | None = None):
+        super().__init__(shaft)
+        if not 0 <= motor_id <= MAX_MOTOR_ID:
+            raise ValueError(f"CyberGear motor id must be 0..{MAX_MOTOR_ID}, got {motor_id}")
+        self._lay = _Layouts.get(position_range)
+        self.position_range = position_range
+        self.motor_id = motor_id
+        self.uid = (0x4347_0000_0000_0000 | motor_id) if uid is None else uid & 0xFFFF_FFFF_FFFF_FFFF
+        self.ambient_c = ambient_c
+        self.temperature_c = ambient_c
+        self.vbus_v = vbus_v
+        self.last_host = host_id & 0xFF
+        self.mode = MODE_RESET
+        self.params = dict(DEFAULT_PARAMS)
+        self.baud_code = 1
+        self._faults: frozenset = frozenset()
+        self._feedback_ids: dict[tuple, int] = {}  # (motor, host, mode, faults) -> type-2 id
+        self._zero_rad = 0.0  # shaft angle that reads 0 (type 6, volatile)
+        self._motion = (0.0, 0.0, 0.0, 0.0, 0.0)  # p_ref rad, v_ref rad/s, kp, kd, tau_ff N m
+        self._speed_integral_a = 0.0
+        self._handlers = {
+            cg.T_DEVICE_ID: self._on_device_id, cg.T_MOTION: self._on_motion,
+            cg.T_FEEDBACK: self._on_poll, cg.T_ENABLE: self._on_enable, cg.T_STOP: self._on_stop,
+            cg.T_SET_ZERO: self._on_set_zero, cg.T_SET_ID: self._on_set_id,
+            cg.T_PARAM_READ: self._on_read, cg.T_PARAM_WRITE: self._on_write,
+            cg.T_FAULT_WARN: self._on_fault_poll, cg.T_SET_BAUD: self._on_set_baud,
+        }
+        self._fixed_dlc = {cg.T_MOTION, cg.T_STOP, cg.T_SET_ZERO, cg.T_PARAM_READ,
+                           cg.T_PARAM_WRITE, cg.T_SET_BAUD}
+
+    # -- state -----------------------------------------------------------------
+    @property
+    def faults(self) -> frozenset:
+        """Latched faults, names from ``dbc.cybergear.FAULT_NAMES``."""
+        return self._faults
+
+    @property
+    def run_mode(self) -> int:
+        return self.params["run_mode"]
+
+    @property
+    def mech_pos(self) -> float:
+        """rad, load-side multi-turn angle from the zero (0x7019)."""
+        return self.shaft.angle - self._zero_rad
+
+    @property
+    def warn_over_temp(self) -> bool:
+        return self.temperature_c >= C.CG_WARN_TEMP
+
+    def inject_fault(self, name: str) -> None:
+        """Latch a fault as the firmware would: torque off, reset mode, bit in every type-2 id."""
+        if name not in cg.FAULT_NAMES:
+            raise ValueError(f"unknown CyberGear fault {name!r}; expected one of {cg.FAULT_NAMES}")
+        self._faults = self._faults | {name}
+        self.mode = MODE_RESET
+
+    # -- physics -----------------------------------------------------------------
+    def output_torque(self, now_s: float) -> float:
+        if self.mode != MODE_RUN or self._faults:
+            return 0.0
+        limit = min(self.params["limit_torque"], C.CG_TORQUE_LIMIT)
+        tau = _clamp(self._demand_torque(), -limit, limit)
+        speed = self.shaft.speed
+        if tau * speed > 0.0:  # driving, not braking: back-EMF limit
+            available = max(0.0, BACK_EMF_NM_S_PER_RAD * (SPEED_LIMIT_RAD_S - abs(speed)))
+            tau = _clamp(tau, -available, available)
+        return tau
+
+    def _demand_torque(self) -> float:
+        run_mode, p = self.params["run_mode"], self.params
+        if run_mode == 0:
+            p_ref, v_ref, kp, kd, tau_ff = self._motion
+            return kp * (p_ref - self.mech_pos) + kd * (v_ref - self.shaft.speed) + tau_ff
+        if run_mode == 3:
+            return _clamp(p["iq_ref"], -CURRENT_LIMIT_A, CURRENT_LIMIT_A) * C.CG_TORQUE_CONSTANT
+        limit_cur = p["limit_cur"]
+        iq = p["spd_kp"] * (self._speed_ref() - self.shaft.speed) + self._speed_integral_a
+        return _clamp(iq, -limit_cur, limit_cur) * C.CG_TORQUE_CONSTANT
+
+    def _speed_ref(self) -> float:
+        p = self.params
+        if p["run_mode"] == 1:
+            return _clamp(p["loc_kp"] * (p["loc_ref"] - self.mech_pos), -p["limit_spd"], p["limit_spd"])
+        return _clamp(p["spd_ref"], -SPEED_LIMIT_RAD_S, SPEED_LIMIT_RAD_S)
+
+    def advance(self, dt_s: float, now_s: float) -> None:
+        if not dt_s > 0.0:
+            return
+        if self.mode == MODE_RUN and self.params["run_mode"] in (1, 2):
+            limit = self.params["limit_cur"]
+            err = self._speed_ref() - self.shaft.speed
+            self._speed_integral_a = _clamp(
+                self._speed_integral_a + self.params["spd_ki"] * SPEED_LOOP_HZ * err * dt_s, -limit, limit)
+        current = self.output_torque(now_s) / C.CG_TORQUE_CONSTANT
+        settle = self.ambient_c + HEAT_K_PER_A2 * current * current
+        self.temperature_c += (settle - self.temperature_c) * (1.0 - math.exp(-dt_s / THERMAL_TAU_S))
+        if self.temperature_c >= C.CG_OVER_TEMP and "FaultOverTemp" not in self._faults:
+            self.inject_fault("FaultOverTemp")
+
+    # -- frames in ---------------------------------------------------------------
+    def _handle(self, msg: can.Message, now_s: float) -> list[can.Message]:
+        if not msg.is_extended_id or not is_data_frame(msg):
+            return []
+        can_id = msg.arbitration_id
+        if cg.target(can_id) != self.motor_id:
+            return []
+        ctype = cg.comm_type(can_id)
+        handler = self._handlers.get(ctype)
+        if handler is None or (ctype in self._fixed_dlc and msg.dlc != FULL_DLC):
+            return []
+        if ctype != cg.T_MOTION:
+            self.last_host = cg.request_host(can_id)
+        return handler(can_id, bytes(msg.data), now_s)
+
+    def _on_device_id(self, can_id: int, data: bytes, now_s: float) -> list[can.Message]:
+        return [self._device_id_frame(now_s)]
+
+    def _on_motion(self, can_id: int, data: bytes, now_s: float) -> list[can.Message]:
+        if self.mode == MODE_RUN and self.params["run_mode"] == 0:
+            raw = self._lay.motion.decode_raw(data)
+            pos, vel, kp, kd = self._lay.motion_fields
+            self._motion = (pos.value(raw["PosRef"]), vel.value(raw["VelRef"]), kp.value(raw["Kp"]),
+                            kd.value(raw["Kd"]), cg.motion_torque(can_id))
+        return [self._feedback_frame(self.last_host, now_s)]
+
+    def _on_poll(self, can_id: int, data: bytes, now_s: float) -> list[can.Message]:
+        return [self._feedback_frame(self.last_host, now_s)]
+
+    def _on_enable(self, can_id: int, data: bytes, now_s: float) -> list[can.Message]:
+        if not self._faults and self.mode != MODE_RUN:
+            self.mode = MODE_RUN
+            self._motion = (0.0, 0.0, 0.0, 0.0, 0.0)
+            self._speed_integral_a = 0.0
+        return [self._feedback_frame(self.last_host, now_s)]
+
+    def _on_stop(self, can_id: int, data: bytes, now_s: float) -> list[can.Message]:
+        self.mode = MODE_RESET
+        self._motion = (0.0, 0.0, 0.0, 0.0, 0.0)
+        self._speed_integral_a = 0.0
+        if self._lay.stop.decode_raw(data)["ClearFault"] == 1:
+            self._faults = frozenset()
+        return [self._feedback_frame(self.last_host, now_s)]
+
+    def _on_set_zero(self, can_id: int, data: bytes, now_s: float) -> list[can.Message]:
+        if self._lay.set_zero.decode_raw(data)["ZeroFlag"] == 1:
+            self._zero_rad = self.shaft.angle
+        return [self._feedback_frame(self.last_host, now_s)]
+
+    def _on_set_id(self, can_id: int, data: bytes, now_s: float) -> list[can.Message]:
+        new_id = cg.set_id_new_id(can_id)
+        if new_id <= MAX_MOTOR_ID:
+            self.motor_id = new_id
+        return [self._device_id_frame(now_s)]
+
+    def _on_set_baud(self, can_id: int, data: bytes, now_s: float) -> list[can.Message]:
+        code = self._lay.set_baud.decode_raw(data)["BaudCode"]
+        if code in BAUD_CODES:
+            self.baud_code = code  # recorded only: an emulated bus has no bit rate to change
+        return [self._device_id_frame(now_s)]
+
+    def _on_read(self, can_id: int, data: bytes, now_s: float) -> list[can.Message]:
+        entry = self._lay.params.get(self._lay.index.decode_raw(data)["Index"])
+        if entry is None:
+            return []
+        name, index, _, read_codec = entry
+        payload = read_codec.encode_raw({"Index": index, name: self._read_param(name)})
+        return [frame(cg.reply_id(cg.T_PARAM_READ, self.motor_id, self.last_host), payload, True, now_s)]
+
+    def _on_write(self, can_id: int, data: bytes, now_s: float) -> list[can.Message]:
+        entry = self._lay.params.get(self._lay.index.decode_raw(data)["Index"])
+        if entry is not None and entry[0] not in READ_ONLY:
+            name, _, write_codec, _ = entry
+            self._write_param(name, write_codec.decode_raw(data)[name], write_codec.signals[name])
+        return [self._feedback_frame(self.last_host, now_s)]
+
+    def _on_fault_poll(self, can_id: int, data: bytes, now_s: float) -> list[can.Message]:
+        raw = {s: 0 for s in self._lay.fault_warn.signals}
+        for fault in self._faults:
+            if fault in FAULT_WORD:
+                raw[FAULT_WORD[fault]] = 1
+        raw["WarnOverTemp"] = int(self.warn_over_temp)
+        payload = self._lay.fault_warn.encode_raw(raw)
+        return [frame(cg.reply_id(cg.T_FAULT_WARN, self.motor_id, self.last_host), payload, True, now_s)]
+
+    # -- parameters --------------------------------------------------------------
+    def _read_param(self, name: str):
+        if name == "mechPos":
+            return self.mech_pos
+        if name == "mechVel":
+            return self.shaft.speed
+        if name == "iqf":
+            return self.output_torque(0.0) / C.CG_TORQUE_CONSTANT
+        if name == "VBUS":
+            return self.vbus_v
+        if name == "rotation":
+            return int(_clamp(math.floor(self.mech_pos / (2 * math.pi)), -32768, 32767))
+        return self.params[name]
+
+    def _write_param(self, name: str, value, signal) -> None:
+        if name == "run_mode":
+            if self.mode == MODE_RESET and value in RUN_MODES:
+                self.params[name] = int(value)
+            return
+        if name == "rotation":  # keep the angle within the turn, move the turn count
+            self._zero_rad -= 2 * math.pi * (value - self._read_param("rotation"))
+            return
+        if not math.isfinite(value):
+            return
+        self.params[name] = _clamp(float(value), signal.minimum, signal.maximum)
+
+    # -- frames out --------------------------------------------------------------
+    def _feedback_frame(self, host: int, now_s: float) -> can.Message:
+        pos, vel, torque, temp = self._lay.fb_fields
+        raw = {"Pos": pos.truncated(self.mech_pos), "Vel": vel.truncated(self.shaft.speed),
+               "Torque": torque.truncated(self.output_torque(now_s)),
+               "Temp": temp.truncated(self.temperature_c)}
+        key = (self.motor_id, host, self.mode, self._faults)
+        can_id = self._feedback_ids.get(key)
+        if can_id is None:
+            can_id = self._feedback_ids[key] = cg.reply_id(cg.T_FEEDBACK, *key)
+        return frame(can_id, self._lay.feedback.encode_raw(raw), True, now_s)
+
+    def _device_id_frame(self, now_s: float) -> can.Message:
+        can_id = cg.reply_id(cg.T_DEVICE_ID, self.motor_id, cg.DEVICE_ID_TARGET)
+        return frame(can_id, self._lay.device_id.encode_raw({"McuUid": self.uid}), True, now_s)

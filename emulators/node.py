@@ -1,0 +1,102 @@
+"""The devices that share one CAN bus, and the loop that serves them.
+
+In the rig the plant calls ``service(now_s)`` with simulated time; alone
+(``wheelleg emulate``) ``run_realtime`` serves the bus against the wall clock
+and integrates each device's shaft itself. A device is anything with
+``handle(msg, now_s)`` and ``periodic(now_s)`` (``EmulatedDevice`` or the
+remote); ``step_alone`` is used when present.
+"""
+from __future__ import annotations
+
+import logging
+import threading
+import time
+from collections.abc import Sequence
+
+import can
+
+from emulators.device import EmulatedDevice
+
+log = logging.getLogger(__name__)
+
+MAX_REALTIME_STEP_S = 0.02  # s; a stalled process integrates at most this much at once
+
+
+class DeviceNode:
+    """Devices on one bus: every frame goes to every device, replies go back out.
+
+    The bus does not echo a node's own frames to it (python-can's default),
+    so devices on one node do not hear each other, as they need not. A frame
+    the bus refuses to send (full queue, bus off) is dropped and counted in
+    ``send_errors``, like a real controller's lost transmit.
+    """
+
+    def __init__(self, bus: can.BusABC, devices: Sequence[EmulatedDevice]):
+        self.bus = bus
+        self.devices = list(devices)
+        self.frames_in = 0
+        self.frames_out = 0
+        self.send_errors = 0
+
+    def dispatch(self, msg: can.Message, now_s: float) -> None:
+        """Hand one received frame to every device and send their replies."""
+        for device in self.devices:
+            for reply in device.handle(msg, now_s):
+                self._send(reply)
+
+    def send_periodic(self, now_s: float) -> None:
+        """Send every device's periodic frames due by ``now_s``."""
+        for device in self.devices:
+            for out in device.periodic(now_s):
+                self._send(out)
+
+    def service(self, now_s: float) -> int:
+        """Drain the bus, answer each frame, then send periodic frames; returns frames received."""
+        received = 0
+        recv = self.bus.recv
+        while (msg := recv(timeout=0)) is not None:
+            received += 1
+            self.dispatch(msg, now_s)
+        self.frames_in += received
+        self.send_periodic(now_s)
+        return received
+
+    def _send(self, msg: can.Message) -> None:
+        try:
+            self.bus.send(msg)
+            self.frames_out += 1
+        except can.CanError as exc:
+            self.send_errors += 1
+            if self.send_errors == 1:
+                log.warning("frame dropped, the bus refused it: %s", exc)
+
+    def run_realtime(self, stop: threading.Event, dt_s: float = 0.001) -> None:
+        """Serve the bus against the wall clock until ``stop`` is set.
+
+        Every ``dt_s`` the devices step alone (shaft and thermal model) and
+        send their periodic frames; between ticks the loop blocks on the bus
+        so that a request is answered as soon as it arrives, not at the next
+        tick. Simulated time is wall time since the start.
+        """
+        if not dt_s > 0.0:
+            raise ValueError(f"dt_s must be > 0, got {dt_s!r}")
+        start = time.monotonic()
+        last_step = 0.0
+        next_tick = 0.0
+        while not stop.is_set():
+            now = time.monotonic() - start
+            if now >= next_tick:
+                step = min(now - last_step, MAX_REALTIME_STEP_S)
+                for device in self.devices:
+                    step_alone = getattr(device, "step_alone", None)
+                    if step_alone is not None and step > 0.0:
+                        step_alone(step, now)
+                last_step = now
+                self.send_periodic(now)
+                next_tick += dt_s
+                if next_tick <= now:  # fell behind: skip the missed ticks
+                    next_tick = now + dt_s
+            msg = self.bus.recv(timeout=max(0.0, next_tick - (time.monotonic() - start)))
+            if msg is not None:
+                self.frames_in += 1
+                self.dispatch(msg, time.monotonic() - start)
