@@ -11,36 +11,57 @@ the end of its transmission, as a receiver sees it.
 from __future__ import annotations
 
 import functools
+import re
 from dataclasses import dataclass, field
 
 TRAILER_BITS = 1 + 2 + 7 + 3  # CRC delimiter, ACK slot + delimiter, EOF, intermission
 DEFAULT_BITRATE = 1_000_000  # bit/s
 
 
-def _crc15(bits: list[int]) -> int:
+def _crc15_table() -> tuple:
+    table = []
+    for byte in range(256):
+        crc = byte << 7
+        for _ in range(8):
+            crc = ((crc << 1) ^ 0x4599) if crc & 0x4000 else (crc << 1)
+        table.append(crc & 0x7FFF)
+    return tuple(table)
+
+
+_CRC_TABLE = _crc15_table()
+
+
+def crc15(value: int, nbits: int) -> int:
+    """CAN's CRC-15 (polynomial 0x4599) of the ``nbits`` low bits of ``value``, MSB first."""
     crc = 0
-    for bit in bits:
-        nxt = bit ^ ((crc >> 14) & 1)
-        crc = (crc << 1) & 0x7FFF
-        if nxt:
-            crc ^= 0x4599
+    lead = nbits % 8
+    for i in range(nbits - 1, nbits - 1 - lead, -1):  # the bits before the first whole byte
+        crc = ((crc << 1) ^ 0x4599 if ((value >> i) & 1) ^ (crc >> 14) else crc << 1) & 0x7FFF
+    for shift in range(nbits - lead - 8, -1, -8):
+        crc = ((crc << 8) & 0x7FFF) ^ _CRC_TABLE[((crc >> 7) ^ (value >> shift)) & 0xFF]
     return crc
 
 
-def _bits(value: int, width: int) -> list[int]:
-    return [(value >> (width - 1 - i)) & 1 for i in range(width)]
+# Only runs of four or more equal bits can trigger stuffing (a carried stuff
+# bit adds at most one to a run), so the scan looks at those alone.
+_LONG_RUNS = re.compile(r"0{4,}|1{4,}")
 
 
-def _stuff_count(bits: list[int]) -> int:
-    count, run, last = 0, 0, None
-    for bit in bits:
-        if bit == last:
-            run += 1
-        else:
-            run, last = 1, bit
-        if run == 5:
-            count += 1
-            last, run = 1 - bit, 1  # the stuff bit starts a new run
+def stuff_bits(bits: str) -> int:
+    """Stuff bits the transmitter inserts into ``bits`` (a '0'/'1' string).
+
+    After five equal bits comes a complement bit, which itself counts towards
+    the next run when the following bits equal it.
+    """
+    count, carry_end = 0, -1  # carry_end: where a run that ended on a stuff bit ended
+    for match in _LONG_RUNS.finditer(bits):
+        length = match.end() - match.start()
+        start = 1 if match.start() == carry_end else 0
+        carry_end = -1
+        if start + length >= 5:
+            count += 1 + (length - (5 - start)) // 5
+            if (length - (5 - start)) % 5 == 0:  # the run ended on a stuff bit
+                carry_end = match.end()
     return count
 
 
@@ -48,14 +69,19 @@ def _stuff_count(bits: list[int]) -> int:
 def frame_bits(arbitration_id: int, is_extended: bool, data: bytes, is_remote: bool = False) -> int:
     """Bits one classic CAN frame occupies on the wire, stuff bits included."""
     dlc = len(data)
-    if is_extended:
-        head = ([0] + _bits(arbitration_id >> 18, 11) + [1, 1] + _bits(arbitration_id & 0x3FFFF, 18)
-                + [int(is_remote), 0, 0])
-    else:
-        head = [0] + _bits(arbitration_id, 11) + [int(is_remote), 0, 0]
-    body = head + _bits(dlc, 4) + ([] if is_remote else [b for byte in data for b in _bits(byte, 8)])
-    stuffed = body + _bits(_crc15(body), 15)
-    return len(stuffed) + _stuff_count(stuffed) + TRAILER_BITS
+    if is_extended:  # SOF, base id, SRR, IDE, extension, RTR, r1, r0, DLC
+        head = ((arbitration_id >> 18) << 27) | (0b11 << 25) | ((arbitration_id & 0x3FFFF) << 7) \
+            | (int(is_remote) << 6) | dlc
+        head_bits = 1 + 11 + 2 + 18 + 3 + 4
+    else:  # SOF, id, RTR, IDE, r0, DLC
+        head = (arbitration_id << 7) | (int(is_remote) << 6) | dlc
+        head_bits = 1 + 11 + 3 + 4
+    payload = b"" if is_remote else data
+    value = (head << (8 * len(payload))) | int.from_bytes(payload, "big")
+    nbits = head_bits + 8 * len(payload)
+    value = (value << 15) | crc15(value, nbits)
+    nbits += 15
+    return nbits + stuff_bits(format(value, f"0{nbits}b")) + TRAILER_BITS
 
 
 @dataclass

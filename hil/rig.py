@@ -31,6 +31,7 @@ from hil.candump import CandumpWriter
 from hil.recorder import Recorder, RecordingBus
 from hil.scenario import Scenario
 from hil.trace import TraceWriter
+from hil.transport import open_bus
 
 _RIG_DB = load_bus(CAN1)
 _SYNC = _RIG_DB.get_message_by_name("SYNC")
@@ -51,6 +52,7 @@ class RigConfig:
     deadline_s: float = 0.5  # wall-clock bound for the heartbeats of one tick
     realtime: bool = False
     record_debug: bool = True  # the in-process controller's internals on /controller/debug
+    decode: bool = True  # also write /decoded/ channels (raw frames are always recorded)
     plant: PlantConfig = field(default_factory=PlantConfig)
 
 
@@ -74,10 +76,7 @@ def git_revision() -> str:
 
 
 def _open_bus(config: RigConfig, channel: str) -> can.BusABC:
-    kwargs = {"receive_own_messages": False}
-    if config.interface == "virtual":
-        kwargs["preserve_timestamps"] = True
-    return can.Bus(interface=config.interface, channel=channel, **kwargs)
+    return open_bus(config.interface, channel)
 
 
 class Rig:
@@ -94,7 +93,8 @@ class Rig:
         scenario.start(self.physics)
         self.trace = TraceWriter(self.trace_path, metadata=self._metadata(),
                                  attachments=self._attachments(),
-                                 dbs={self.names[CAN1]: load_bus(CAN1), self.names[CAN2]: load_bus(CAN2)})
+                                 dbs={self.names[CAN1]: load_bus(CAN1), self.names[CAN2]: load_bus(CAN2)},
+                                 decode=config.decode)
         self.log = CandumpWriter(self.log_path)
         self.recorder = Recorder(self.trace, self.log)
         self._raw = {k: _open_bus(config, ch) for k, ch in self.names.items()}

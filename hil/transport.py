@@ -1,0 +1,54 @@
+"""Opening the rig's buses the python-can way (``interface`` + ``channel``).
+
+For python-can's in-process ``virtual`` interface the rig uses a subclass
+whose ``send`` copies a frame by constructing a new ``can.Message`` instead
+of ``copy.deepcopy`` (which costs most of the rig's bus time at ~10,000
+frames per simulated second). Same channels, same semantics: it talks to
+plain ``virtual`` buses in the same process.
+"""
+from __future__ import annotations
+
+import queue
+import time
+
+import can
+from can.interfaces.virtual import VirtualBus
+
+
+class LockstepVirtualBus(VirtualBus):
+    """python-can's virtual bus with cheap per-receiver copies."""
+
+    def send(self, msg: can.Message, timeout: float | None = None) -> None:
+        self._check_if_open()
+        timestamp = msg.timestamp if self.preserve_timestamps else time.time()
+        data = bytes(msg.data)
+        full = False
+        for bus_queue in self.channel:
+            if bus_queue is self.queue and not self.receive_own_messages:
+                continue
+            copy = can.Message(timestamp=timestamp, arbitration_id=msg.arbitration_id,
+                               is_extended_id=msg.is_extended_id, is_remote_frame=msg.is_remote_frame,
+                               is_error_frame=msg.is_error_frame, channel=self.channel_id, dlc=msg.dlc,
+                               data=data, is_fd=msg.is_fd, bitrate_switch=msg.bitrate_switch,
+                               error_state_indicator=msg.error_state_indicator,
+                               is_rx=bus_queue is not self.queue, check=False)
+            try:
+                bus_queue.put(copy, block=True, timeout=timeout)
+            except queue.Full:
+                full = True
+        if full:
+            raise can.CanOperationError("Could not send message to one or more recipients")
+
+
+def open_bus(interface: str, channel: str, **kwargs) -> can.BusABC:
+    """A bus on ``interface``/``channel``; a clear error when it cannot be had."""
+    kwargs.setdefault("receive_own_messages", False)
+    try:
+        if interface == "virtual":
+            return LockstepVirtualBus(channel=channel, preserve_timestamps=True, **kwargs)
+        return can.Bus(interface=interface, channel=channel, **kwargs)
+    except (can.CanError, OSError, ValueError, ImportError) as exc:
+        hint = ""
+        if interface == "socketcan":
+            hint = " (no such interface? `wheelleg vcan up`, or run inside `bash ci/uml-vcan.sh ...`)"
+        raise RuntimeError(f"cannot open {interface} channel {channel!r}: {exc}{hint}") from exc
