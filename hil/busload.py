@@ -11,7 +11,6 @@ the end of its transmission, as a receiver sees it.
 from __future__ import annotations
 
 import functools
-import re
 from dataclasses import dataclass, field
 
 TRAILER_BITS = 1 + 2 + 7 + 3  # CRC delimiter, ACK slot + delimiter, EOF, intermission
@@ -42,26 +41,46 @@ def crc15(value: int, nbits: int) -> int:
     return crc
 
 
-# Only runs of four or more equal bits can trigger stuffing (a carried stuff
-# bit adds at most one to a run), so the scan looks at those alone.
-_LONG_RUNS = re.compile(r"0{4,}|1{4,}")
+def _stuff_step(last: int, run: int, bit: int) -> tuple[int, int, int]:
+    """One bit through the stuffing rule: (last bit, run length, stuff bits added)."""
+    run = run + 1 if bit == last else 1
+    if run == 5:  # a complement bit goes in and starts the next run
+        return 1 - bit, 1, 1
+    return bit, run, 0
 
 
-def stuff_bits(bits: str) -> int:
-    """Stuff bits the transmitter inserts into ``bits`` (a '0'/'1' string).
+def _stuff_table() -> dict:
+    """(last bit, run length, byte) -> (last bit, run length, stuff bits): eight bits at once."""
+    table = {}
+    for last in (-1, 0, 1):
+        for run in range(5):
+            for byte in range(256):
+                state, added = (last, run), 0
+                for i in range(7, -1, -1):
+                    *state, n = _stuff_step(state[0], state[1], (byte >> i) & 1)
+                    added += n
+                table[(last, run, byte)] = (state[0], state[1], added)
+    return table
+
+
+_STUFF = _stuff_table()
+
+
+def stuff_bits(value: int, nbits: int) -> int:
+    """Stuff bits a transmitter inserts into the ``nbits`` low bits of ``value``, MSB first.
 
     After five equal bits comes a complement bit, which itself counts towards
-    the next run when the following bits equal it.
+    the next run. The bits before the first whole byte go one by one, the
+    rest a byte at a time through a precomputed table.
     """
-    count, carry_end = 0, -1  # carry_end: where a run that ended on a stuff bit ended
-    for match in _LONG_RUNS.finditer(bits):
-        length = match.end() - match.start()
-        start = 1 if match.start() == carry_end else 0
-        carry_end = -1
-        if start + length >= 5:
-            count += 1 + (length - (5 - start)) // 5
-            if (length - (5 - start)) % 5 == 0:  # the run ended on a stuff bit
-                carry_end = match.end()
+    last, run, count = -1, 0, 0
+    lead = nbits % 8
+    for i in range(nbits - 1, nbits - 1 - lead, -1):
+        last, run, added = _stuff_step(last, run, (value >> i) & 1)
+        count += added
+    for shift in range(nbits - lead - 8, -1, -8):
+        last, run, added = _STUFF[(last, run, (value >> shift) & 0xFF)]
+        count += added
     return count
 
 
@@ -81,7 +100,7 @@ def frame_bits(arbitration_id: int, is_extended: bool, data: bytes, is_remote: b
     nbits = head_bits + 8 * len(payload)
     value = (value << 15) | crc15(value, nbits)
     nbits += 15
-    return nbits + stuff_bits(format(value, f"0{nbits}b")) + TRAILER_BITS
+    return nbits + stuff_bits(value, nbits) + TRAILER_BITS
 
 
 @dataclass
