@@ -5,11 +5,16 @@ import math
 
 import numpy as np
 
+from emulators.physics import TerrainFeature
 from hil.scenario import Check, RunData, Scenario
 from hil.scenarios.common import (DEG, drift_below, never_tips, no_deadline_miss, pitch_below,
                                   remote, stand)
 
 NOMINAL = 0.17  # m
+# A parking stand under the front of the body: folded on its mechanical stop the
+# robot rests on its wheels and this block (tilted ~7 deg nose down), as a team
+# parks a balancing robot; rising to 0.17 m lifts the body ~6 cm clear of it.
+PARKING_STAND = TerrainFeature.bump(x_m=0.09, y_m=0.0, height_m=0.125, length_m=0.04, width_m=0.10)
 
 
 def standing(leg_length: float = NOMINAL):
@@ -87,8 +92,8 @@ SCENARIOS = (
     Scenario("balance", "stand still on flat ground for 10 s", 10.0, standing(),
              timeline=(stand(),),
              checks=(pitch_below(2 * DEG, 1.0), drift_below(0.05), no_deadline_miss())),
-    Scenario("stand-up", "start folded on the mechanical stop, rise to 0.17 m and balance", 5.0,
-             lambda physics: physics.reset_resting(),
+    Scenario("stand-up", "start folded on the mechanical stop, parked on a stand, rise to 0.17 m and balance",
+             5.0, lambda physics: physics.reset_resting(), terrain=(PARKING_STAND,),
              timeline=(stand(0.0, NOMINAL),),
              checks=(upright_by(2.0, NOMINAL), never_tips(20 * DEG), no_deadline_miss())),
     Scenario("drive", "1 m/s forward for 3 s, stop, 1 m/s back for 3 s, stop", 11.0, standing(),
