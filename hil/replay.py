@@ -1,0 +1,527 @@
+"""Replay a recorded run into a fresh controller and find the first frame it sends differently.
+
+The model is openpilot's process replay: the inputs of a recorded run (every
+frame that reached the controller, in order, with the same controller clock)
+go into today's controller, and what it sends is compared with what the
+recorded controller sent, frame by frame and signal by signal.
+
+Ticks come from the controller's own frames: each tick ends with its heartbeat
+on both buses (rig.dbc ``Heartbeat``), so the frames the controller sent after
+the previous heartbeat up to this one are one tick's answer, and the inputs
+recorded before that answer are what it had heard.
+
+- sync mode (a rig trace or rig log: SYNC frames on both buses): a real
+  ``ControllerNode`` in sync mode runs over two in-memory buses
+  (``MemoryBus``); its own SYNC handling stamps the frames and decides the
+  tick, exactly as in the rig. A bus's inputs before the tick's first frame on
+  that bus are delivered (each bus keeps its order; the controller only reads
+  between ticks).
+- free-run mode (a robot's candump log, no SYNC): the log's timestamps are
+  the controller clock (ns since the log's first frame); ``Controller`` gets
+  each input frame before the tick's first controller frame in the log, then
+  ``tick(T, t)`` with T from the recorded heartbeat and t the time of that
+  first frame. The robot's loop cannot be re-timed from a log, so the log's
+  tick boundaries are taken as they are.
+
+Exit-worthy problems (the file cannot be replayed) raise ``TraceError``.
+"""
+from __future__ import annotations
+
+import collections
+import json
+import math
+import subprocess
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import can
+
+import dbc
+from controller import params as P
+from controller.modes import Mode
+from controller.node import Controller, ControllerNode
+from hil.trace_decode import FrameDecoder
+from hil.trace_source import (CAN1, CAN2, CONTROLLER_NODES, DBS, HEARTBEAT, ROLES, BusFrame,
+                              TraceError, TraceSource, heartbeat_tick, is_heartbeat, is_sync,
+                              open_trace, sent_by_controller)
+
+RUN_KEYS = ("scenario", "seed", "control_period_s", "git_revision", "controller_params", "can1", "can2")
+_DECODER = FrameDecoder(DBS)
+_START_MODES = (Mode.IDLE, Mode.ESTOP)  # what a fresh controller can report on its first tick
+
+
+class MemoryBus(can.BusABC):
+    """An in-memory bus end: frames put in ``inbox`` are received, sent frames land in ``sent``."""
+
+    def __init__(self, channel: str):
+        super().__init__(channel=channel)
+        self.channel_info = f"replay {channel}"
+        self.inbox: collections.deque[can.Message] = collections.deque()
+        self.sent: list[can.Message] = []
+
+    def _recv_internal(self, timeout):
+        return (self.inbox.popleft() if self.inbox else None), False
+
+    def send(self, msg: can.Message, timeout: float | None = None) -> None:
+        self.sent.append(msg)
+
+    def take_sent(self) -> list[can.Message]:
+        out, self.sent = self.sent, []
+        return out
+
+
+# -- the schedule: which inputs come before which tick --------------------------------------
+@dataclass
+class TickStep:
+    """One recorded tick: inputs to deliver first, then the frames the controller sent."""
+
+    tick: int  # heartbeat Tick in the recording
+    t_ns: int  # recording time of the tick's first controller frame
+    inputs: list[BusFrame]
+    expected: dict[str, list[int]]  # role -> indices into TraceSource.frames (heartbeat last)
+
+
+@dataclass
+class Schedule:
+    mode: str  # "sync" | "free-run"
+    steps: list[TickStep]
+    trailing: dict[str, list[int]]  # controller frames after the last heartbeat (not compared)
+    skipped_inputs: int = 0  # CAN FD frames: a classic-CAN socket never delivers them
+
+
+def _groups(frames: list[BusFrame]):
+    """Per role: [(tick, [frame indices])] closed by each heartbeat; inputs; leftovers."""
+    groups = {r: [] for r in ROLES}
+    pending = {r: [] for r in ROLES}
+    inputs = []
+    for i, f in enumerate(frames):
+        if sent_by_controller(f):
+            pending[f.bus].append(i)
+            if is_heartbeat(f):
+                groups[f.bus].append((heartbeat_tick(f), pending[f.bus]))
+                pending[f.bus] = []
+        else:
+            inputs.append(i)
+    return groups, inputs, pending
+
+
+def _check_pairing(source: TraceSource, groups: dict) -> None:
+    if not groups[CAN1] and not groups[CAN2]:
+        raise TraceError(f"{source.path}: no controller frames (DBC senders {sorted(CONTROLLER_NODES)}, "
+                         "heartbeat 0x%03X): replay needs the controller's own frames in the "
+                         "recording to know its ticks" % HEARTBEAT.frame_id)
+    ticks = {r: [t for t, _ in groups[r]] for r in ROLES}
+    for k in range(max(len(ticks[CAN1]), len(ticks[CAN2]))):
+        a = ticks[CAN1][k] if k < len(ticks[CAN1]) else None
+        b = ticks[CAN2][k] if k < len(ticks[CAN2]) else None
+        if a != b:
+            role, tick = (CAN1, a) if b is None or (a is not None and a < b) else (CAN2, b)
+            other = CAN2 if role == CAN1 else CAN1
+            frame = source.frames[groups[role][k][1][-1]]
+            raise TraceError(f"{source.path}: controller frames missing: heartbeat of tick {tick} on "
+                             f"{role} ({source.channels[role]}, {frame.where()}) but not on {other} "
+                             f"({source.channels[other]}); the recording lost frames of the controller")
+        if k and a <= ticks[CAN1][k - 1]:
+            frame = source.frames[groups[CAN1][k][1][-1]]
+            raise TraceError(f"{source.path}: heartbeat tick goes from {ticks[CAN1][k - 1]} to {a} at "
+                             f"{frame.where()}: the controller restarted; cut the recording there")
+
+
+def _check_order(source: TraceSource) -> None:
+    last: dict[str, BusFrame] = {}
+    for f in source.frames:
+        prev = last.get(f.channel)
+        if prev is not None and f.t_ns < prev.t_ns:
+            raise TraceError(f"{source.path}: time goes backwards on {f.channel}: {prev.where()} "
+                             f"({prev.t_ns / 1e9:.6f} s) then {f.where()} ({f.t_ns / 1e9:.6f} s)")
+        last[f.channel] = f
+
+
+def _check_drops(source: TraceSource) -> None:
+    if not source.drops:
+        return
+    d = source.drops[0]
+    after = f", after t={d.after_t_ns / 1e9:.6f} s" if d.after_t_ns is not None else ""
+    total = sum(x.dropped for x in source.drops)
+    raise TraceError(f"{source.path}: the log lost {total} frame(s) in {len(source.drops)} DROPCOUNT "
+                     f"notice(s); first: {d.dropped} on {d.channel or '?'} at line {d.line_no}{after}. "
+                     "The controller heard frames the log does not have, so replay cannot be trusted "
+                     "past that point (--allow-drops replays anyway)")
+
+
+def detect_mode(source: TraceSource) -> str:
+    """'sync' when SYNC frames reach the controller on both buses, else 'free-run'."""
+    seen = {f.bus for f in source.frames if is_sync(f) and not sent_by_controller(f)}
+    return "sync" if seen >= set(ROLES) else "free-run"
+
+
+def build_schedule(source: TraceSource, mode: str | None = None, allow_drops: bool = False) -> Schedule:
+    """Split the recording into ticks; raises ``TraceError`` when it cannot be replayed."""
+    if not allow_drops:
+        _check_drops(source)
+    _check_order(source)
+    groups, inputs, trailing = _groups(source.frames)
+    _check_pairing(source, groups)
+    mode = mode or detect_mode(source)
+    frames = source.frames
+    usable = [i for i in inputs if not frames[i].is_fd]
+    per_bus = {r: collections.deque(i for i in usable if frames[i].bus == r) for r in ROLES}
+    steps = []
+    for (tick, idx1), (_, idx2) in zip(groups[CAN1], groups[CAN2]):
+        expected = {CAN1: idx1, CAN2: idx2}
+        first = min(idx1[0], idx2[0])
+        delivered = []
+        for role in ROLES:
+            bound = expected[role][0] if mode == "sync" else first
+            queue = per_bus[role]
+            while queue and queue[0] < bound:
+                delivered.append(queue.popleft())
+        if mode != "sync":
+            delivered.sort()  # free-run: the log's order across buses
+        steps.append(TickStep(tick, frames[first].t_ns, [frames[i] for i in delivered], expected))
+    return Schedule(mode, steps, trailing, len(inputs) - len(usable))
+
+
+# -- comparing frames ------------------------------------------------------------------------
+def _controller_signals() -> dict[str, tuple[float, str]]:
+    """Signal name -> (scale, unit) over every message a controller node sends."""
+    out = {}
+    for db in DBS.values():
+        for message in db.messages:
+            if CONTROLLER_NODES.intersection(message.senders or ()):
+                for s in message.signals:
+                    out.setdefault(s.name, (float(s.scale), s.unit or ""))
+    return out
+
+
+SIGNALS = _controller_signals()
+
+
+def default_tolerances() -> dict[str, float]:
+    """1 LSB for every scaled signal the controller sends (float rounding between machines)."""
+    return {name: abs(scale) for name, (scale, _) in SIGNALS.items() if not float(scale).is_integer()}
+
+
+def parse_tolerance(text: str) -> tuple[str, float]:
+    """'TorqueRef=0.01' (signal units) or 'TorqueRef=2lsb'; 'Message.Signal=...' also works."""
+    key, sep, value = text.partition("=")
+    key, value = key.strip(), value.strip().lower()
+    if not sep or not key or not value:
+        raise ValueError(f"tolerance {text!r}: expected SIGNAL=VALUE, e.g. TorqueRef=0.001 or TorqueRef=1lsb")
+    name = key.rpartition(".")[2]
+    try:
+        if value.endswith("lsb"):
+            if name not in SIGNALS:
+                raise ValueError(f"tolerance {text!r}: no controller signal {name!r} to take an LSB from")
+            amount = float(value[:-3]) * abs(SIGNALS[name][0])
+        else:
+            amount = float(value)
+    except ValueError as exc:
+        raise ValueError(str(exc) if "tolerance" in str(exc) else f"tolerance {text!r}: bad number") from None
+    if not math.isfinite(amount) or amount < 0:
+        raise ValueError(f"tolerance {text!r}: must be a finite number >= 0")
+    return key, amount
+
+
+@dataclass(frozen=True)
+class Difference:
+    """The first place where the replayed controller sent something else."""
+
+    tick: int
+    controller_time_s: float
+    t_ns: int  # recording time of the expected frame (or of the tick)
+    bus: str
+    channel: str
+    arbitration_id: int | None
+    is_extended: bool
+    message: str  # DBC message name ('?' when the DBC does not know the frame)
+    signal: str  # a signal name, or <missing frame>, <extra frame>, <message>, <payload>
+    expected: object
+    got: object
+    tolerance: float = 0.0
+    unit: str = ""
+    where: str = ""  # 'line 123' in a log
+
+    def describe(self) -> str:
+        ident = "-" if self.arbitration_id is None else (
+            f"0x{self.arbitration_id:08X}" if self.is_extended else f"0x{self.arbitration_id:03X}")
+        unit = f" {self.unit}" if self.unit else ""
+        head = (f"first difference at tick {self.tick} (controller time {self.controller_time_s:.6f} s, "
+                f"recorded at {self.t_ns / 1e9:.6f} s{', ' + self.where if self.where else ''})")
+        body = (f"  bus {self.bus} ({self.channel})  id {ident}  message {self.message}\n"
+                f"  signal {self.signal}: expected {_show(self.expected)}{unit}, got {_show(self.got)}{unit}")
+        if isinstance(self.expected, (int, float)) and isinstance(self.got, (int, float)):
+            body += f"  (|diff| {abs(self.got - self.expected):.6g} > tolerance {self.tolerance:.6g})"
+        return head + "\n" + body
+
+
+def _show(value) -> str:
+    if isinstance(value, float):
+        return f"{value:.6g}"
+    if isinstance(value, (bytes, bytearray)):
+        return value.hex().upper() or "(empty)"
+    return str(value)
+
+
+def _decode(role: str, arbitration_id: int, is_extended: bool, data: bytes):
+    hit = _DECODER.decode(role, arbitration_id, is_extended, data)
+    return (hit[0].name, hit[1]) if hit is not None else ("?", None)
+
+
+def _tolerance(tolerances: dict, message: str, signal: str) -> float:
+    return tolerances.get(f"{message}.{signal}", tolerances.get(signal, 0.0))
+
+
+def _frame_difference(role: str, exp: BusFrame | None, got: can.Message | None, tolerances: dict):
+    """(signal, expected, got, tolerance, unit, message name) of the first mismatch, or None."""
+    if exp is None:
+        name, _ = _decode(role, got.arbitration_id, got.is_extended_id, bytes(got.data))
+        return "<extra frame>", "nothing", f"{name} {_ident(got.arbitration_id, got.is_extended_id)}", 0.0, "", name
+    if got is None:
+        name, _ = _decode(role, exp.arbitration_id, exp.is_extended, exp.data)
+        return "<missing frame>", f"{name} {_ident(exp.arbitration_id, exp.is_extended)}", "nothing", 0.0, "", name
+    got_data = bytes(got.data[:got.dlc])
+    if (exp.arbitration_id, exp.is_extended, exp.dlc, exp.data) == \
+            (got.arbitration_id, got.is_extended_id, got.dlc, got_data):
+        return None
+    exp_name, exp_values = _decode(role, exp.arbitration_id, exp.is_extended, exp.data)
+    got_name, got_values = _decode(role, got.arbitration_id, got.is_extended_id, got_data)
+    if exp_name != got_name or exp_values is None or got_values is None:
+        return ("<message>", f"{exp_name} {_ident(exp.arbitration_id, exp.is_extended)} {exp.data.hex().upper()}",
+                f"{got_name} {_ident(got.arbitration_id, got.is_extended_id)} {got_data.hex().upper()}",
+                0.0, "", exp_name)
+    for signal in dict.fromkeys([*exp_values, *got_values]):
+        a, b = exp_values.get(signal), got_values.get(signal)
+        tol = _tolerance(tolerances, exp_name, signal)
+        if a is None or b is None:
+            if a is not b:
+                return signal, a, b, tol, SIGNALS.get(signal, (1, ""))[1], exp_name
+        elif abs(b - a) > tol + 1e-12 * max(abs(a), abs(b)):
+            return signal, a, b, tol, SIGNALS.get(signal, (1, ""))[1], exp_name
+    if all(tolerances.get(s, 0.0) == 0.0 for s in exp_values) and exp.dlc == got.dlc:
+        return "<payload>", exp.data, got_data, 0.0, "", exp_name  # bits no signal covers
+    return None
+
+
+def _ident(arbitration_id: int, extended: bool) -> str:
+    return f"0x{arbitration_id:08X}" if extended else f"0x{arbitration_id:03X}"
+
+
+# -- replaying -------------------------------------------------------------------------------
+@dataclass
+class ReplayResult:
+    source: TraceSource
+    schedule: Schedule
+    period_s: float
+    ticks: int = 0  # ticks compared
+    frames: int = 0  # controller frames compared (recorded)
+    differing_ticks: int = 0
+    differing_frames: int = 0
+    first: Difference | None = None
+    warnings: list[str] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+    sent: list[dict[str, list[can.Message]]] = field(default_factory=list)  # per step, for --update
+    debug: list[dict] = field(default_factory=list)  # controller internals per step, for --update
+
+    @property
+    def identical(self) -> bool:
+        return self.first is None
+
+
+class _SyncDriver:
+    """A real ControllerNode in sync mode on in-memory buses."""
+
+    def __init__(self, period_s: float, t0_ns: int):
+        self.buses = {CAN1: MemoryBus("replay-can1"), CAN2: MemoryBus("replay-can2")}
+        self.node = ControllerNode(self.buses[CAN1], self.buses[CAN2], sync=True, period_s=period_s)
+
+    def step(self, step: TickStep):
+        for f in step.inputs:
+            self.buses[f.bus].inbox.append(f.message())
+        ticked = self.node.service()
+        sent = {role: bus.take_sent() for role, bus in self.buses.items()}
+        result = self.node.last_result if ticked else None
+        return sent, (self.node.now() if ticked else math.nan), (result.debug if result else {})
+
+    def close(self) -> None:
+        for bus in self.buses.values():
+            bus.shutdown()
+
+
+class _FreeRunDriver:
+    """``Controller`` with the log's timestamps as its clock (ns since the log's first frame)."""
+
+    def __init__(self, period_s: float, t0_ns: int):
+        self.controller = Controller(period_s)
+        self.t0_ns = t0_ns
+
+    def clock(self, t_ns: int) -> float:
+        return (t_ns - self.t0_ns) / 1e9
+
+    def step(self, step: TickStep):
+        for f in step.inputs:
+            self.controller.on_frame(f.message(), f.bus, self.clock(f.t_ns))
+        now = self.clock(step.t_ns)
+        result = self.controller.tick(step.tick, now)
+        return {role: list(result.frames[role]) for role in ROLES}, now, result.debug
+
+    def close(self) -> None:
+        pass
+
+
+def replay(path_or_source, *, tolerances: dict | None = None, exact: bool = False,
+           channels: dict | None = None, period_s: float | None = None, allow_drops: bool = False,
+           keep_sent: bool = False) -> ReplayResult:
+    """Replay a trace or log into a fresh controller; see the module docstring.
+
+    ``tolerances``: signal (or 'Message.Signal') -> allowed |difference| in signal
+    units, on top of ``default_tolerances()`` unless ``exact``. Raises ``TraceError``.
+    """
+    source = path_or_source if isinstance(path_or_source, TraceSource) else open_trace(path_or_source, channels)
+    schedule = build_schedule(source, allow_drops=allow_drops)
+    period = period_s or _recorded_period(source) or P.CONTROL_PERIOD
+    result = ReplayResult(source, schedule, period, warnings=environment_warnings(source))
+    result.notes += _schedule_notes(source, schedule, period)
+    tol = {} if exact else default_tolerances()
+    tol.update(tolerances or {})
+    t0 = min(f.t_ns for f in source.frames)
+    driver = (_SyncDriver if schedule.mode == "sync" else _FreeRunDriver)(period, t0)
+    try:
+        for step in schedule.steps:
+            sent, now, debug = driver.step(step)
+            _compare_step(result, step, sent, now, tol)
+            if keep_sent:
+                result.sent.append(sent)
+                result.debug.append(debug)
+    finally:
+        driver.close()
+    return result
+
+
+def _compare_step(result: ReplayResult, step: TickStep, sent: dict, now: float, tol: dict) -> None:
+    source, frames = result.source, result.source.frames
+    result.ticks += 1
+    found = []
+    for role in ROLES:
+        expected = [frames[i] for i in step.expected[role]]
+        result.frames += len(expected)
+        got = sent.get(role, [])
+        for j in range(max(len(expected), len(got))):
+            exp = expected[j] if j < len(expected) else None
+            diff = _frame_difference(role, exp, got[j] if j < len(got) else None, tol)
+            if diff is None:
+                continue
+            result.differing_frames += 1
+            anchor = exp or expected[-1]
+            found.append((anchor.t_ns, role, exp or anchor, diff))
+    if not found:
+        return
+    result.differing_ticks += 1
+    if result.first is None:
+        t_ns, role, frame, (signal, a, b, tol_value, unit, name) = min(found, key=lambda x: x[:2])
+        if math.isnan(now):
+            signal, a, b = "<no tick>", f"tick {step.tick}", "the controller did not tick on these inputs"
+        is_frame = signal not in ("<extra frame>",)
+        result.first = Difference(step.tick, now if not math.isnan(now) else step.tick * result.period_s,
+                                  t_ns, role, source.channels[role],
+                                  frame.arbitration_id if is_frame else None, frame.is_extended,
+                                  name, signal, a, b, tol_value, unit, frame.where() if frame.line_no else "")
+
+
+def _recorded_period(source: TraceSource) -> float | None:
+    try:
+        value = float(source.run.get("control_period_s", ""))
+    except ValueError:
+        return None
+    return value if math.isfinite(value) and value > 0 else None
+
+
+def _schedule_notes(source: TraceSource, schedule: Schedule, period: float) -> list[str]:
+    notes = []
+    frames = source.frames
+    if schedule.steps:
+        first = frames[schedule.steps[0].expected[CAN1][-1]]
+        mode = HEARTBEAT.decode(first.data, decode_choices=False)["Mode"]
+        if mode not in _START_MODES:
+            notes.append(f"warning: the recording starts with the controller in mode {Mode(mode).name} "
+                         f"(tick {schedule.steps[0].tick}); a fresh controller starts in IDLE, so replay "
+                         "diverges at once: record from the controller's start")
+    left = sum(len(v) for v in schedule.trailing.values())
+    if left:
+        notes.append(f"{left} controller frame(s) after the last heartbeat not compared (shutdown frames?)")
+    if schedule.skipped_inputs:
+        notes.append(f"{schedule.skipped_inputs} CAN FD frame(s) not delivered (a classic CAN socket drops them)")
+    if source.truncated:
+        notes.append("the trace was not closed (writer killed): replaying what it holds")
+    if source.ignored_channels:
+        notes.append(f"frames on other interfaces ignored: {source.ignored_channels}")
+    if schedule.mode == "free-run" and len(schedule.steps) > 2:
+        s0, s1 = schedule.steps[0], schedule.steps[-1]
+        if s1.tick > s0.tick:
+            measured = (s1.t_ns - s0.t_ns) / 1e9 / (s1.tick - s0.tick)
+            if abs(measured - period) > 0.2 * period:
+                notes.append(f"warning: the log ticks every {measured * 1e3:.3f} ms, the controller's "
+                             f"period is {period * 1e3:.3f} ms (--period)")
+    return notes
+
+
+# -- the trace as a bug report ----------------------------------------------------------------
+def current_params() -> dict:
+    """The controller's tuning as the rig records it (``run.controller_params``)."""
+    params = {k: v for k, v in vars(P).items() if k.isupper()}
+    return json.loads(json.dumps(params, sort_keys=True, default=repr))
+
+
+def git_revision(cwd: Path | None = None) -> str:
+    try:
+        out = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True,
+                             cwd=cwd or Path(__file__).parent, timeout=5)
+        return out.stdout.strip() or "unknown"
+    except (OSError, subprocess.SubprocessError):
+        return "unknown"
+
+
+def bug_report_gaps(source: TraceSource) -> list[str]:
+    """What the trace lacks to be replayed on another machine ([] for a complete rig trace)."""
+    if source.kind != "mcap":
+        return ["a candump log carries no DBC files, MJCF, parameters, scenario, seed or revision: "
+                "replay uses what is installed here"]
+    gaps = [f"run metadata '{key}'" for key in RUN_KEYS if not source.run.get(key)]
+    gaps += [f"attachment {p.name}" for p in dbc.all_dbc_files() if p.name not in source.attachments]
+    if not any(name.endswith(".xml") for name in source.attachments):
+        gaps.append("MJCF attachment (*.xml)")
+    return gaps
+
+
+def environment_warnings(source: TraceSource) -> list[str]:
+    """Where this machine differs from the one that recorded: DBC files, revision, parameters."""
+    out = [f"trace lacks {gap}" for gap in bug_report_gaps(source)] if source.kind == "mcap" else []
+    installed = {p.name: p for p in dbc.all_dbc_files()}
+    for name, data in sorted(source.attachments.items()):
+        if not name.endswith(".dbc"):
+            continue
+        if name not in installed:
+            out.append(f"the trace's {name} is not installed in dbc/ (replay uses the installed files)")
+        elif installed[name].read_bytes() != data:
+            out.append(f"the trace's {name} differs from the installed dbc/{name}: replay encodes and "
+                       "decodes with the installed one, so ids or scales may have changed")
+    recorded = source.run.get("git_revision")
+    here = git_revision()
+    if recorded and recorded != "unknown" and here != "unknown" and recorded != here:
+        out.append(f"recorded at git revision {recorded[:12]}, this tree is at {here[:12]}")
+    out += _param_warnings(source)
+    return out
+
+
+def _param_warnings(source: TraceSource) -> list[str]:
+    text = source.run.get("controller_params")
+    if not text:
+        return []
+    try:
+        recorded = json.loads(text)
+    except ValueError:
+        return ["the trace's controller_params is not JSON"]
+    now = current_params()
+    changed = [f"{k}: {recorded.get(k)!r} -> {now.get(k)!r}" for k in sorted(set(recorded) | set(now))
+               if recorded.get(k) != now.get(k)]
+    return [f"controller parameters differ from the recording: {', '.join(changed)}"] if changed else []

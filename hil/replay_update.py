@@ -1,0 +1,125 @@
+"""``replay --update``: a new reference recording from a replay.
+
+The recording's frames are kept, except the controller's: each tick's frames
+are replaced by what the current controller sent on the same inputs (at the
+recorded frames' times; extra frames at the time of the last one). Everything
+else of an MCAP trace is copied (metadata, MJCF, simulation truth, events,
+other topics); the DBC attachments, git revision and parameters become the
+current ones, and ``/controller/debug`` holds the replayed controller's
+internals. The simulation truth is the recorded run's: replay is open loop.
+"""
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import can
+
+import dbc
+from hil.candump import CandumpWriter
+from hil.replay import ReplayResult, current_params, git_revision
+from hil.trace_source import DBS, ROLES, BusFrame
+
+DEBUG_TOPIC = "/controller/debug"
+
+
+def _replacements(result: ReplayResult) -> tuple[dict[int, list[BusFrame]], set[int]]:
+    """Frame index -> frames written in its place; indices dropped."""
+    if len(result.sent) != len(result.schedule.steps):
+        raise ValueError("replay(..., keep_sent=True) is needed to write a reference")
+    frames = result.source.frames
+    put: dict[int, list[BusFrame]] = {}
+    drop: set[int] = set()
+    for step, sent in zip(result.schedule.steps, result.sent):
+        for role in ROLES:
+            slots, got = step.expected[role], sent.get(role, [])
+            for j, idx in enumerate(slots):
+                if j < len(got):
+                    put[idx] = [_as_frame(frames[idx], got[j])]
+                else:
+                    drop.add(idx)
+            if len(got) > len(slots):
+                last = slots[-1]
+                put.setdefault(last, []).extend(_as_frame(frames[last], m) for m in got[len(slots):])
+    return put, drop
+
+
+def _as_frame(at: BusFrame, msg: can.Message) -> BusFrame:
+    return BusFrame(at.bus, at.channel, at.t_ns, msg.arbitration_id, msg.is_extended_id, msg.dlc,
+                    bytes(msg.data[:msg.dlc]), msg.is_error_frame, msg.is_remote_frame, msg.is_fd)
+
+
+def updated_frames(result: ReplayResult) -> list[BusFrame]:
+    """The recording's frames with the controller's replaced by the replayed ones."""
+    put, drop = _replacements(result)
+    out = []
+    for i, frame in enumerate(result.source.frames):
+        if i in put:
+            out.extend(put[i])
+        elif i not in drop:
+            out.append(frame)
+    return out
+
+
+def write_reference(result: ReplayResult, out: Path | str) -> Path:
+    """Write the new reference (same format as the recording) to ``out``."""
+    out = Path(out)
+    frames = updated_frames(result)
+    if result.source.kind == "mcap":
+        _write_mcap(result, frames, out)
+    else:
+        with CandumpWriter(out, flush_interval_s=None) as log:
+            for f in frames:
+                log.write(f.channel, f.t_ns, f.arbitration_id, f.is_extended, f.data, f.is_error,
+                          is_remote=f.is_remote, remote_dlc=f.dlc if f.is_remote else 0, is_fd=f.is_fd)
+    return out
+
+
+def _metadata(result: ReplayResult) -> dict:
+    meta = {name: dict(record) for name, record in result.source.metadata.items()}
+    run = meta.setdefault("run", {})
+    run["reference_from"] = result.source.path.name
+    run["reference_of_revision"] = run.get("git_revision", "unknown")
+    run["git_revision"] = git_revision()
+    run["controller_params"] = json.dumps(current_params(), sort_keys=True)
+    return meta
+
+
+def _attachments(result: ReplayResult) -> list:
+    files = [(p.name, p.read_bytes(), "text/x-dbc") for p in dbc.all_dbc_files()]
+    names = {name for name, _, _ in files}
+    for name, data in sorted(result.source.attachments.items()):
+        if name not in names:
+            files.append((name, data, "application/xml" if name.endswith(".xml") else "application/octet-stream"))
+    return files
+
+
+def _write_mcap(result: ReplayResult, frames: list[BusFrame], out: Path) -> None:
+    from hil.trace import DECODED_PREFIX, CAN_PREFIX, EVENTS_TOPIC, SIM_STATE_TOPIC, TraceReader, TraceWriter
+
+    reader = TraceReader(result.source.path)
+    records = [(f.t_ns, 0, "frame", f) for f in frames]
+    skip = (CAN_PREFIX, DECODED_PREFIX, DEBUG_TOPIC)
+    for topic in reader.topics:
+        if not topic.startswith(skip):
+            records += [(t, 1, topic, payload) for t, payload in reader.topic(topic)]
+    for step, debug in zip(result.schedule.steps, result.debug):
+        if debug:
+            end = max(result.source.frames[step.expected[role][-1]].t_ns for role in ROLES)
+            records.append((end, 1, DEBUG_TOPIC, debug))
+    records.sort(key=lambda r: (r[0], r[1]))
+    channels = result.source.channels
+    dbs = {channels[role]: DBS[role] for role in ROLES}
+    with TraceWriter(out, metadata=_metadata(result), attachments=_attachments(result), dbs=dbs,
+                     flush_interval_s=None) as trace:
+        for t_ns, _, kind, item in records:
+            if kind == "frame":
+                trace.frame(item.channel, t_ns, item.arbitration_id, item.is_extended, item.dlc, item.data,
+                            is_error=item.is_error)
+            elif kind == SIM_STATE_TOPIC:
+                trace.sim_state(t_ns, {k: math.nan if v is None else v for k, v in item.items() if k != "t"})
+            elif kind == EVENTS_TOPIC:
+                trace.event(t_ns, item.pop("kind", "event"), **item)
+            else:
+                trace.message(kind, t_ns, item, kind.strip("/").replace("/", "."))

@@ -1,0 +1,270 @@
+"""One view of a recorded run, from either file: the rig's MCAP trace or a candump log.
+
+``open_trace(path)`` gives a ``TraceSource``: every frame in order with its bus
+role (``can1`` = wheels/IMU/remote, ``can2`` = CyberGear joints), plus what the
+file says about the run (MCAP metadata, attachments, events; candump comments
+and DROPCOUNT notices). Replay and inspect both read through it.
+
+Bus roles: an MCAP trace of the rig names its channels in the ``run``
+metadata; a candump log does not, so the role of each interface is inferred
+from what it carries (CyberGear extended ids -> can2; C620, IMU or remote ids
+-> can1), or given by the caller (``channels={"can1": "can0", "can2": "can1"}``).
+
+Which frames are the controller's: the DBC says it. A frame is the
+controller's when its DBC message lists a controller node among its senders
+(``HOST`` in cybergear.dbc and c620.dbc, ``CONTROLLER`` in rig.dbc); CyberGear
+frames are looked up at their canonical id (``dbc.cybergear.canonical_id``)
+and a frame addressed to the host (a reply) is never the host's.
+"""
+from __future__ import annotations
+
+import heapq
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import can
+
+import dbc
+from controller.constants import CG_HOST_ID
+from dbc import cybergear as cg
+from hil.candump import CandumpReader, DropNotice, LogFormatError
+
+CAN1, CAN2 = "can1", "can2"
+ROLES = (CAN1, CAN2)
+CONTROLLER_NODES = frozenset({"HOST", "CONTROLLER"})  # DBC node names of the controller
+DBS = {role: dbc.load_bus(role) for role in ROLES}
+HEARTBEAT = DBS[CAN1].get_message_by_name("Heartbeat")
+SYNC = DBS[CAN1].get_message_by_name("SYNC")
+_REPLY_TARGETS = frozenset({CG_HOST_ID, cg.DEVICE_ID_TARGET})
+MCAP_MAGIC = b"\x89MCAP"
+
+
+class TraceError(Exception):
+    """The file cannot be read or replayed; the message says why."""
+
+
+@dataclass(frozen=True, slots=True)
+class BusFrame:
+    """One recorded frame; ``bus`` is its role (can1/can2, or '' when unknown)."""
+
+    bus: str
+    channel: str  # the interface name in the file
+    t_ns: int
+    arbitration_id: int
+    is_extended: bool
+    dlc: int
+    data: bytes
+    is_error: bool = False
+    is_remote: bool = False
+    is_fd: bool = False
+    line_no: int = 0  # candump line (0 for MCAP)
+
+    def message(self) -> can.Message:
+        """The frame as python-can delivers it to the controller."""
+        return can.Message(timestamp=self.t_ns / 1e9, arbitration_id=self.arbitration_id,
+                           is_extended_id=self.is_extended, dlc=self.dlc, data=self.data,
+                           is_error_frame=self.is_error, is_remote_frame=self.is_remote,
+                           is_fd=self.is_fd, channel=self.channel, check=False)
+
+    def where(self) -> str:
+        """'line 12' for a log, 't=1.234567 s' for a trace."""
+        return f"line {self.line_no}" if self.line_no else f"t={self.t_ns / 1e9:.6f} s"
+
+
+@dataclass
+class TraceSource:
+    """A recorded run: frames in order plus what the file says about it."""
+
+    path: Path
+    kind: str  # "mcap" | "candump"
+    frames: list[BusFrame]  # file order (candump); per bus in file order, merged by time (MCAP)
+    channels: dict[str, str]  # role -> interface name
+    metadata: dict[str, dict[str, str]] = field(default_factory=dict)
+    attachments: dict[str, bytes] = field(default_factory=dict)
+    events: list[dict] = field(default_factory=list)  # /scenario/events, each with "t" (s)
+    drops: list[DropNotice] = field(default_factory=list)
+    comments: int = 0
+    truncated: bool = False
+    ignored_channels: dict[str, int] = field(default_factory=dict)  # interface -> frames
+
+    @property
+    def run(self) -> dict[str, str]:
+        return self.metadata.get("run", {})
+
+    @property
+    def duration_s(self) -> float:
+        if not self.frames:
+            return 0.0
+        return (max(f.t_ns for f in self.frames) - min(f.t_ns for f in self.frames)) / 1e9
+
+
+# -- which frames are the controller's ------------------------------------------------------
+def dbc_message(role: str, arbitration_id: int, is_extended: bool):
+    """The cantools message of a frame on bus ``role`` (CyberGear at its canonical id), or None."""
+    db = DBS.get(role)
+    if db is None:
+        return None
+    frame_id = cg.canonical_id(arbitration_id) if is_extended else arbitration_id
+    try:
+        message = db.get_message_by_frame_id(frame_id)
+    except KeyError:
+        return None
+    return message if message.is_extended_frame == is_extended else None
+
+
+def sent_by_controller(frame: BusFrame) -> bool:
+    """True when the DBC names a controller node as the sender of this frame."""
+    if frame.is_error or frame.is_fd:
+        return False
+    message = dbc_message(frame.bus, frame.arbitration_id, frame.is_extended)
+    if message is None or not CONTROLLER_NODES.intersection(message.senders or ()):
+        return False
+    return not (frame.is_extended and cg.target(frame.arbitration_id) in _REPLY_TARGETS)
+
+
+def is_heartbeat(frame: BusFrame) -> bool:
+    return (not frame.is_extended and not frame.is_error and frame.arbitration_id == HEARTBEAT.frame_id
+            and len(frame.data) == HEARTBEAT.length)
+
+
+def is_sync(frame: BusFrame) -> bool:
+    return (not frame.is_extended and not frame.is_error and frame.arbitration_id == SYNC.frame_id
+            and len(frame.data) == SYNC.length)
+
+
+def heartbeat_tick(frame: BusFrame) -> int:
+    return int(HEARTBEAT.decode(frame.data, decode_choices=False)["Tick"])
+
+
+def sync_tick(frame: BusFrame) -> int:
+    return int(SYNC.decode(frame.data, decode_choices=False)["Tick"])
+
+
+# -- bus roles -------------------------------------------------------------------------------
+def _role_votes(frames) -> dict[str, dict[str, int]]:
+    """Interface -> {role: frames that only make sense on that role}."""
+    can1_ids = {m.frame_id for m in dbc.load_file("c620.dbc").messages}
+    can1_ids |= {m.frame_id for m in dbc.load_file("rig.dbc").messages} - {SYNC.frame_id, HEARTBEAT.frame_id}
+    votes: dict[str, dict[str, int]] = {}
+    for f in frames:
+        v = votes.setdefault(f.channel, {CAN1: 0, CAN2: 0})
+        if f.is_error or f.is_fd:
+            continue
+        if f.is_extended and dbc_message(CAN2, f.arbitration_id, True) is not None:
+            v[CAN2] += 1
+        elif not f.is_extended and f.arbitration_id in can1_ids:
+            v[CAN1] += 1
+    return votes
+
+
+def infer_channels(frames) -> dict[str, str]:
+    """Role -> interface, from the frames each interface carries; {} entries left out if unsure."""
+    votes = _role_votes(frames)
+    out = {}
+    for role in ROLES:
+        ranked = sorted(votes, key=lambda ch: votes[ch][role], reverse=True)
+        if ranked and votes[ranked[0]][role] > 0:
+            out[role] = ranked[0]
+    if out.get(CAN1) is not None and out.get(CAN1) == out.get(CAN2):
+        raise TraceError(f"interface {out[CAN1]!r} carries both CyberGear (CAN2) and C620/IMU (CAN1) "
+                         "frames; the rig has them on two buses: pass the channels explicitly")
+    return out
+
+
+def parse_channels(text: str | None) -> dict[str, str] | None:
+    """'can0,can1' -> {'can1': 'can0', 'can2': 'can1'} (CAN1 = wheels first, CAN2 = joints)."""
+    if not text:
+        return None
+    names = [n.strip() for n in text.split(",")]
+    if len(names) != 2 or not all(names) or names[0] == names[1]:
+        raise TraceError(f"channels {text!r}: need two different names, CAN1 (wheels),CAN2 (joints)")
+    return {CAN1: names[0], CAN2: names[1]}
+
+
+def _assign_roles(frames: list[BusFrame], channels: dict[str, str], keep_unknown: bool):
+    """Frames with their role set; frames of other interfaces kept (role '') or counted as ignored."""
+    role_of = {name: role for role, name in channels.items()}
+    out, ignored = [], {}
+    for f in frames:
+        role = role_of.get(f.channel)
+        if role is None:
+            if keep_unknown:
+                out.append(f)
+            else:
+                ignored[f.channel] = ignored.get(f.channel, 0) + 1
+            continue
+        out.append(f if f.bus == role else _with_bus(f, role))
+    return out, ignored
+
+
+def _with_bus(f: BusFrame, role: str) -> BusFrame:
+    return BusFrame(role, f.channel, f.t_ns, f.arbitration_id, f.is_extended, f.dlc, f.data,
+                    f.is_error, f.is_remote, f.is_fd, f.line_no)
+
+
+def _resolve_channels(frames, given: dict | None, recorded: dict | None, strict: bool) -> dict:
+    if given:
+        return dict(given)
+    if recorded and all(recorded.get(r) for r in ROLES):
+        return {r: recorded[r] for r in ROLES}
+    inferred = infer_channels(frames)
+    present = sorted({f.channel for f in frames})
+    unknown = [ch for ch in present if ch not in inferred.values()]
+    if strict and (len(inferred) < 2 or unknown):
+        guess = ", ".join(f"{r}={n}" for r, n in inferred.items()) or "nothing"
+        raise TraceError(f"cannot tell the buses apart: interfaces {present}, recognised {guess}"
+                         + (f", unknown {unknown}" if unknown else "")
+                         + "; pass --channels CAN1,CAN2 (wheels first, joints second)")
+    return inferred
+
+
+# -- loading ---------------------------------------------------------------------------------
+def open_trace(path, channels: dict | None = None, *, strict: bool = True) -> TraceSource:
+    """Read an MCAP trace or a candump log.
+
+    ``strict`` (replay): both bus roles must be known, frames of other
+    interfaces are dropped (counted in ``ignored_channels``). ``strict=False``
+    (inspect): roles as far as they can be told, every frame kept.
+
+    Raises ``TraceError`` with the reason when the file cannot be read.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise TraceError(f"{path}: no such file")
+    with open(path, "rb") as f:
+        head = f.read(len(MCAP_MAGIC))
+    source = _open_mcap(path) if head == MCAP_MAGIC else _open_candump(path)
+    recorded = {r: source.run.get(r, "") for r in ROLES} if source.run else None
+    source.channels = _resolve_channels(source.frames, channels, recorded, strict)
+    source.frames, source.ignored_channels = _assign_roles(source.frames, source.channels, not strict)
+    return source
+
+
+def _open_mcap(path: Path) -> TraceSource:
+    from hil.trace import CAN_PREFIX, TraceReader  # noqa: PLC0415 (mcap only when needed)
+
+    try:
+        reader = TraceReader(path)
+    except Exception as exc:  # a file that is not MCAP past its magic
+        raise TraceError(f"{path}: not a readable MCAP trace: {exc}") from exc
+    names = sorted(t[len(CAN_PREFIX):] for t in reader.topics if t.startswith(CAN_PREFIX))
+    per_channel = [[BusFrame("", f.channel, f.t_ns, f.arbitration_id, f.is_extended, f.dlc, f.data,
+                             f.is_error) for f in reader.frames(name)] for name in names]
+    frames = list(heapq.merge(*per_channel, key=lambda f: f.t_ns))
+    return TraceSource(path, "mcap", frames, {}, reader.metadata, dict(reader.attachments),
+                       reader.events(), truncated=reader.truncated)
+
+
+def _open_candump(path: Path) -> TraceSource:
+    reader = CandumpReader(path, strict=True)
+    try:
+        frames = [BusFrame("", f.channel, f.t_ns, f.arbitration_id, f.is_extended, f.dlc, f.data,
+                           f.is_error, f.is_remote, f.is_fd, f.line_no) for f in reader]
+    except LogFormatError as exc:
+        raise TraceError(f"{exc.path}:{exc.line_no}: not a candump -L line ({exc.reason}): "
+                         f"{exc.line[:80]!r}") from exc
+    except UnicodeDecodeError as exc:
+        raise TraceError(f"{path}: neither an MCAP trace nor a text candump log ({exc})") from exc
+    if not frames and not reader.drops:
+        raise TraceError(f"{path}: no CAN frames (is it a `candump -L` log or an MCAP trace?)")
+    return TraceSource(path, "candump", frames, {}, drops=list(reader.drops), comments=reader.comments)
