@@ -344,7 +344,7 @@ class CyberGear(EmulatedDevice):
             return
         if not math.isfinite(value):
             return
-        self.params[name] = _clamp(float(value), signal.minimum, signal.maximum)
+        self.params[name] = float(_clamp(float(value), signal.minimum, signal.maximum))
 
     # -- frames out --------------------------------------------------------------
     def _feedback_frame(self, host: int, now_s: float) -> can.Message:
