@@ -20,6 +20,7 @@ import can
 
 import dbc
 from controller import constants as C
+from controller import messages
 from controller import params as P
 from controller.node import Controller, ControllerNode
 from dbc import cybergear as cg
@@ -119,7 +120,8 @@ class SyntheticRig:
         self.buses = {"can1": MemoryBus("can1"), "can2": MemoryBus("can2")}
         self.node = ControllerNode(self.buses["can1"], self.buses["can2"], sync=True, period_s=PERIOD)
         self.events = events or {}  # tick -> (kind, fields)
-        self.modes: list[int] = []
+        self.modes: list[int] = []  # controller mode per tick
+        self.sent: list[dict] = []  # per tick: bus -> frames the controller sent
 
     def _put(self, bus: str, msg: can.Message) -> None:
         self.recorder.observe(self.names[bus], msg)
@@ -138,9 +140,11 @@ class SyntheticRig:
         self._put("can2", sync)
         assert self.node.service(), f"the controller did not tick on SYNC({tick})"
         self.modes.append(int(self.node.last_result.mode))
-        for msg in self.buses["can1"].take_sent():
+        sent = {bus: self.buses[bus].take_sent() for bus in ("can1", "can2")}
+        self.sent.append(sent)
+        for msg in sent["can1"]:
             self.recorder.observe(self.names["can1"], msg)
-        for msg in self.buses["can2"].take_sent():
+        for msg in sent["can2"]:
             self.recorder.observe(self.names["can2"], msg)
             for reply in d.joint_reply(msg, tick, t):
                 self._put("can2", reply)
@@ -174,7 +178,9 @@ def robot_log(path: Path, ticks: int, channels=("can0", "can1"), devices: Device
     """A candump log of a free-running controller (no SYNC); returns the modes per tick.
 
     Tick k starts at t0 + k * period + a jitter of up to 137 us; inputs land
-    in the log before the tick that reads them, replies right after each command.
+    in the log before the tick that reads them, replies right after each command,
+    and a wheel and a joint frame between the tick's CAN1 and CAN2 frames
+    (the controller reads them next tick).
     """
     d = devices or Devices()
     controller = Controller(PERIOD)
@@ -201,6 +207,9 @@ def robot_log(path: Path, ticks: int, channels=("can0", "can1"), devices: Device
         for msg in result.frames["can1"]:
             rows.append((t_us, "can1", msg))
             t_us += 1
+        # frames that land while the controller is still sending: it reads them next tick
+        received(t_us, "can1", d.wheels(t + 0.0002)[0])
+        received(t_us, "can2", d.joint_reply(messages.joint_stop(1), k, t + 0.0002)[0])
         for msg in result.frames["can2"]:
             rows.append((t_us, "can2", msg))
             t_us += 1
