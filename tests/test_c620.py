@@ -204,3 +204,26 @@ def test_wheelleg_emulate_c620_streams_feedback_and_takes_commands():
         thread.join(timeout=20.0)
         host.shutdown()
     assert not thread.is_alive() and result["rc"] == 0
+
+
+class _RefusingBus(can.BusABC):
+    """A bus whose transmit queue is always full."""
+
+    def __init__(self):
+        super().__init__(channel="refusing")
+
+    def send(self, msg, timeout=None):
+        raise can.CanOperationError("transmit buffer full")
+
+    def _recv_internal(self, timeout):
+        return None, False
+
+
+def test_node_drops_and_counts_frames_the_bus_refuses():
+    bus = _RefusingBus()
+    node = DeviceNode(bus, [C620(esc_id=1)])
+    try:
+        assert node.service(0.0) == 0 and node.service(0.001) == 0
+    finally:
+        bus.shutdown()
+    assert (node.send_errors, node.frames_out) == (2, 0)
