@@ -75,7 +75,7 @@ class C620(EmulatedDevice):
 
     # -- frames ------------------------------------------------------------------
     def _handle(self, msg: can.Message, now_s: float) -> list[can.Message]:
-        if (msg.arbitration_id != self._cmd.frame_id or msg.is_extended_id or msg.dlc != FULL_DLC
+        if (msg.arbitration_id != self._cmd.frame_id or msg.is_extended_id or len(msg.data) != FULL_DLC
                 or not is_data_frame(msg)):
             return []
         raw = self._cmd.decode_raw(bytes(msg.data))[self._slot]

@@ -244,7 +244,7 @@ class CyberGear(EmulatedDevice):
             return []
         ctype = cg.comm_type(can_id)
         handler = self._handlers.get(ctype)
-        if handler is None or (ctype in self._fixed_dlc and msg.dlc != FULL_DLC):
+        if handler is None or (ctype in self._fixed_dlc and len(msg.data) != FULL_DLC):
             return []
         if ctype != cg.T_MOTION:
             self.last_host = cg.request_host(can_id)

@@ -56,8 +56,11 @@ def random_frame(rng: random.Random, device) -> can.Message:
         can_id = rng.choice([0x200, 0x1FF, 0x201, 0x205])
     else:
         can_id = rng.randrange(1 << 29) if extended else rng.randrange(1 << 11)
-    return can.Message(arbitration_id=can_id, data=bytes(data), dlc=dlc, is_extended_id=extended,
-                       is_remote_frame=rng.random() < 0.02, check=False)
+    msg = can.Message(arbitration_id=can_id, data=bytes(data), dlc=dlc, is_extended_id=extended,
+                      is_remote_frame=rng.random() < 0.02, check=False)
+    if rng.random() < 0.02:  # a malformed object: dlc disagrees with the data
+        msg.dlc = rng.randrange(16)
+    return msg
 
 
 def check_reply(device, request: can.Message, reply: can.Message, now_s: float) -> None:
