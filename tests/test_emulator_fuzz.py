@@ -58,8 +58,8 @@ def random_frame(rng: random.Random, device) -> can.Message:
         can_id = rng.randrange(1 << 29) if extended else rng.randrange(1 << 11)
     msg = can.Message(arbitration_id=can_id, data=bytes(data), dlc=dlc, is_extended_id=extended,
                       is_remote_frame=rng.random() < 0.02, check=False)
-    if rng.random() < 0.02:  # a malformed object: dlc disagrees with the data
-        msg.dlc = rng.randrange(16)
+    if rng.random() < 0.05:  # a malformed object: dlc disagrees with the data
+        msg.dlc = rng.choice([8, rng.randrange(16)])
     return msg
 
 
@@ -118,20 +118,26 @@ def test_seeded_random_frames(index):
 
 @settings(max_examples=300, deadline=None)
 @given(ctype=st.integers(0, 31), data16=st.integers(0, 0xFFFF), target=st.sampled_from([1, 2, 0xFE]),
-       payload=st.binary(max_size=8), extended=st.booleans())
-def test_hypothesis_frames_at_a_cybergear(ctype, data16, target, payload, extended):
+       payload=st.binary(max_size=8), extended=st.booleans(), dlc=st.none() | st.integers(0, 15))
+def test_hypothesis_frames_at_a_cybergear(ctype, data16, target, payload, extended, dlc):
     motor = CyberGear(motor_id=1)
     motor.handle(can.Message(arbitration_id=cg.request_id(cg.T_ENABLE, 0xFD, 1), data=bytes(8),
                              is_extended_id=True), 0.0)
     can_id = (ctype << 24) | (data16 << 8) | target
     request = can.Message(arbitration_id=can_id if extended else can_id & 0x7FF, data=payload,
                           is_extended_id=extended, check=False)
+    if dlc is not None:  # a malformed object: dlc disagrees with the data
+        request.dlc = dlc
     exercise(motor, [request, request])
 
 
 @settings(max_examples=200, deadline=None)
-@given(can_id=st.integers(0, 0x7FF), payload=st.binary(max_size=8), extended=st.booleans())
-def test_hypothesis_frames_at_a_c620(can_id, payload, extended):
+@given(can_id=st.sampled_from([0x200, 0x1FF]) | st.integers(0, 0x7FF), payload=st.binary(max_size=8),
+       extended=st.booleans(), dlc=st.none() | st.integers(0, 15))
+def test_hypothesis_frames_at_a_c620(can_id, payload, extended, dlc):
     esc = C620(esc_id=1)
-    exercise(esc, [can.Message(arbitration_id=can_id, data=payload, is_extended_id=extended, check=False)] * 3)
+    request = can.Message(arbitration_id=can_id, data=payload, is_extended_id=extended, check=False)
+    if dlc is not None:
+        request.dlc = dlc
+    exercise(esc, [request] * 3)
     assert abs(esc.commanded_current(0.0)) <= 20.0
