@@ -1,9 +1,38 @@
 """pytest plugin (entry point ``wheelleg``): rig options, fixtures and markers.
 
 Installed with the package, so ``pip install wheelleg-hil`` is enough for a
-robot team's own tests to use ``rig_run``.
+robot team's own tests to use ``rig_run``::
+
+    def test_balance_holds_pitch(rig_run):
+        run = rig_run("balance", duration=2.0, seed=1)   # RigRun: a RunData + paths
+        run.assert_passed()                                # the scenario's own checks
+        assert abs(run.window("pitch", 1.0)).max() < 0.03  # arrays from the trace (s, rad)
+
+- ``rig_run(scenario, duration=None, seed=0)`` runs the scenario on the chosen
+  transport (``--can-interface``, ``--can-channels``) and reads the trace back.
+  Runs are cached for the session per (scenario, seed, duration), so several
+  tests can judge one run. Traces go to ``--rig-out`` (default: pytest's tmp).
+- ``@pytest.mark.socketcan``: skipped, with the reason and the way to get
+  vcan, when vcan0/vcan1 (or the ``--can-channels``) cannot be opened.
+- A failing test that used ``rig_run`` gets a "wheelleg rig" report section
+  naming the trace, the candump log and the commands to replay and inspect it.
+
+Importing this module must stay cheap (pytest loads it in every session of an
+environment where the package is installed): the rig is imported on first use.
 """
 from __future__ import annotations
+
+import argparse
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import pytest
+
+from hil.scenario import RunData
+
+_RUNS_OF_ITEM = pytest.StashKey[list]()
+_SOCKETCAN_HELP = "needs real SocketCAN vcan0/vcan1 (skipped with the reason when they are absent)"
 
 
 def pytest_addoption(parser):
@@ -12,3 +41,138 @@ def pytest_addoption(parser):
                     help="python-can interface the rig runs on (virtual, socketcan, ...)")
     group.addoption("--can-channels", default="vcan0,vcan1",
                     help="CAN1 (wheels) and CAN2 (joints) channels, comma separated")
+    group.addoption("--rig-out", default=None, metavar="DIR",
+                    help="keep rig_run traces and logs in DIR (default: pytest's temporary directory)")
+
+
+def pytest_configure(config):
+    config.addinivalue_line("markers", f"socketcan: {_SOCKETCAN_HELP}")
+
+
+def _channels(config) -> tuple[str, str]:
+    names = tuple(n.strip() for n in str(config.getoption("--can-channels")).split(","))
+    if len(names) != 2 or not all(names):
+        raise pytest.UsageError(f"--can-channels {config.getoption('--can-channels')!r}: "
+                                "need two names, CAN1 (wheels),CAN2 (joints)")
+    return names
+
+
+def socketcan_missing(channels: tuple[str, ...]) -> str | None:
+    """Why socketcan on ``channels`` cannot be used here, or None."""
+    try:
+        from hil import vcan
+    except ImportError:
+        vcan = None
+    if vcan is not None and hasattr(vcan, "unavailable_reason"):
+        return vcan.unavailable_reason(tuple(channels))
+    missing = [c for c in channels if not Path("/sys/class/net", c).exists()]
+    return f"no SocketCAN interface {', '.join(missing)} (run `wheelleg vcan up`)" if missing else None
+
+
+def pytest_runtest_setup(item):
+    if item.get_closest_marker("socketcan") is not None:
+        reason = socketcan_missing(_channels(item.config))
+        if reason:
+            pytest.skip(f"socketcan test: {reason}")
+
+
+# -- rig_run ---------------------------------------------------------------------------------
+@dataclass
+class RigRun(RunData):
+    """A scenario run read back from its trace (``RunData``) plus where it lies and how it was judged."""
+
+    trace_path: Path = Path()
+    log_path: Path = Path()
+    checks: list = field(default_factory=list)  # hil.scenario.CheckResult
+    scenario: str = ""
+    ticks: int = 0
+    deadline_misses: int = 0
+
+    @property
+    def failed_checks(self) -> list:
+        return [c for c in self.checks if not c.passed]
+
+    @property
+    def replay_command(self) -> str:
+        return f"wheelleg replay {self.trace_path}"
+
+    def describe(self) -> str:
+        """The lines a bug report needs: what ran, where the files are, how to replay."""
+        lines = [f"scenario {self.scenario} (seed {self.meta.get('seed', '?')}, {self.ticks} ticks, "
+                 f"{self.deadline_misses} deadline misses)",
+                 f"  trace:   {self.trace_path}",
+                 f"  log:     {self.log_path}",
+                 f"  replay:  {self.replay_command}",
+                 f"  inspect: wheelleg inspect {self.trace_path} --plot {self.trace_path.with_suffix('.inspect.png')}"]
+        lines += [f"  [{'PASS' if c.passed else 'FAIL'}] {c.name}: {c.detail}" for c in self.checks]
+        return "\n".join(lines)
+
+    def assert_passed(self) -> None:
+        """Fail with every failed check and the files when a scenario check did not pass."""
+        if self.failed_checks:
+            raise AssertionError(f"{len(self.failed_checks)} check(s) of {self.scenario} failed\n{self.describe()}")
+
+
+class _RunCache:
+    def __init__(self, out_dir: Path, interface: str, channels: tuple[str, str]):
+        self.out_dir, self.interface, self.channels = out_dir, interface, channels
+        self.runs: dict[tuple, RigRun] = {}
+        self.executed = 0  # rig runs actually done (the rest came from the cache)
+
+    def get(self, scenario: str, duration: float | None, seed: int) -> RigRun:
+        key = (scenario, int(seed), None if duration is None else float(duration))
+        run = self.runs.get(key)
+        if run is None:
+            run = self.runs[key] = self._execute(*key)
+        return run
+
+    def _execute(self, scenario: str, seed: int, duration: float | None) -> RigRun:
+        if self.interface == "socketcan":
+            reason = socketcan_missing(self.channels)
+            if reason:
+                pytest.skip(f"--can-interface socketcan: {reason}")
+        from hil.commands.run import execute  # the rig (MuJoCo, emulators) only when used
+        from hil.rundata import load_run
+
+        label = re.sub(r"[^A-Za-z0-9_.-]", "_", f"{scenario}-seed{seed}-{duration or 'full'}s")
+        args = argparse.Namespace(scenario=scenario, out=self.out_dir / label, interface=self.interface,
+                                  channels=",".join(self.channels), seed=seed, duration=duration,
+                                  realtime=False, external_controller=False, no_plot=True)
+        outcome, results = execute(args)
+        self.executed += 1
+        data = load_run(outcome.trace_path)
+        return RigRun(**vars(data), trace_path=outcome.trace_path, log_path=outcome.log_path,
+                      checks=list(results), scenario=scenario, ticks=outcome.ticks,
+                      deadline_misses=outcome.deadline_misses)
+
+
+@pytest.fixture(scope="session")
+def rig_cache(request, tmp_path_factory) -> _RunCache:
+    """The session's scenario runs, shared by every test (see ``rig_run``)."""
+    config = request.config
+    out = config.getoption("--rig-out")
+    out_dir = Path(out) if out else tmp_path_factory.mktemp("wheelleg-rig")
+    return _RunCache(out_dir, str(config.getoption("--can-interface")), _channels(config))
+
+
+@pytest.fixture
+def rig_run(request, rig_cache):
+    """``rig_run(scenario, duration=None, seed=0) -> RigRun``: run (or reuse) a scenario run."""
+    runs = request.node.stash.setdefault(_RUNS_OF_ITEM, [])
+
+    def run(scenario: str, duration: float | None = None, seed: int = 0) -> RigRun:
+        result = rig_cache.get(scenario, duration, seed)
+        if not any(r is result for r in runs):  # identity: RunData holds arrays
+            runs.append(result)
+        return result
+    return run
+
+
+@pytest.hookimpl(wrapper=True)
+def pytest_runtest_makereport(item, call):
+    report = yield
+    if report.failed and report.when == "call":
+        runs = item.stash.get(_RUNS_OF_ITEM, [])
+        if runs:
+            report.sections.append(("wheelleg rig", "\n\n".join(r.describe() for r in runs)))
+    return report

@@ -1,0 +1,97 @@
+"""The pytest plugin as a robot team uses it: rig_run, the socketcan marker, failure reports."""
+from __future__ import annotations
+
+import re
+
+import pytest
+
+from hil.cli import main
+
+pytest_plugins = ["pytester"]
+
+SCENARIO_TESTS = '''
+import numpy as np
+from hil.scenario import RunData
+
+SEEN = []
+
+def test_run_hands_back_arrays(rig_run):
+    run = rig_run("balance", duration=0.2, seed=1)
+    SEEN.append(run)
+    assert isinstance(run, RunData) and run.trace_path.is_file() and run.log_path.is_file()
+    assert run.ticks == 100 and len(run.state["t"]) == 100
+    assert run.meta["can1"] == "rigA" and run.meta["can2"] == "rigB" and run.meta["seed"] == "1"
+    assert len(run.heartbeat["t"]) == 100 and np.all(np.diff(run.heartbeat["Tick"]) == 1)
+
+def test_second_test_shares_the_run(rig_run, rig_cache):
+    run = rig_run("balance", duration=0.2, seed=1)
+    assert run is SEEN[0] and rig_cache.executed == 1
+
+def test_a_failing_scenario_test(rig_run):
+    run = rig_run("balance", duration=0.2, seed=1)
+    assert run.deadline_misses < 0, "deliberately failing"
+'''
+
+
+def test_rig_run_fixture_caches_runs_and_reports_failures(pytester):
+    pytester.makepyfile(test_scenarios=SCENARIO_TESTS)
+    out = pytester.path / "rig-out"
+    result = pytester.runpytest("-p", "no:cacheprovider", "--can-channels", "rigA,rigB", "--rig-out", str(out))
+    result.assert_outcomes(passed=2, failed=1)
+    text = result.stdout.str()
+    section = text[text.index("wheelleg rig"):]
+    trace = re.search(r"trace:\s+(\S+\.mcap)", section).group(1)
+    log = re.search(r"log:\s+(\S+\.log)", section).group(1)
+    assert trace.startswith(str(out)) and f"wheelleg replay {trace}" in section
+    assert f"wheelleg inspect {trace}" in section
+    assert "[PASS]" in section or "[FAIL]" in section  # the scenario's own checks are listed
+    # the replay command the report names works on the trace and on the log
+    assert main(["replay", trace]) == 0
+    assert main(["replay", log]) == 0
+    # passing tests get no rig section
+    assert text.count("wheelleg rig") == 1
+
+
+def test_socketcan_marker_and_transport_skip_with_a_reason(pytester):
+    pytester.makepyfile(test_sc='''
+import pytest
+
+@pytest.mark.socketcan
+def test_needs_vcan():
+    raise AssertionError("must not run without vcan")
+
+def test_rig_on_socketcan(rig_run):
+    rig_run("balance", duration=0.1)
+    raise AssertionError("must not run without vcan")
+''')
+    result = pytester.runpytest("-p", "no:cacheprovider", "-rs", "--can-interface", "socketcan",
+                                "--can-channels", "novcan8,novcan9")
+    result.assert_outcomes(skipped=2)
+    text = result.stdout.str()
+    assert "socketcan test: novcan8" in text and "--can-interface socketcan: novcan8" in text
+
+
+def test_options_and_marker_are_registered(pytester):
+    result = pytester.runpytest("--help")
+    text = result.stdout.str()
+    for option in ("--can-interface", "--can-channels", "--rig-out"):
+        assert option in text
+    markers = pytester.runpytest("--markers").stdout.str()
+    assert "@pytest.mark.socketcan" in markers
+
+
+def test_bad_channels_option_is_a_usage_error(pytester):
+    pytester.makepyfile(test_x="def test_x(rig_run):\n    pass\n")
+    result = pytester.runpytest("--can-channels", "onlyone")
+    assert result.ret != 0
+    assert "need two names" in result.stdout.str() + result.stderr.str()
+
+
+@pytest.mark.parametrize("name", ["hil.pytest_plugin"])
+def test_loading_the_plugin_does_not_import_the_rig(name):
+    import subprocess
+    import sys
+    code = (f"import sys, {name}; bad = [m for m in ('mujoco', 'hil.rig', 'emulators') if m in sys.modules];"
+            "print(bad); sys.exit(1 if bad else 0)")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stdout + done.stderr
