@@ -87,6 +87,7 @@ class Schedule:
     steps: list[TickStep]
     trailing: dict[str, list[int]]  # controller frames after the last heartbeat (not compared)
     skipped_inputs: int = 0  # CAN FD frames: a classic-CAN socket never delivers them
+    notes: list[str] = field(default_factory=list)
 
 
 def _groups(frames: list[BusFrame]):
@@ -127,14 +128,32 @@ def _check_pairing(source: TraceSource, groups: dict) -> None:
                              f"{frame.where()}: the controller restarted; cut the recording there")
 
 
-def _check_order(source: TraceSource) -> None:
+# A log written by the controller itself (python-can's CanutilsLogWriter via
+# ``python -m controller --log``) is in the order the controller handled the
+# frames, each received frame stamped when the bus delivered it: a frame read
+# after a tick's sends is stamped before them. Steps back up to this bound are
+# that reordering (file order is what replay uses); larger ones are a broken
+# clock or spliced logs.
+BACKSTEP_LIMIT_NS = 100_000_000
+
+
+def _check_order(source: TraceSource) -> list[str]:
+    """Raise on time going backwards on an interface; notes for small reordering steps."""
     last: dict[str, BusFrame] = {}
+    worst, count = 0, 0
     for f in source.frames:
         prev = last.get(f.channel)
         if prev is not None and f.t_ns < prev.t_ns:
-            raise TraceError(f"{source.path}: time goes backwards on {f.channel}: {prev.where()} "
-                             f"({prev.t_ns / 1e9:.6f} s) then {f.where()} ({f.t_ns / 1e9:.6f} s)")
+            if prev.t_ns - f.t_ns > BACKSTEP_LIMIT_NS:
+                raise TraceError(f"{source.path}: time goes backwards on {f.channel}: {prev.where()} "
+                                 f"({prev.t_ns / 1e9:.6f} s) then {f.where()} ({f.t_ns / 1e9:.6f} s)")
+            worst, count = max(worst, prev.t_ns - f.t_ns), count + 1
+            continue  # keep the latest time as the reference
         last[f.channel] = f
+    if not count:
+        return []
+    return [f"{count} frame(s) stamped up to {worst / 1e6:.3f} ms before the frame logged ahead of them "
+            "(the writer logged them in the order the controller read them); replay keeps the file order"]
 
 
 def _check_drops(source: TraceSource) -> None:
@@ -159,7 +178,7 @@ def build_schedule(source: TraceSource, mode: str | None = None, allow_drops: bo
     """Split the recording into ticks; raises ``TraceError`` when it cannot be replayed."""
     if not allow_drops:
         _check_drops(source)
-    _check_order(source)
+    order_notes = _check_order(source)
     groups, inputs, trailing = _groups(source.frames)
     _check_pairing(source, groups)
     mode = mode or detect_mode(source)
@@ -179,7 +198,7 @@ def build_schedule(source: TraceSource, mode: str | None = None, allow_drops: bo
         if mode != "sync":
             delivered.sort()  # free-run: the log's order across buses
         steps.append(TickStep(tick, frames[first].t_ns, [frames[i] for i in delivered], expected))
-    return Schedule(mode, steps, trailing, len(inputs) - len(usable))
+    return Schedule(mode, steps, trailing, len(inputs) - len(usable), order_notes)
 
 
 # -- comparing frames ------------------------------------------------------------------------
@@ -437,7 +456,7 @@ def _recorded_period(source: TraceSource) -> float | None:
 
 
 def _schedule_notes(source: TraceSource, schedule: Schedule, period: float) -> list[str]:
-    notes = []
+    notes = list(schedule.notes)
     frames = source.frames
     if schedule.steps:
         first = frames[schedule.steps[0].expected[CAN1][-1]]

@@ -193,6 +193,19 @@ def test_time_going_backwards_is_reported(robot, tmp_path, capsys):
     assert "time goes backwards on can0" in err and f"line {i + 1}" in err
 
 
+def test_small_steps_back_are_reordering_not_breakage(robot, tmp_path, capsys):
+    """The controller's own log (python-can writer) stamps a frame read after a tick's sends
+    with its earlier bus time; that is reordering within the bound, replayed in file order."""
+    lines = _lines(robot)
+    hb = [i for i, s in enumerate(lines) if " can0 710#" in s][10]
+    late = lines[hb + 1]
+    assert " can0 201#" in late  # the wheel frame that landed while the controller was sending
+    t_us = int(late[1:18].replace(".", "")) - 300
+    lines[hb + 1] = f"({t_us // 1_000_000:010d}.{t_us % 1_000_000:06d})" + late[19:]
+    assert main(["replay", str(_write(tmp_path / "reordered.log", lines))]) == 0
+    assert "1 frame(s) stamped up to 0.299 ms before" in capsys.readouterr().err  # 1 us after the heartbeat
+
+
 def test_unknown_channel_needs_explicit_channels(robot, tmp_path, capsys):
     lines = _insert_after(_lines(robot), lambda s: True, ["(1700000000.000001) can7 123#00\n"])
     path = _write(tmp_path / "other.log", lines)
