@@ -28,24 +28,20 @@ Exit-worthy problems (the file cannot be replayed) raise ``TraceError``.
 from __future__ import annotations
 
 import collections
-import json
 import math
-import subprocess
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import can
 
-import dbc
 from controller import params as P
 from controller.modes import Mode
 from controller.node import Controller, ControllerNode
+from hil.bug_report import environment_warnings
 from hil.trace_decode import FrameDecoder
 from hil.trace_source import (CAN1, CAN2, CONTROLLER_NODES, DBS, HEARTBEAT, ROLES, BusFrame,
                               TraceError, TraceSource, heartbeat_tick, is_heartbeat, is_sync,
                               open_trace, sent_by_controller)
 
-RUN_KEYS = ("scenario", "seed", "control_period_s", "git_revision", "controller_params", "can1", "can2")
 _DECODER = FrameDecoder(DBS)
 _START_MODES = (Mode.IDLE, Mode.ESTOP)  # what a fresh controller can report on its first tick
 
@@ -482,65 +478,3 @@ def _schedule_notes(source: TraceSource, schedule: Schedule, period: float) -> l
                 notes.append(f"warning: the log ticks every {measured * 1e3:.3f} ms, the controller's "
                              f"period is {period * 1e3:.3f} ms (--period)")
     return notes
-
-
-# -- the trace as a bug report ----------------------------------------------------------------
-def current_params() -> dict:
-    """The controller's tuning as the rig records it (``run.controller_params``)."""
-    params = {k: v for k, v in vars(P).items() if k.isupper()}
-    return json.loads(json.dumps(params, sort_keys=True, default=repr))
-
-
-def git_revision(cwd: Path | None = None) -> str:
-    try:
-        out = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True,
-                             cwd=cwd or Path(__file__).parent, timeout=5)
-        return out.stdout.strip() or "unknown"
-    except (OSError, subprocess.SubprocessError):
-        return "unknown"
-
-
-def bug_report_gaps(source: TraceSource) -> list[str]:
-    """What the trace lacks to be replayed on another machine ([] for a complete rig trace)."""
-    if source.kind != "mcap":
-        return ["a candump log carries no DBC files, MJCF, parameters, scenario, seed or revision: "
-                "replay uses what is installed here"]
-    gaps = [f"run metadata '{key}'" for key in RUN_KEYS if not source.run.get(key)]
-    gaps += [f"attachment {p.name}" for p in dbc.all_dbc_files() if p.name not in source.attachments]
-    if not any(name.endswith(".xml") for name in source.attachments):
-        gaps.append("MJCF attachment (*.xml)")
-    return gaps
-
-
-def environment_warnings(source: TraceSource) -> list[str]:
-    """Where this machine differs from the one that recorded: DBC files, revision, parameters."""
-    out = [f"trace lacks {gap}" for gap in bug_report_gaps(source)] if source.kind == "mcap" else []
-    installed = {p.name: p for p in dbc.all_dbc_files()}
-    for name, data in sorted(source.attachments.items()):
-        if not name.endswith(".dbc"):
-            continue
-        if name not in installed:
-            out.append(f"the trace's {name} is not installed in dbc/ (replay uses the installed files)")
-        elif installed[name].read_bytes() != data:
-            out.append(f"the trace's {name} differs from the installed dbc/{name}: replay encodes and "
-                       "decodes with the installed one, so ids or scales may have changed")
-    recorded = source.run.get("git_revision")
-    here = git_revision()
-    if recorded and recorded != "unknown" and here != "unknown" and recorded != here:
-        out.append(f"recorded at git revision {recorded[:12]}, this tree is at {here[:12]}")
-    out += _param_warnings(source)
-    return out
-
-
-def _param_warnings(source: TraceSource) -> list[str]:
-    text = source.run.get("controller_params")
-    if not text:
-        return []
-    try:
-        recorded = json.loads(text)
-    except ValueError:
-        return ["the trace's controller_params is not JSON"]
-    now = current_params()
-    changed = [f"{k}: {recorded.get(k)!r} -> {now.get(k)!r}" for k in sorted(set(recorded) | set(now))
-               if recorded.get(k) != now.get(k)]
-    return [f"controller parameters differ from the recording: {', '.join(changed)}"] if changed else []

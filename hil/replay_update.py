@@ -18,7 +18,8 @@ import can
 
 import dbc
 from hil.candump import CandumpWriter
-from hil.replay import ReplayResult, current_params, git_revision
+from hil.bug_report import current_params, git_revision
+from hil.replay import ReplayResult
 from hil.trace_source import DBS, ROLES, BusFrame
 
 DEBUG_TOPIC = "/controller/debug"

@@ -27,7 +27,8 @@ from dbc import cybergear as cg
 from dbc import truncating_raw
 from hil.candump import CandumpWriter
 from hil.recorder import Recorder
-from hil.replay import MemoryBus, git_revision
+from hil.bug_report import git_revision
+from hil.replay import MemoryBus
 from hil.trace import TraceWriter
 
 DB1, DB2 = dbc.load_bus("can1"), dbc.load_bus("can2")

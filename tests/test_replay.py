@@ -15,8 +15,8 @@ from controller.node import ControllerNode
 from dbc import cybergear as cg
 from hil.candump import CandumpWriter
 from hil.cli import main
-from hil.replay import (MemoryBus, bug_report_gaps, default_tolerances, environment_warnings,
-                        parse_tolerance, replay)
+from hil.bug_report import bug_report_gaps, environment_warnings
+from hil.replay import MemoryBus, default_tolerances, parse_tolerance, replay
 from hil.replay_update import write_reference
 from hil.trace import TraceReader, TraceWriter
 from hil.trace_source import open_trace, sent_by_controller

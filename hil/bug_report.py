@@ -1,0 +1,81 @@
+"""The trace as a bug report: does it carry what replay needs, and where does this machine differ?
+
+A rig trace records the run (scenario, seed, control period, bus channels, git
+revision, controller parameters as JSON) and attaches the DBC files and the
+MJCF, so another engineer can replay it elsewhere. ``bug_report_gaps`` lists
+what a trace lacks; ``environment_warnings`` lists where the installed tree
+differs from the recording (DBC files, revision, parameters), since replay
+runs today's controller with today's DBC files.
+"""
+from __future__ import annotations
+
+import json
+import subprocess
+from pathlib import Path
+
+import dbc
+from controller import params as P
+from hil.trace_source import TraceSource
+
+RUN_KEYS = ("scenario", "seed", "control_period_s", "git_revision", "controller_params", "can1", "can2")
+
+
+def current_params() -> dict:
+    """The controller's tuning as the rig records it (``run.controller_params``)."""
+    params = {k: v for k, v in vars(P).items() if k.isupper()}
+    return json.loads(json.dumps(params, sort_keys=True, default=repr))
+
+
+def git_revision(cwd: Path | None = None) -> str:
+    try:
+        out = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True,
+                             cwd=cwd or Path(__file__).parent, timeout=5)
+        return out.stdout.strip() or "unknown"
+    except (OSError, subprocess.SubprocessError):
+        return "unknown"
+
+
+def bug_report_gaps(source: TraceSource) -> list[str]:
+    """What the trace lacks to be replayed on another machine ([] for a complete rig trace)."""
+    if source.kind != "mcap":
+        return ["a candump log carries no DBC files, MJCF, parameters, scenario, seed or revision: "
+                "replay uses what is installed here"]
+    gaps = [f"run metadata '{key}'" for key in RUN_KEYS if not source.run.get(key)]
+    gaps += [f"attachment {p.name}" for p in dbc.all_dbc_files() if p.name not in source.attachments]
+    if not any(name.endswith(".xml") for name in source.attachments):
+        gaps.append("MJCF attachment (*.xml)")
+    return gaps
+
+
+def environment_warnings(source: TraceSource) -> list[str]:
+    """Where this machine differs from the one that recorded: DBC files, revision, parameters."""
+    out = [f"trace lacks {gap}" for gap in bug_report_gaps(source)] if source.kind == "mcap" else []
+    installed = {p.name: p for p in dbc.all_dbc_files()}
+    for name, data in sorted(source.attachments.items()):
+        if not name.endswith(".dbc"):
+            continue
+        if name not in installed:
+            out.append(f"the trace's {name} is not installed in dbc/ (replay uses the installed files)")
+        elif installed[name].read_bytes() != data:
+            out.append(f"the trace's {name} differs from the installed dbc/{name}: replay encodes and "
+                       "decodes with the installed one, so ids or scales may have changed")
+    recorded = source.run.get("git_revision")
+    here = git_revision()
+    if recorded and recorded != "unknown" and here != "unknown" and recorded != here:
+        out.append(f"recorded at git revision {recorded[:12]}, this tree is at {here[:12]}")
+    out += _param_warnings(source)
+    return out
+
+
+def _param_warnings(source: TraceSource) -> list[str]:
+    text = source.run.get("controller_params")
+    if not text:
+        return []
+    try:
+        recorded = json.loads(text)
+    except ValueError:
+        return ["the trace's controller_params is not JSON"]
+    now = current_params()
+    changed = [f"{k}: {recorded.get(k)!r} -> {now.get(k)!r}" for k in sorted(set(recorded) | set(now))
+               if recorded.get(k) != now.get(k)]
+    return [f"controller parameters differ from the recording: {', '.join(changed)}"] if changed else []
