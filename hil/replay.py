@@ -102,11 +102,19 @@ def _groups(frames: list[BusFrame]):
     return groups, inputs, pending
 
 
-def _check_pairing(source: TraceSource, groups: dict) -> None:
+def _check_pairing(source: TraceSource, groups: dict) -> list[str]:
+    """Raise unless both buses show the same heartbeat ticks; trims a last tick cut off by the file's end."""
     if not groups[CAN1] and not groups[CAN2]:
         raise TraceError(f"{source.path}: no controller frames (DBC senders {sorted(CONTROLLER_NODES)}, "
                          "heartbeat 0x%03X): replay needs the controller's own frames in the "
                          "recording to know its ticks" % HEARTBEAT.frame_id)
+    notes = []
+    longer = max(ROLES, key=lambda r: len(groups[r]))
+    shorter = CAN2 if longer == CAN1 else CAN1
+    if len(groups[longer]) == len(groups[shorter]) + 1 and groups[longer][-1][0] not in \
+            {t for t, _ in groups[shorter]}:  # the recording ends between the two heartbeats of a tick
+        tick, _ = groups[longer].pop()
+        notes.append(f"tick {tick} not compared: the recording ends before its heartbeat on {shorter}")
     ticks = {r: [t for t, _ in groups[r]] for r in ROLES}
     for k in range(max(len(ticks[CAN1]), len(ticks[CAN2]))):
         a = ticks[CAN1][k] if k < len(ticks[CAN1]) else None
@@ -122,6 +130,7 @@ def _check_pairing(source: TraceSource, groups: dict) -> None:
             frame = source.frames[groups[CAN1][k][1][-1]]
             raise TraceError(f"{source.path}: heartbeat tick goes from {ticks[CAN1][k - 1]} to {a} at "
                              f"{frame.where()}: the controller restarted; cut the recording there")
+    return notes
 
 
 # A log written by the controller itself (python-can's CanutilsLogWriter via
@@ -174,9 +183,11 @@ def build_schedule(source: TraceSource, mode: str | None = None, allow_drops: bo
     """Split the recording into ticks; raises ``TraceError`` when it cannot be replayed."""
     if not allow_drops:
         _check_drops(source)
+    if not source.frames:
+        raise TraceError(f"{source.path}: no CAN frames on {sorted(source.channels.values())}")
     order_notes = _check_order(source)
     groups, inputs, trailing = _groups(source.frames)
-    _check_pairing(source, groups)
+    order_notes += _check_pairing(source, groups)
     mode = mode or detect_mode(source)
     frames = source.frames
     usable = [i for i in inputs if not frames[i].is_fd]
@@ -458,7 +469,8 @@ def _schedule_notes(source: TraceSource, schedule: Schedule, period: float) -> l
         first = frames[schedule.steps[0].expected[CAN1][-1]]
         mode = HEARTBEAT.decode(first.data, decode_choices=False)["Mode"]
         if mode not in _START_MODES:
-            notes.append(f"warning: the recording starts with the controller in mode {Mode(mode).name} "
+            name = Mode(mode).name if mode in Mode._value2member_map_ else str(mode)
+            notes.append(f"warning: the recording starts with the controller in mode {name} "
                          f"(tick {schedule.steps[0].tick}); a fresh controller starts in IDLE, so replay "
                          "diverges at once: record from the controller's start")
     left = sum(len(v) for v in schedule.trailing.values())

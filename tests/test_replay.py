@@ -206,6 +206,37 @@ def test_small_steps_back_are_reordering_not_breakage(robot, tmp_path, capsys):
     assert "1 frame(s) stamped up to 0.299 ms before" in capsys.readouterr().err  # 1 us after the heartbeat
 
 
+def test_log_cut_inside_a_tick_replays_up_to_the_cut(robot, tmp_path, capsys):
+    lines = _lines(robot)
+    cut = [i for i, s in enumerate(lines) if " can0 710#" in s][100] + 1  # before tick 100's CAN2 frames
+    assert main(["replay", str(_write(tmp_path / "cut.log", lines[:cut]))]) == 0
+    captured = capsys.readouterr()
+    assert "100 ticks" in captured.out and "tick 100 not compared" in captured.err
+
+
+def test_killed_trace_replays_what_it_holds(tmp_path, capsys):
+    path = tmp_path / "killed.mcap"
+    rig = SyntheticRig(None, None)
+    rig.trace = TraceWriter(path, metadata=run_metadata(), attachments=attachments(), chunk_span_s=0.02,
+                            dbs={"vcan0": dbc.load_bus("can1"), "vcan1": dbc.load_bus("can2")})
+    rig.recorder.trace = rig.trace
+    rig.run(100)
+    data = path.read_bytes()
+    path.write_bytes(data[:len(data) * 2 // 3])  # what a killed writer leaves: no summary, no footer
+    assert main(["replay", str(path)]) == 0
+    captured = capsys.readouterr()
+    ticks = int(captured.out.split("identical (")[1].split(" ticks")[0])
+    assert 0 < ticks < 100 and "writer killed" in captured.err
+
+
+def test_controller_restart_in_a_log_is_reported(robot, tmp_path, capsys):
+    second = tmp_path / "second.log"
+    robot_log(second, 20, t0_us=1_700_000_010_000_000)  # the controller restarted 10 s later
+    path = _write(tmp_path / "restart.log", _lines(robot) + _lines(second))
+    assert main(["replay", str(path)]) == 2
+    assert f"tick goes from {TICKS - 1} to 0" in capsys.readouterr().err
+
+
 def test_unknown_channel_needs_explicit_channels(robot, tmp_path, capsys):
     lines = _insert_after(_lines(robot), lambda s: True, ["(1700000000.000001) can7 123#00\n"])
     path = _write(tmp_path / "other.log", lines)
