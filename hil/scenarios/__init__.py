@@ -2,9 +2,9 @@
 from __future__ import annotations
 
 from hil.scenario import Scenario
-from hil.scenarios import basic
+from hil.scenarios import airborne, basic, collisions, faults, ground
 
-_MODULES = (basic,)
+_MODULES = (basic, airborne, collisions, ground, faults)
 
 
 def all_scenarios() -> dict[str, Scenario]:
