@@ -30,6 +30,7 @@ error frames with class CAN_ERR_BUSERROR when the caller gives no class.
 """
 from __future__ import annotations
 
+import gzip
 import operator
 import re
 import time
@@ -266,7 +267,7 @@ class CandumpReader:
 
     def __iter__(self) -> Iterator[LogFrame]:
         last_t: int | None = None
-        with open(self.path, encoding="utf-8", errors="replace", newline=None) as f:
+        with open_log_text(self.path) as f:
             for line_no, line in enumerate(f, start=1):
                 text = line.strip()
                 if not text:
@@ -311,6 +312,18 @@ def _parse_line(text: str, line_no: int) -> LogFrame:
         raise ValueError(f"unknown direction {direction!r} (R or T)")
     return LogFrame(t_ns=parse_timestamp(parts[0]), channel=parts[1], direction=direction.upper(),
                     line_no=line_no, **parse_frame(parts[2]))
+
+
+GZIP_MAGIC = b"\x1f\x8b"
+
+
+def open_log_text(path):
+    """A candump log as text; gzip-compressed logs (``candump -L | gzip``) are read as they are."""
+    with open(path, "rb") as f:
+        compressed = f.read(2) == GZIP_MAGIC
+    if compressed:
+        return gzip.open(path, "rt", encoding="utf-8", errors="replace", newline=None)
+    return open(path, encoding="utf-8", errors="replace", newline=None)
 
 
 def read_candump(path, strict: bool = True) -> CandumpReader:

@@ -1,6 +1,7 @@
 """candump -L logs: writer, reader, and the players that must accept them (hil.candump)."""
 from __future__ import annotations
 
+import gzip
 import shutil
 import subprocess
 import sys
@@ -50,6 +51,14 @@ def test_same_input_gives_byte_identical_output(tmp_path):
     _write(tmp_path / "b.log")
     assert (tmp_path / "a.log").read_bytes() == (tmp_path / "b.log").read_bytes()
 
+
+
+def test_gzipped_log_reads_the_same_frames(tmp_path):
+    plain, packed = tmp_path / "a.log", tmp_path / "a.log.gz"
+    _write(plain)
+    packed.write_bytes(gzip.compress(plain.read_bytes()))
+    assert [f.line_no for f in read_candump(packed)] == [f.line_no for f in read_candump(plain)]
+    assert list(read_candump(packed)) == list(read_candump(plain))
 
 @settings(max_examples=200, deadline=None)
 @given(st.integers(0, 2**63 - 1))
