@@ -83,7 +83,7 @@ class C620(EmulatedDevice):
         self.last_command_s = now_s
         return []
 
-    def periodic(self, now_s: float) -> list[can.Message]:
+    def _periodic(self, now_s: float) -> list[can.Message]:
         if not self._schedule.due(now_s):
             return []
         return [self.feedback_frame(now_s)]

@@ -192,6 +192,10 @@ class CyberGear(EmulatedDevice):
         self._faults = self._faults | {name}
         self.mode = MODE_RESET
 
+    def _frame_key(self, msg: can.Message) -> int:
+        """Frozen replies repeat per communication type (the type-2 id changes with mode)."""
+        return cg.comm_type(msg.arbitration_id)
+
     # -- physics -----------------------------------------------------------------
     def output_torque(self, now_s: float) -> float:
         if self.mode != MODE_RUN or self._faults:

@@ -75,28 +75,60 @@ class EmulatedDevice(abc.ABC):
     ``advance``. ``handle`` never raises: an unexpected exception is a bug in
     the emulator, counted in ``internal_errors`` (the fuzz test asserts it
     stays 0) and answered with silence.
+
+    Fault policy (hil/faults.py sets it; one place for every device):
+    ``silent`` sends nothing (unplugged, dead); ``frozen`` repeats the last
+    frame of each kind (``_frame_key``) with a fresh time stamp instead of new
+    data (a hung firmware whose CAN peripheral still transmits); ``deaf``
+    ignores every received frame but keeps sending (a C620 then holds its
+    last current). Silent wins over frozen.
     """
 
     def __init__(self, shaft: Shaft | None = None):
         self.shaft = shaft if shaft is not None else Shaft()
         self.internal_errors = 0
+        self.silent = False
+        self.frozen = False
+        self.deaf = False
+        self._last_out: dict = {}  # _frame_key -> last frame sent, for ``frozen``
 
     def handle(self, msg: can.Message, now_s: float) -> list[can.Message]:
         """Reply frames to one received frame (empty: silence, as the real device)."""
+        if self.deaf:
+            return []
         try:
-            return self._handle(msg, now_s)
+            replies = self._handle(msg, now_s)
         except Exception:  # noqa: BLE001 - a device never crashes on input
             self.internal_errors += 1
             if self.internal_errors == 1:
                 log.exception("%s: internal error on frame %s", type(self).__name__, msg)
             return []
+        return self._emit(replies, now_s)
+
+    def _emit(self, frames: list[can.Message], now_s: float) -> list[can.Message]:
+        """Apply the fault policy to frames about to be sent."""
+        if self.silent:
+            return []
+        if self.frozen:
+            return [_restamped(self._last_out.get(self._frame_key(f), f), now_s) for f in frames]
+        for f in frames:
+            self._last_out[self._frame_key(f)] = f
+        return frames
+
+    def _frame_key(self, msg: can.Message):
+        """What makes two frames "the same kind" for ``frozen`` (the id, by default)."""
+        return msg.arbitration_id
 
     @abc.abstractmethod
     def _handle(self, msg: can.Message, now_s: float) -> list[can.Message]:
         """Device-specific reply logic (see ``handle``)."""
 
     def periodic(self, now_s: float) -> list[can.Message]:
-        """Frames due by ``now_s`` that the device sends on its own."""
+        """Frames due by ``now_s`` that the device sends on its own, after the fault policy."""
+        return self._emit(self._periodic(now_s), now_s)
+
+    def _periodic(self, now_s: float) -> list[can.Message]:
+        """Device-specific periodic frames (none by default)."""
         return []
 
     @abc.abstractmethod
@@ -232,6 +264,11 @@ def frame(arbitration_id: int, data: bytes, extended: bool, now_s: float) -> can
     """A transmitted frame stamped with simulated time (is_rx False)."""
     return can.Message(arbitration_id=arbitration_id, data=data, is_extended_id=extended,
                        timestamp=now_s, is_rx=False, check=False)
+
+
+def _restamped(msg: can.Message, now_s: float) -> can.Message:
+    """A copy of ``msg`` sent again at ``now_s`` (same id and data)."""
+    return frame(msg.arbitration_id, bytes(msg.data), msg.is_extended_id, now_s)
 
 
 def is_data_frame(msg: can.Message) -> bool:

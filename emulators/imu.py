@@ -79,7 +79,6 @@ class Imu(EmulatedDevice):
         self._codecs = [FrameCodec(db.get_message_by_name(name)) for name in FRAMES]
         self._fields = [tuple(FieldScale(codec.signals[name]) for name in names)
                         for codec, names in zip(self._codecs, FRAMES.values())]
-        self.silent = False
         self.set_truth((1.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, C.GRAVITY))
 
     def set_truth(self, quat_wxyz, gyro_body_rad_s, specific_force_body_m_s2) -> None:
@@ -96,8 +95,8 @@ class Imu(EmulatedDevice):
     def output_torque(self, now_s: float) -> float:
         return 0.0
 
-    def periodic(self, now_s: float) -> list[can.Message]:
-        if not self._schedule.due(now_s) or self.silent:
+    def _periodic(self, now_s: float) -> list[can.Message]:
+        if not self._schedule.due(now_s):
             return []
         return [frame(codec.frame_id, codec.encode_raw({f.name: f.rounded(v) for f, v in zip(fields, values)}),
                       False, now_s)

@@ -22,7 +22,6 @@ class Remote(EmulatedDevice):
         self._schedule = PeriodicSchedule(period_s)
         self.command = {"Mode": 0, "Jump": 0, "JumpForward": 0, "Reenable": 0, "SpeedX": 0.0,
                         "YawRate": 0.0, "LegLength": 0.17, "Pitch": 0.0, "Roll": 0.0}
-        self.silent = False
 
     def set(self, **signals) -> None:
         """Change what the remote asks, by Operator signal name (SI units)."""
@@ -34,8 +33,8 @@ class Remote(EmulatedDevice):
     def _handle(self, msg: can.Message, now_s: float) -> list[can.Message]:
         return []  # a remote listens to nobody
 
-    def periodic(self, now_s: float) -> list[can.Message]:
-        if not self._schedule.due(now_s) or self.silent:
+    def _periodic(self, now_s: float) -> list[can.Message]:
+        if not self._schedule.due(now_s):
             return []
         data = _OPERATOR.encode(self.command, strict=False)
         return [can.Message(arbitration_id=_OPERATOR.frame_id, data=data, is_extended_id=False,
