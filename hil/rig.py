@@ -28,6 +28,7 @@ from dbc import all_dbc_files, load_bus
 from emulators.physics import Physics
 from emulators.plant import CAN1, CAN2, Plant, PlantConfig
 from hil.candump import CandumpWriter
+from hil.held_bus import HeldBus
 from hil.recorder import Recorder, RecordingBus
 from hil.scenario import Scenario
 from hil.trace import TraceWriter
@@ -98,7 +99,10 @@ class Rig:
         self.log = CandumpWriter(self.log_path)
         self.recorder = Recorder(self.trace, self.log)
         self._raw = {k: _open_bus(config, ch) for k, ch in self.names.items()}
-        self.plant_buses = {k: RecordingBus(b, self.names[k], self.recorder, self._watch)
+        # Real transports deliver each socket's frames at their own pace: hold them
+        # until both heartbeats are in, then serve them in the virtual bus's order.
+        self._held = {} if config.interface == "virtual" else {k: HeldBus(b) for k, b in self._raw.items()}
+        self.plant_buses = {k: RecordingBus(self._held.get(k, b), self.names[k], self.recorder, self._watch)
                             for k, b in self._raw.items()}
         self.plant = Plant(self.physics, self.plant_buses, self.rng, config.plant)
         self.controller = None
@@ -129,13 +133,15 @@ class Rig:
 
     # -- lockstep ------------------------------------------------------------
     def _watch(self, channel: str, msg: can.Message) -> bool:
+        self._note_heartbeat(CAN1 if channel == self.names[CAN1] else CAN2, msg)
+        return True
+
+    def _note_heartbeat(self, bus: str, msg: can.Message) -> None:
         if msg.arbitration_id == _HEARTBEAT.frame_id and not msg.is_extended_id and msg.dlc == 8:
-            bus = CAN1 if channel == self.names[CAN1] else CAN2
             try:
                 self._heartbeat_seen[bus] = _HEARTBEAT.decode(bytes(msg.data))["Tick"]
             except Exception:
-                pass
-        return True
+                pass  # a malformed heartbeat counts as none: the deadline catches it
 
     def _send_sync(self, tick: int, t_s: float) -> None:
         data = _SYNC.encode({"Tick": tick})
@@ -148,6 +154,23 @@ class Rig:
             node.service(t_s)
 
     def _await_heartbeats(self, tick: int, t_s: float) -> bool:
+        if not self._held:
+            return self._await_heartbeats_virtual(tick, t_s)
+        deadline = time.monotonic() + self.config.deadline_s
+        while True:
+            for bus, held in self._held.items():
+                for msg in held.gather():
+                    self._note_heartbeat(bus, msg)
+            done = all(seen == tick for seen in self._heartbeat_seen.values())
+            if done or time.monotonic() > deadline:
+                break
+            if self.controller is not None:
+                self.controller.service()  # its SYNC may have been in flight
+            time.sleep(0.00005)
+        self._serve_plant(t_s)  # CAN1's held frames, then CAN2's: the virtual bus's order
+        return done
+
+    def _await_heartbeats_virtual(self, tick: int, t_s: float) -> bool:
         deadline = time.monotonic() + self.config.deadline_s
         while True:
             self._serve_plant(t_s)
