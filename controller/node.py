@@ -159,6 +159,8 @@ class ControllerNode:
         self._start = time.monotonic()
         self.ticks = 0
         self.last_result: TickResult | None = None
+        # When a list: (tick, monotonic s at its start) per tick, for the loop's timing statistics.
+        self.tick_log: list[tuple[int, float]] | None = None
 
     def now(self) -> float:
         if self.sync:
@@ -196,6 +198,8 @@ class ControllerNode:
             self._sync_tick[name] = tick
 
     def _run_tick(self, tick: int, now_s: float) -> None:
+        if self.tick_log is not None:
+            self.tick_log.append((tick, time.monotonic()))
         self._last_tick = tick
         result = self.controller.tick(tick, now_s)
         self.ticks += 1
@@ -217,9 +221,17 @@ class ControllerNode:
         try:
             while not stop.is_set():
                 if not self.service():
-                    time.sleep(idle_s)
+                    time.sleep(self._idle_s(idle_s))
         finally:
             self.disable()
+
+    def _idle_s(self, poll_s: float) -> float:
+        """How long to sleep when no tick ran: in sync mode poll every ``poll_s`` for
+        SYNC; free-running, sleep to the next period boundary (frames that arrive
+        meanwhile wait in the socket and are drained at the start of the tick)."""
+        if self.sync:
+            return poll_s
+        return min(max(0.0, (self._last_tick + 1) * self.period_s - self.now()), self.period_s)
 
     def disable(self) -> None:
         """Send the frames that stop every motor (SIGINT/SIGTERM, end of a run)."""
