@@ -42,6 +42,8 @@ class ImuNoise:
     accel_std_m_s2: float = 0.025
     accel_bias_m_s2: tuple[float, float, float] = (0.0, 0.0, 0.0)
     attitude_std_rad: float = 0.002
+    spike_probability: float = 0.0  # per sample: a gyro axis jumps by +-spike_rad_s (a glitch)
+    spike_rad_s: float = 0.0
 
     @classmethod
     def none(cls) -> "ImuNoise":
@@ -112,4 +114,11 @@ class Imu(EmulatedDevice):
         quat = tuple(q / norm for q in quat)
         gyro = tuple(g + b + n.gyro_std_rad_s * d for g, b, d in zip(self._gyro, n.gyro_bias_rad_s, draw[3:6]))
         accel = tuple(a + b + n.accel_std_m_s2 * d for a, b, d in zip(self._accel, n.accel_bias_m_s2, draw[6:9]))
+        if n.spike_probability > 0.0 and self.rng.random() < n.spike_probability:
+            gyro = self._spiked(gyro, n.spike_rad_s)
         return quat, gyro, accel
+
+    def _spiked(self, gyro: tuple, magnitude_rad_s: float) -> tuple:
+        """``gyro`` with one random axis off by +-``magnitude_rad_s`` (drawn only when spikes are on)."""
+        axis, sign = int(self.rng.integers(3)), (1.0 if self.rng.random() < 0.5 else -1.0)
+        return tuple(g + sign * magnitude_rad_s if i == axis else g for i, g in enumerate(gyro))

@@ -1,0 +1,534 @@
+"""Fault injection, scheduled from a scenario (issue 5).
+
+Every injector returns a list of ``Action``s: the fault's start and, when it
+has a duration, its end. The start's dict is its event in /scenario/events
+(kind ``fault_<name>``, with the target and ``duration_s``, None meaning to
+the end of the run); the end is a ``fault_end`` event naming the fault.
+
+Device faults set the emulated device's fault policy (emulators/device.py:
+``silent``, ``frozen``, ``deaf``) or its model (IMU noise, CyberGear fault
+bits). Frame faults act on one bus through ``BusFaults``, installed on the
+plant's ``RecordingBus`` the first time a fault needs it:
+
+- towards the controller (frames the plant sends): drop, delay (late or
+  jittered replies), corrupt, error frames after a frame, extra traffic from
+  a babbling node, and an arbitration model that makes plant frames wait for
+  the wire in CAN priority order and drops them when they wait too long;
+- towards the devices (frames the controller sent): drop. Such a frame is
+  still in the trace (it left the controller) but no device acts on it.
+
+The rig's lockstep frames (SYNC, Heartbeat) are never touched: they stand
+for the controller's clock, not for robot traffic, and without them there
+is no run. Random choices come from a generator seeded with the run's seed
+and the fault's name and start, so a scenario and seed give the same faults
+on every run and the IMU's noise stream is left as it was.
+"""
+from __future__ import annotations
+
+import zlib
+from dataclasses import dataclass, replace
+from typing import Callable
+
+import can
+import numpy as np
+
+from controller import constants as C
+from dbc import cybergear as cg
+from dbc import load_bus
+from hil.busload import DEFAULT_BITRATE, frame_bits
+from hil.scenario import Action
+
+_RIG = load_bus("can1")
+LOCKSTEP_IDS = frozenset(_RIG.get_message_by_name(n).frame_id for n in ("SYNC", "Heartbeat"))
+BUSES = ("can1", "can2")  # CAN1 = wheels, IMU, remote; CAN2 = joints
+TO_CONTROLLER, TO_DEVICES, BOTH = "to_controller", "to_devices", "both"
+# SocketCAN error class: protocol violation, bus error (linux/can/error.h)
+ERROR_FRAME_ID = 0x00000008 | 0x00000080
+
+
+# -- scheduling ---------------------------------------------------------------------
+def _window(kind: str, t_s: float, duration_s: float | None, start: Callable, end: Callable | None,
+            **fields) -> list[Action]:
+    """Start (and end) Actions of one fault; ``start(rig)`` may return extra event fields."""
+    if duration_s is not None and not duration_s > 0.0:
+        raise ValueError(f"{kind}: duration must be > 0 s or None, got {duration_s!r}")
+
+    def on(rig):
+        extra = start(rig) or {}
+        return {**fields, "t_s": t_s, "duration_s": duration_s, **extra}
+
+    actions = [Action(t_s, f"fault_{kind}", on)]
+    if duration_s is not None and end is not None:
+        def off(rig):
+            extra = end(rig) or {}
+            return {"fault": kind, **fields, **extra}
+
+        actions.append(Action(t_s + duration_s, "fault_end", off))
+    return actions
+
+
+def _device(rig, name: str):
+    devices = rig.plant.devices
+    if name not in devices:
+        raise KeyError(f"no device {name!r}; known: {', '.join(devices)}")
+    return devices[name]
+
+
+# -- device faults ----------------------------------------------------------------------
+def _policy(kind: str, flag: str, device: str, t_s: float, duration_s: float | None) -> list[Action]:
+    return _window(kind, t_s, duration_s, lambda rig: setattr(_device(rig, device), flag, True),
+                   lambda rig: setattr(_device(rig, device), flag, False), device=device)
+
+
+def silent(device: str, t_s: float, duration_s: float | None = None) -> list[Action]:
+    """``device`` sends nothing from ``t_s`` for ``duration_s`` (unplugged, dead)."""
+    return _policy("silent", "silent", device, t_s, duration_s)
+
+
+def frozen(device: str, t_s: float, duration_s: float | None = None) -> list[Action]:
+    """``device`` repeats its last frame of each kind instead of new data (hung firmware)."""
+    return _policy("frozen", "frozen", device, t_s, duration_s)
+
+
+def esc_hold(wheel: str, t_s: float, duration_s: float | None = None) -> list[Action]:
+    """A wheel ESC ignores every command and holds its last current; feedback goes on."""
+    if wheel not in {w.name for w in C.WHEELS}:
+        raise ValueError(f"esc_hold needs a wheel ({', '.join(w.name for w in C.WHEELS)}), got {wheel!r}")
+    return _policy("esc_hold", "deaf", wheel, t_s, duration_s)
+
+
+def cybergear_fault(joint: str, fault: str, t_s: float) -> list[Action]:
+    """A CyberGear latches ``fault`` (dbc.cybergear.FAULT_NAMES); only a clear-fault stop clears it."""
+    if fault not in cg.FAULT_NAMES:
+        raise ValueError(f"unknown CyberGear fault {fault!r}; expected one of {cg.FAULT_NAMES}")
+    return _window("cybergear", t_s, None, lambda rig: _device(rig, joint).inject_fault(fault), None,
+                   device=joint, fault=fault)
+
+
+def _imu_noise(kind: str, t_s: float, duration_s: float | None, **changes) -> list[Action]:
+    saved = {}
+
+    def start(rig):
+        imu = rig.plant.imu
+        saved["noise"] = imu.noise
+        imu.noise = replace(imu.noise, **changes)
+
+    def end(rig):
+        rig.plant.imu.noise = saved["noise"]
+
+    fields = {k: list(v) if isinstance(v, tuple) else v for k, v in changes.items()}
+    return _window(kind, t_s, duration_s, start, end, device="imu", **fields)
+
+
+def imu_bias(t_s: float, duration_s: float | None = None, gyro_bias_rad_s=(0.0, 0.0, 0.0),
+             accel_bias_m_s2=(0.0, 0.0, 0.0)) -> list[Action]:
+    """Constant offsets on the IMU's rate (rad/s) and specific force (m/s^2), body frame, shape (3,)."""
+    return _imu_noise("imu_bias", t_s, duration_s, gyro_bias_rad_s=tuple(map(float, gyro_bias_rad_s)),
+                      accel_bias_m_s2=tuple(map(float, accel_bias_m_s2)))
+
+
+def imu_noise(t_s: float, duration_s: float | None = None, *, gyro_std_rad_s: float,
+              accel_std_m_s2: float, attitude_std_rad: float) -> list[Action]:
+    """White noise per sample (1 sigma) on rate, specific force and attitude."""
+    return _imu_noise("imu_noise", t_s, duration_s, gyro_std_rad_s=gyro_std_rad_s,
+                      accel_std_m_s2=accel_std_m_s2, attitude_std_rad=attitude_std_rad)
+
+
+def imu_spikes(t_s: float, duration_s: float | None = None, *, probability: float,
+               magnitude_rad_s: float) -> list[Action]:
+    """With ``probability`` per sample one gyro axis is off by +-``magnitude_rad_s``."""
+    if not 0.0 <= probability <= 1.0:
+        raise ValueError(f"spike probability must be in [0, 1], got {probability!r}")
+    return _imu_noise("imu_spikes", t_s, duration_s, spike_probability=probability,
+                      spike_rad_s=magnitude_rad_s)
+
+
+# -- frame faults ------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Select:
+    """Which frames a frame fault touches: standard ``ids`` and/or CyberGear ``motors`` (None: all)."""
+
+    ids: frozenset | None = None
+    motors: frozenset | None = None
+
+    def matches(self, msg: can.Message, towards_controller: bool) -> bool:
+        if self.ids is None and self.motors is None:
+            return True
+        if msg.is_extended_id:
+            # a reply carries the motor in bits 15..8, a request its target in bits 7..0
+            motor = (msg.arbitration_id >> 8) & 0xFF if towards_controller else cg.target(msg.arbitration_id)
+            return self.motors is not None and motor in self.motors
+        return self.ids is not None and msg.arbitration_id in self.ids
+
+
+def _select(ids, motors) -> Select:
+    return Select(None if ids is None else frozenset(ids), None if motors is None else frozenset(motors))
+
+
+class FrameFault:
+    """One active fault on a bus; subclasses override what they act on."""
+
+    direction = TO_CONTROLLER
+
+    def __init__(self, select: Select, rng: np.random.Generator):
+        self.select, self.rng = select, rng
+        self.count = 0  # frames it acted on
+
+    def outbound(self, msg: can.Message, now_ns: int, bus: "BusFaults") -> list[can.Message]:
+        return [msg]
+
+    def inbound(self, msg: can.Message) -> bool:
+        """False: the devices never get ``msg``."""
+        return True
+
+
+class Drop(FrameFault):
+    def __init__(self, select, rng, rate: float, direction: str):
+        super().__init__(select, rng)
+        if direction not in (TO_CONTROLLER, TO_DEVICES, BOTH):
+            raise ValueError(f"direction must be {TO_CONTROLLER}, {TO_DEVICES} or {BOTH}, got {direction!r}")
+        self.rate, self.direction = _rate(rate), direction
+
+    def _drops(self) -> bool:
+        if self.rng.random() < self.rate:
+            self.count += 1
+            return True
+        return False
+
+    def outbound(self, msg, now_ns, bus):
+        return [] if self.direction != TO_DEVICES and self._drops() else [msg]
+
+    def inbound(self, msg):
+        return not (self.direction != TO_CONTROLLER and self._drops())
+
+
+class BusOff(Drop):
+    """Nothing crosses the bus either way (the controller's CAN peripheral is bus-off)."""
+
+    def __init__(self, select, rng):
+        super().__init__(select, rng, 1.0, BOTH)
+
+
+class Delay(FrameFault):
+    """Frames reach the controller ``delay_s`` + U(0, ``jitter_s``) late, in their order."""
+
+    def __init__(self, select, rng, delay_s: float, jitter_s: float):
+        super().__init__(select, rng)
+        if delay_s < 0.0 or jitter_s < 0.0:
+            raise ValueError(f"delay and jitter must be >= 0 s, got {delay_s!r}, {jitter_s!r}")
+        self.delay_ns, self.jitter_ns = round(delay_s * 1e9), round(jitter_s * 1e9)
+
+    def outbound(self, msg, now_ns, bus):
+        late = self.delay_ns + (int(self.rng.integers(self.jitter_ns + 1)) if self.jitter_ns else 0)
+        bus.hold(msg, now_ns + late)
+        self.count += 1
+        return []
+
+
+class Corrupt(FrameFault):
+    """With probability ``rate``: one data bit flipped ("bitflip") or the last byte lost ("truncate")."""
+
+    def __init__(self, select, rng, rate: float, how: str):
+        super().__init__(select, rng)
+        if how not in ("bitflip", "truncate"):
+            raise ValueError(f"corruption must be 'bitflip' or 'truncate', got {how!r}")
+        self.rate, self.how = _rate(rate), how
+
+    def outbound(self, msg, now_ns, bus):
+        if not len(msg.data) or self.rng.random() >= self.rate:
+            return [msg]
+        self.count += 1
+        data = bytearray(msg.data)
+        if self.how == "truncate":
+            data = data[:-1]
+        else:
+            bit = int(self.rng.integers(8 * len(data)))
+            data[bit // 8] ^= 1 << (bit % 8)
+        return [can.Message(arbitration_id=msg.arbitration_id, data=bytes(data), dlc=len(data),
+                            is_extended_id=msg.is_extended_id, timestamp=msg.timestamp, check=False)]
+
+
+class ErrorFrames(FrameFault):
+    """After a frame, with probability ``rate``, an error frame (a receiver flagged a bit error)."""
+
+    def __init__(self, select, rng, rate: float):
+        super().__init__(select, rng)
+        self.rate = _rate(rate)
+
+    def outbound(self, msg, now_ns, bus):
+        if self.rng.random() >= self.rate:
+            return [msg]
+        self.count += 1
+        return [msg, can.Message(arbitration_id=ERROR_FRAME_ID, is_error_frame=True, data=bytes(8),
+                                 timestamp=msg.timestamp, check=False)]
+
+
+class Babble(FrameFault):
+    """A node that floods the bus with ``frame_id`` frames worth ``load`` of its capacity."""
+
+    def __init__(self, select, rng, load: float, frame_id: int, extended: bool, bitrate: int):
+        super().__init__(select, rng)
+        if not load > 0.0:
+            raise ValueError(f"babble load must be > 0, got {load!r}")
+        self.frame_id, self.extended = frame_id, extended
+        self.data = bytes(8)
+        self.period_ns = frame_bits(frame_id, extended, self.data) * 1e9 / bitrate / load
+        self.next_ns: float | None = None
+
+    def outbound(self, msg, now_ns, bus):
+        if self.next_ns is None:
+            self.next_ns = float(now_ns)
+        out = []
+        while self.next_ns <= now_ns:
+            out.append(can.Message(arbitration_id=self.frame_id, data=self.data, is_extended_id=self.extended,
+                                   timestamp=self.next_ns / 1e9, check=False))
+            self.next_ns += self.period_ns
+        self.count += len(out)
+        return out + [msg]
+
+
+class Arbitration(FrameFault):
+    """Plant frames wait for the wire in CAN priority order; too old ones are dropped.
+
+    The controller's frames reach the devices at once (in the rig they are on
+    the virtual bus before the plant sees them), so they take the wire first,
+    as their ids mostly win anyway (CyberGear types 1/3/4 under type-2
+    replies, 0x200 under the C620 feedback). The plant's frames are then
+    sent one at a time: whenever the wire is free, the highest-priority frame
+    queued by then goes; one that waited more than ``max_wait_s`` is dropped,
+    as a node's transmit timeout aborts it.
+    """
+
+    def __init__(self, select, rng, bitrate: int, max_wait_s: float):
+        super().__init__(select, rng)
+        if not max_wait_s > 0.0:
+            raise ValueError(f"max_wait_s must be > 0, got {max_wait_s!r}")
+        self.bitrate, self.max_wait_ns = bitrate, round(max_wait_s * 1e9)
+        self.free_at_ns = 0
+        self.pending: list = []  # (queued ns, seq, msg)
+        self._seq = 0
+
+    def occupy(self, msg: can.Message, now_ns: int) -> None:
+        """A controller (or SYNC) frame takes the wire from ``now_ns``."""
+        self.free_at_ns = max(self.free_at_ns, now_ns) + self._wire_ns(msg)
+
+    def _wire_ns(self, msg: can.Message) -> int:
+        return frame_bits(msg.arbitration_id, msg.is_extended_id, bytes(msg.data)) * 1_000_000_000 // self.bitrate
+
+    def admit(self, frames: list, now_ns: int) -> list[can.Message]:
+        """Queue ``frames`` (each at its time stamp, at the latest ``now_ns``); those that won the wire by now."""
+        for msg in frames:
+            stamp = round(msg.timestamp * 1e9)
+            self._seq += 1
+            self.pending.append((stamp if 0 <= stamp <= now_ns else now_ns, self._seq, msg))
+        return self.release(now_ns)
+
+    def release(self, now_ns: int) -> list[can.Message]:
+        """Run the wire up to ``now_ns``: the frames sent, in order; late ones are dropped."""
+        sent = []
+        while self.pending:
+            t = max(self.free_at_ns, min(e[0] for e in self.pending))
+            if t > now_ns:
+                break
+            best = min((e for e in self.pending if e[0] <= t), key=lambda e: (priority(e[2]), e[1]))
+            self.pending.remove(best)
+            if t - best[0] > self.max_wait_ns:
+                self.count += 1  # aborted after waiting too long
+                continue
+            self.free_at_ns = t + self._wire_ns(best[2])
+            sent.append(best[2])
+        expired = [e for e in self.pending if now_ns - e[0] > self.max_wait_ns]
+        self.count += len(expired)
+        self.pending = [e for e in self.pending if now_ns - e[0] <= self.max_wait_ns]
+        return sent
+
+    def drain(self) -> list[can.Message]:
+        """Everything still waiting, in priority order (the model is being switched off)."""
+        waiting = [e[2] for e in sorted(self.pending, key=lambda e: (priority(e[2]), e[1]))]
+        self.pending = []
+        return waiting
+
+
+def priority(msg: can.Message) -> tuple:
+    """CAN arbitration order (smaller wins): base id, then standard before extended, then the extension."""
+    if msg.is_extended_id:
+        return (msg.arbitration_id >> 18, 1, msg.arbitration_id & 0x3FFFF)
+    return (msg.arbitration_id, 0, 0)
+
+
+def _rate(rate: float) -> float:
+    if not 0.0 <= rate <= 1.0:
+        raise ValueError(f"rate must be a probability in [0, 1], got {rate!r}")
+    return float(rate)
+
+
+class BusFaults:
+    """The frame faults active on one plant-side bus end (a ``hil.recorder.RecordingBus``).
+
+    It becomes the bus's ``outbox_filter`` and wraps its ``hook``; time is the
+    recorder's simulated clock (``now_ns``). Faults act in the order they
+    started; the arbitration model, when on, comes last. Frames held back
+    (delayed, or waiting for the wire) are released when the plant next puts
+    a frame on that bus at or after their time: at the latest at the next
+    SYNC, i.e. before the controller's next tick, which is when it matters in
+    lockstep. The trace shows them at their release.
+    """
+
+    def __init__(self, bus, clock: Callable[[], int]):
+        self.bus, self.clock = bus, clock
+        self.faults: list[FrameFault] = []
+        self.arbiter: Arbitration | None = None
+        self._held: list = []  # (release ns, seq, msg), release times non-decreasing
+        self._seq = 0
+        self._inner_hook = bus.hook
+        bus.hook = self.inbound
+        bus.outbox_filter = self.outbound
+
+    @classmethod
+    def of(cls, rig, bus: str) -> "BusFaults":
+        """The rig's fault layer on ``bus`` ("can1" or "can2"), installed on first use."""
+        if bus not in BUSES:
+            raise ValueError(f"bus must be one of {BUSES}, got {bus!r}")
+        end = rig.plant_buses[bus]
+        layer = getattr(end, "fault_layer", None)
+        if layer is None:
+            layer = end.fault_layer = cls(end, lambda: rig.recorder.now_ns)
+        return layer
+
+    def add(self, fault: FrameFault) -> None:
+        if isinstance(fault, Arbitration):
+            if self.arbiter is not None:
+                raise ValueError("arbitration is already modelled on this bus")
+            self.arbiter = fault
+        else:
+            self.faults.append(fault)
+
+    def remove(self, fault: FrameFault) -> None:
+        """End ``fault``; whatever it still held goes out at the next chance."""
+        if fault is self.arbiter:
+            self.arbiter = None
+            for msg in fault.drain():
+                self.hold(msg, self.clock())
+        else:
+            self.faults.remove(fault)
+
+    def hold(self, msg: can.Message, release_ns: int) -> None:
+        last = self._held[-1][0] if self._held else 0
+        self._seq += 1
+        self._held.append((max(release_ns, last), self._seq, msg))  # FIFO: a node's frames stay in order
+
+    def _released(self, now_ns: int) -> list[can.Message]:
+        out = []
+        while self._held and self._held[0][0] <= now_ns:
+            release_ns, _, msg = self._held.pop(0)
+            out.append(can.Message(arbitration_id=msg.arbitration_id, data=bytes(msg.data), dlc=msg.dlc,
+                                   is_extended_id=msg.is_extended_id, is_error_frame=msg.is_error_frame,
+                                   timestamp=release_ns / 1e9, check=False))
+        return out
+
+    def outbound(self, msg: can.Message) -> list[can.Message]:
+        """Frames that go on the wire, towards the controller, when the plant sends ``msg``."""
+        now = self.clock()
+        frames = self._released(now)
+        lockstep = _is_lockstep(msg)
+        if not lockstep:
+            frames.append(msg)
+            for fault in self.faults:
+                frames = [g for f in frames
+                          for g in (fault.outbound(f, now, self) if fault.select.matches(f, True) else [f])]
+        if self.arbiter is not None:
+            frames = self.arbiter.admit(frames, now)
+            if lockstep:
+                self.arbiter.occupy(msg, now)
+        return frames + [msg] if lockstep else frames
+
+    def inbound(self, channel: str, msg: can.Message) -> bool:
+        """False swallows a frame the controller sent before any device gets it."""
+        if self.arbiter is not None:
+            self.arbiter.occupy(msg, self.clock())
+        if not _is_lockstep(msg):
+            for fault in self.faults:
+                if fault.select.matches(msg, False) and not fault.inbound(msg):
+                    return False
+        return True if self._inner_hook is None else self._inner_hook(channel, msg)
+
+
+def _is_lockstep(msg: can.Message) -> bool:
+    return msg.arbitration_id in LOCKSTEP_IDS and not msg.is_extended_id and not msg.is_error_frame
+
+
+def _frame_fault(kind: str, bus: str, t_s: float, duration_s: float | None, make: Callable,
+                 **fields) -> list[Action]:
+    """Actions that add the fault ``make(rng)`` to ``bus`` at ``t_s`` and remove it after ``duration_s``.
+
+    The end event reports ``frames_affected``: how many frames the fault
+    dropped, delayed, corrupted, followed or sent.
+    """
+    active = {}
+
+    def start(rig):
+        seed = [int(rig.config.seed), zlib.crc32(f"{kind}:{bus}:{t_s!r}".encode())]
+        active["fault"] = make(np.random.default_rng(seed))
+        BusFaults.of(rig, bus).add(active["fault"])
+
+    def end(rig):
+        BusFaults.of(rig, bus).remove(active["fault"])
+        return {"frames_affected": active["fault"].count}
+
+    return _window(kind, t_s, duration_s, start, end, bus=bus, **fields)
+
+
+def frame_loss(bus: str, t_s: float, duration_s: float | None, rate: float, *, ids=None, motors=None,
+               direction: str = TO_CONTROLLER) -> list[Action]:
+    """Each selected frame is lost with probability ``rate`` (towards the controller, the devices or both)."""
+    sel = _select(ids, motors)
+    return _frame_fault("frame_loss", bus, t_s, duration_s, lambda rng: Drop(sel, rng, rate, direction),
+                        rate=rate, direction=direction, **_fields(sel))
+
+
+def frame_delay(bus: str, t_s: float, duration_s: float | None, delay_s: float, jitter_s: float = 0.0, *,
+                ids=None, motors=None) -> list[Action]:
+    """Late (``delay_s``) or jittered (+ U(0, ``jitter_s``)) frames towards the controller."""
+    sel = _select(ids, motors)
+    return _frame_fault("frame_delay", bus, t_s, duration_s, lambda rng: Delay(sel, rng, delay_s, jitter_s),
+                        delay_s=delay_s, jitter_s=jitter_s, **_fields(sel))
+
+
+def frame_corruption(bus: str, t_s: float, duration_s: float | None, rate: float, how: str = "bitflip", *,
+                     ids=None, motors=None) -> list[Action]:
+    """Selected frames towards the controller corrupted with probability ``rate``."""
+    sel = _select(ids, motors)
+    return _frame_fault("frame_corruption", bus, t_s, duration_s, lambda rng: Corrupt(sel, rng, rate, how),
+                        rate=rate, how=how, **_fields(sel))
+
+
+def error_frames(bus: str, t_s: float, duration_s: float | None, rate: float) -> list[Action]:
+    """An error frame after a frame with probability ``rate``."""
+    return _frame_fault("error_frames", bus, t_s, duration_s, lambda rng: ErrorFrames(Select(), rng, rate),
+                        rate=rate)
+
+
+def bus_off(bus: str, t_s: float, duration_s: float | None) -> list[Action]:
+    """Nothing crosses ``bus`` either way from ``t_s`` for ``duration_s``."""
+    return _frame_fault("bus_off", bus, t_s, duration_s, lambda rng: BusOff(Select(), rng))
+
+
+def babble(bus: str, t_s: float, duration_s: float | None, load: float, frame_id: int = 0x001,
+           extended: bool = False, bitrate: int = DEFAULT_BITRATE) -> list[Action]:
+    """A babbling node: ``frame_id`` frames (8 bytes) using ``load`` of the bus capacity."""
+    return _frame_fault("babble", bus, t_s, duration_s,
+                        lambda rng: Babble(Select(), rng, load, frame_id, extended, bitrate),
+                        load=load, frame_id=frame_id, extended=extended)
+
+
+def arbitration(bus: str, t_s: float = 0.0, duration_s: float | None = None, max_wait_s: float = 0.005,
+                bitrate: int = DEFAULT_BITRATE) -> list[Action]:
+    """Plant frames contend for the wire in priority order; after ``max_wait_s`` they are dropped."""
+    return _frame_fault("arbitration", bus, t_s, duration_s,
+                        lambda rng: Arbitration(Select(), rng, bitrate, max_wait_s),
+                        max_wait_s=max_wait_s, bitrate=bitrate)
+
+
+def _fields(sel: Select) -> dict:
+    return {"ids": None if sel.ids is None else sorted(sel.ids),
+            "motors": None if sel.motors is None else sorted(sel.motors)}
