@@ -111,6 +111,37 @@ def _wrap(angle: float) -> float:
     return (angle + math.pi) % (2 * math.pi) - math.pi
 
 
+def turn_lean(speed: float, yaw_rate: float) -> float:
+    """Roll (rad) that leans into a turn: -atan(v w / g), left side down turning left.
+
+    The body's weight and the centripetal force v w then add up along the
+    legs, as a cyclist leans (control_notes: lean into turns).
+    """
+    lean = math.atan(speed * yaw_rate / C.GRAVITY)
+    return -_clamp(lean, P.TURN_LEAN_LIMIT)
+
+
+def roll_leg_difference(roll_set_point: float, level_offset: float) -> float:
+    """Left minus right leg length (m): the feed-forward that tilts the body by
+    ``roll_set_point`` (rad) on flat ground, plus the levelling integral's
+    ``level_offset`` (m, the ground's own tilt), together within +-ROLL_LEVEL_LIMIT."""
+    feed_forward = 2.0 * C.HALF_TRACK * math.tan(roll_set_point)
+    return _clamp(feed_forward + level_offset, P.ROLL_LEVEL_LIMIT)
+
+
+def leg_targets(length: float, difference: float) -> dict:
+    """Leg length targets (m) by leg: mean ``length``, left minus right ``difference``.
+
+    When one leg would leave [LEG_LENGTH_MIN, LEG_LENGTH_MAX] both shift
+    together, so the difference (the body's level) is kept over the height.
+    """
+    length = min(max(length, P.LEG_LENGTH_MIN), P.LEG_LENGTH_MAX)
+    half = 0.5 * min(abs(difference), P.LEG_LENGTH_MAX - P.LEG_LENGTH_MIN)
+    mean = min(max(length, P.LEG_LENGTH_MIN + half), P.LEG_LENGTH_MAX - half)
+    sign = 1.0 if difference >= 0 else -1.0
+    return {"left": mean + sign * half, "right": mean - sign * half}
+
+
 def _clamp(value: float, limit: float) -> float:
     return max(-limit, min(limit, value))
 
@@ -126,6 +157,7 @@ class ChassisController:
         self.yaw_ref = 0.0  # rad
         self.leg_ref = {leg: P.LEG_LENGTH_NOMINAL for leg in LEGS}
         self.roll_offset = 0.0  # m, integral levelling: left minus right leg length
+        self.lean = 0.0  # rad, roll set point into a turn, lagging the command (TURN_LEAN_TAU)
         self.leg_integral = {leg: 0.0 for leg in LEGS}  # N
 
     def reset(self, bus: BusState) -> None:
@@ -133,11 +165,13 @@ class ChassisController:
         att = attitude(bus.imu)
         self.x = self.x_ref = 0.0
         self.speed_ref = 0.0
+        self.lean = 0.0
         self.yaw_ref = att.yaw
-        self.roll_offset = 0.0
         for leg in LEGS:
             self.leg_integral[leg] = 0.0
             self.leg_ref[leg] = leg_state(bus, leg, att).L0
+        # levelling starts from the legs as they stand (uneven ground: already apart)
+        self.roll_offset = _clamp(self.leg_ref["left"] - self.leg_ref["right"], P.ROLL_LEVEL_LIMIT)
 
     def step(self, bus: BusState, cmd: Command) -> Output:
         att = attitude(bus.imu)
@@ -174,11 +208,16 @@ class ChassisController:
         # keep the position error bounded so a push or a stall cannot wind it up
         self.x_ref = self.x + _clamp(self.x_ref - self.x, P.POSITION_ERROR_LIMIT)
         self.yaw_ref = _wrap(self.yaw_ref + _clamp(cmd.yaw_rate, P.YAW_RATE_LIMIT) * self.dt)
-        half = _clamp(self.roll_offset, P.ROLL_LEVEL_LIMIT) / 2
-        length = min(max(cmd.leg_length, P.LEG_LENGTH_MIN), P.LEG_LENGTH_MAX)
-        for leg, sign in (("left", 1.0), ("right", -1.0)):
-            target_leg = min(max(length + sign * half, P.LEG_LENGTH_MIN), P.LEG_LENGTH_MAX)
-            self.leg_ref[leg] += _clamp(target_leg - self.leg_ref[leg], P.LEG_LENGTH_RATE * self.dt)
+        target_lean = turn_lean(self.speed_ref, _clamp(cmd.yaw_rate, P.YAW_RATE_LIMIT))
+        self.lean += (target_lean - self.lean) * min(1.0, self.dt / P.TURN_LEAN_TAU)
+        diff = roll_leg_difference(self.roll_set_point(cmd), self.roll_offset)
+        targets = leg_targets(cmd.leg_length, diff)
+        for leg in LEGS:
+            self.leg_ref[leg] += _clamp(targets[leg] - self.leg_ref[leg], P.LEG_LENGTH_RATE * self.dt)
+
+    def roll_set_point(self, cmd: Command) -> float:
+        """Roll set point (rad, > 0 left side up): the command plus the lean into a turn."""
+        return cmd.roll + self.lean
 
     def _lqr(self, leg: LegState, speed: float, att: Attitude, cmd: Command) -> tuple[float, float]:
         """u = -K (x - x_ref): wheel torque T and virtual hip torque Tp (N m)."""
@@ -202,7 +241,7 @@ class ChassisController:
 
     def _roll(self, att: Attitude, cmd: Command) -> float:
         """Force added to the left leg (taken from the right): level the body."""
-        err = cmd.roll - att.roll  # roll > 0: left side up
+        err = self.roll_set_point(cmd) - att.roll  # roll > 0: left side up
         # seed 002: integrate the roll error into a leg-length difference
         self.roll_offset += P.ROLL_LEVEL_KI * err * self.dt
         self.roll_offset = _clamp(self.roll_offset, P.ROLL_LEVEL_LIMIT)

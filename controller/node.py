@@ -93,8 +93,9 @@ class Controller:
         stood = False
         if self.mode == Mode.STAND_UP:
             debug = self._last_debug
-            stood = all(abs(debug.get(f"{leg}_L0", 0) - op.leg_length) < 0.01 for leg in ("left", "right")) \
-                and abs(att.pitch) < 0.1
+            # the mean leg length: on uneven ground roll levelling sets the legs apart
+            mean_l0 = 0.5 * (debug.get("left_L0", 0) + debug.get("right_L0", 0))
+            stood = abs(mean_l0 - op.leg_length) < 0.01 and abs(att.pitch) < 0.1
             fallen = fallen or any(abs(debug.get(f"{leg}_theta", 0)) > P.FALL_THETA for leg in ("left", "right"))
         try:
             switch = Switch(op.mode)

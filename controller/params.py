@@ -33,7 +33,18 @@ ROLL_KP = 400.0  # N/rad, force difference between the legs (McMaster 600/10 at 
 ROLL_KD = 15.0  # N s/rad
 ROLL_FORCE_LIMIT = 25.0  # N
 ROLL_LEVEL_KI = 0.5  # (m/s)/rad: seed 002's integral levelling of the leg-length difference
-ROLL_LEVEL_LIMIT = 0.08  # m, largest left/right leg-length difference it may build
+# m, largest left/right leg-length difference (levelling + lean): 0.13 of the legs'
+# 0.14 m range levels a side slope up to atan(0.13 / 0.315) = 22 deg (aim: 15 deg)
+ROLL_LEVEL_LIMIT = 0.13
+# rad, largest lean into a turn (roll set point -atan(v w / g)): 20 deg is
+# 2 m/s at 1.8 rad/s; beyond it the leg difference (0.115 m) nears ROLL_LEVEL_LIMIT
+TURN_LEAN_LIMIT = 0.35
+# s, the lean follows the commanded turn through this lag: the yaw loop (YAW_KP 6/s)
+# takes ~0.17 s to reach the rate; a stepped lean (and 0.2 s) lifted the inner, then
+# the outer wheel at 1.5 m/s, 2 rad/s (turn-fast); 0.3 s keeps both >= 10 N. The
+# measured yaw rate is no better: lean -> leg difference -> yaw closes a loop that
+# toppled a straight sprint.
+TURN_LEAN_TAU = 0.3
 
 # --- split legs (keep both legs at the same angle) ------------------------------
 SPLIT_KP = 12.0  # N m/rad on Tp (Reborn 8/2, SZTU 10/1)
