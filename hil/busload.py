@@ -13,6 +13,8 @@ from __future__ import annotations
 import functools
 from dataclasses import dataclass, field
 
+from hil import schemas
+
 TRAILER_BITS = 1 + 2 + 7 + 3  # CRC delimiter, ACK slot + delimiter, EOF, intermission
 DEFAULT_BITRATE = 1_000_000  # bit/s
 
@@ -112,6 +114,8 @@ class BusClock:
     busy_ns_window: int = 0  # wire time used in the current 1 s window
     window_start_ns: int = 0
     history: list = field(default_factory=list)  # (window start ns, load fraction)
+    busy_ns_total: int = 0  # wire time of every frame so far (LoadMeter samples it)
+    frames_total: int = 0
 
     def transmit(self, now_ns: int, arbitration_id: int, is_extended: bool, data: bytes) -> int:
         """Put one frame on the wire no earlier than ``now_ns``; returns its end time (ns)."""
@@ -120,6 +124,8 @@ class BusClock:
         start = max(now_ns, self.free_at_ns)
         self.free_at_ns = start + duration
         self.busy_ns_window += duration
+        self.busy_ns_total += duration
+        self.frames_total += 1
         return self.free_at_ns
 
     def _roll_window(self, now_ns: int) -> None:
@@ -132,3 +138,52 @@ class BusClock:
         """Fraction of wire time used in the current window up to ``now_ns``."""
         span = max(now_ns - self.window_start_ns, 1)
         return min(self.busy_ns_window / span, 10.0)
+
+
+LOAD_TOPIC = "/bus/load"
+
+
+class LoadMeter:
+    """Bus load per bus over fixed windows of simulated time, written to the trace.
+
+    Every ``window_s`` it writes one ``/bus/load`` message per bus
+    (``hil.schemas.BUS_LOAD``): the wire time the bus's frames took in the
+    window (stuff bits included) over the window, i.e. busy seconds per
+    second. Frames are charged when they are put on the bus, so a demand
+    beyond the bus's capacity shows as a load above 1 (without an
+    arbitration model nothing is dropped). ``summary`` gives each bus's mean
+    and peak over the run.
+    """
+
+    def __init__(self, clocks: dict, trace=None, window_s: float = 0.1):
+        if not window_s > 0.0:
+            raise ValueError(f"window_s must be > 0, got {window_s!r}")
+        self.clocks, self.trace = clocks, trace  # channel -> BusClock (shared, filled as buses appear)
+        self.window_ns = round(window_s * 1e9)
+        self._start_ns = 0
+        self._busy = {}  # channel -> busy_ns_total at the window start
+        self._frames = {}
+        self.loads: dict = {}  # channel -> [load fraction per window]
+
+    def sample(self, now_ns: int, final: bool = False) -> None:
+        """Close the window if ``now_ns`` reached its end (or ``final`` and it is not empty)."""
+        span = now_ns - self._start_ns
+        if span < self.window_ns and not (final and span > 0):
+            return
+        for channel in sorted(self.clocks):
+            clock = self.clocks[channel]
+            busy = clock.busy_ns_total - self._busy.get(channel, 0)
+            frames = clock.frames_total - self._frames.get(channel, 0)
+            load = busy / span
+            self.loads.setdefault(channel, []).append(load)
+            if self.trace is not None:
+                self.trace.message(LOAD_TOPIC, now_ns, {
+                    "channel": channel,
+                    "window_start_s": self._start_ns / 1e9, "window_s": span / 1e9, "load": load,
+                    "frames": frames, "frames_per_s": frames / (span / 1e9)}, "wheelleg.BusLoad", schemas.BUS_LOAD)
+            self._busy[channel], self._frames[channel] = clock.busy_ns_total, clock.frames_total
+        self._start_ns = now_ns
+
+    def summary(self) -> dict:
+        """channel -> (mean, peak) load fraction over the windows so far."""
+        return {ch: (sum(v) / len(v), max(v)) for ch, v in self.loads.items() if v}

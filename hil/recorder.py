@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import can
 
-from hil.busload import BusClock
+from hil.busload import BusClock, LoadMeter
 
 
 class Recorder:
@@ -24,6 +24,7 @@ class Recorder:
         self.bitrate = bitrate
         self.now_ns = 0  # simulated time, set by the rig before each batch of frames
         self.frames = 0
+        self.load = LoadMeter(self.clocks, trace)  # /bus/load every 100 ms of bus time
 
     def clock(self, channel: str) -> BusClock:
         if channel not in self.clocks:
@@ -33,6 +34,7 @@ class Recorder:
     def observe(self, channel: str, msg: can.Message) -> int:
         """Record one frame on ``channel``; returns its bus time (ns)."""
         data = bytes(msg.data[:msg.dlc])
+        self.load.sample(self.now_ns)
         t_ns = self.clock(channel).transmit(self.now_ns, msg.arbitration_id, msg.is_extended_id, data)
         self.frames += 1
         if self.trace is not None:

@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from dbc import cybergear as cg
+from hil.busload import LOAD_TOPIC
 from hil.scenario import RunData
 from hil.trace import TraceReader
 
@@ -42,4 +43,15 @@ def load_run(path: Path | str) -> RunData:
         wheel_current=_currents(reader, can1),
         events=reader.events(),
         meta=dict(run_meta, truncated=reader.truncated),
+        bus_load=_bus_load(reader, {can1: "can1", can2: "can2"}),
     )
+
+
+def _bus_load(reader: TraceReader, buses: dict) -> dict:
+    """/bus/load per bus: "can1"/"can2" -> (window end t (n,) s, load (n,))."""
+    series = defaultdict(lambda: ([], []))
+    for t_ns, row in reader.topic(LOAD_TOPIC):
+        t, load = series[buses.get(row.get("channel"), row.get("channel"))]
+        t.append(t_ns / 1e9)
+        load.append(float(row["load"]))
+    return {k: (np.array(t), np.array(v)) for k, (t, v) in series.items()}

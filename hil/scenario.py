@@ -65,6 +65,7 @@ class RunData:
     wheel_current: dict  # esc id -> (t, current A) commanded
     events: list = field(default_factory=list)  # /scenario/events dicts with "t"
     meta: dict = field(default_factory=dict)
+    bus_load: dict = field(default_factory=dict)  # "can1"/"can2" -> (window end t (n,) s, load (n,) s/s)
 
     def window(self, key: str, t0: float, t1: float = np.inf) -> np.ndarray:
         """Values of a /sim/state field with t0 <= t < t1."""

@@ -10,6 +10,7 @@ Topics (the trace contract, issue 3 item 6):
   (``decoded_schema``), plus the CyberGear fields that live in the 29-bit id.
 - ``/sim/state``: simulation ground truth each control period (``sim_state_schema``).
 - ``/scenario/events``: ``{"kind": ..., ...}`` (``EVENT``).
+- ``/bus/load``: each bus's load per 100 ms window (``BUS_LOAD``).
 - anything else: a generic JSON channel (``inferred_schema`` or the caller's).
 """
 from __future__ import annotations
@@ -60,6 +61,25 @@ EVENT: dict = {
     "properties": {"kind": {"type": "string", "description": "what happened"}},
     "required": ["kind"],
     "additionalProperties": True,
+}
+
+
+BUS_LOAD: dict = {
+    "title": "wheelleg.BusLoad",
+    "description": "Load of one CAN bus over one window of simulated time (hil.busload.LoadMeter).",
+    "type": "object",
+    "properties": {
+        "channel": {"type": "string", "description": "interface name (vcan0 ...)"},
+        "window_start_s": {"type": "number", "description": "[s] simulated time the window starts"},
+        "window_s": {"type": "number", "description": "[s] window length"},
+        "load": {"type": "number", "minimum": 0,
+                 "description": "[s/s] wire time of the window's frames (stuff bits included) / window; "
+                                "above 1: demand beyond the bus capacity"},
+        "frames": {"type": "integer", "minimum": 0, "description": "frames put on the bus in the window"},
+        "frames_per_s": {"type": "number", "description": "[1/s] frame rate over the window"},
+    },
+    "required": ["channel", "window_start_s", "window_s", "load", "frames", "frames_per_s"],
+    "additionalProperties": False,
 }
 
 
@@ -136,3 +156,21 @@ def _infer(value: Any) -> dict:
 def schema_bytes(schema: dict) -> bytes:
     """Canonical JSON text of a schema (sorted keys: the same schema, the same bytes)."""
     return json.dumps(schema, sort_keys=True, separators=(",", ":")).encode()
+
+
+CONTROLLER_TIMING: dict = {
+    "title": "wheelleg.ControllerTiming",
+    "description": "Real-time mode: one free-running controller tick, timed on the wall clock "
+                   "(hil/loop_timing.py); log time = tick x control period.",
+    "type": "object",
+    "properties": {
+        "tick": {"type": "integer", "minimum": 0, "description": "tick number (floor of controller time / period)"},
+        "start_s": {"type": "number", "description": "[s] wall time of the tick's start since the first tick"},
+        "period_s": {"type": "number", "description": "[s] wall time since the previous tick's start"},
+        "jitter_s": {"type": "number", "description": "[s] period_s minus the nominal control period"},
+        "missed": {"type": "integer", "minimum": 0,
+                   "description": "periods before this tick in which no tick ran (missed deadlines)"},
+    },
+    "required": ["tick", "start_s", "period_s", "jitter_s", "missed"],
+    "additionalProperties": False,
+}
