@@ -65,6 +65,9 @@ class Command:
     leg_length: float = P.LEG_LENGTH_NOMINAL  # m
     pitch: float = 0.0  # rad, nose down positive
     roll: float = 0.0  # rad
+    airborne: bool = False  # in the air: wheels unpowered, legs held vertical (``_air_step``)
+    leg_force: float | None = None  # N per leg, open-loop push replacing the leg PID (jump)
+    hip_torque_limit: float = P.HIP_TORQUE_LIMIT  # N m, raised only for a jump's thrust
 
 
 @dataclass
@@ -74,6 +77,7 @@ class Output:
     hip_torque: dict = field(default_factory=dict)  # motor id -> shaft torque
     wheel_torque: dict = field(default_factory=dict)  # esc id -> output torque
     debug: dict = field(default_factory=dict)
+    legs: dict = field(default_factory=dict)  # leg name -> LegState this tick
 
 
 def _joints(leg: str) -> tuple[C.Joint, C.Joint]:
@@ -178,8 +182,10 @@ class ChassisController:
         legs = {leg: leg_state(bus, leg, att) for leg in LEGS}
         speed = 0.5 * (legs["left"].wheel_speed + legs["right"].wheel_speed)
         self.x += speed * self.dt
+        if cmd.airborne:
+            return self._air_step(legs, att, speed, cmd)
         self._track_references(cmd, att)
-        out = Output()
+        out = Output(legs=legs)
         wheel_t, tp = {}, {}
         for leg in LEGS:
             wheel_t[leg], tp[leg] = self._lqr(legs[leg], speed, att, cmd)
@@ -191,13 +197,44 @@ class ChassisController:
         wheel_t["right"] += yaw_t
         roll_f = self._roll(att, cmd)
         for leg, sign in (("left", 1.0), ("right", -1.0)):
-            force = self._leg_force(legs[leg], leg) + sign * roll_f
+            push = self._leg_force(legs[leg], leg) if cmd.leg_force is None else cmd.leg_force
+            force = push + sign * roll_f
             self._hips(out, leg, legs[leg], force, tp[leg])
             wheel = _LEG_WHEEL[leg]
             out.wheel_torque[wheel.esc_id] = wheel.forward_sign * _clamp(wheel_t[leg], P.WHEEL_TORQUE_LIMIT)
-        self._limit_hips(out)
+        self._limit_hips(out, cmd.hip_torque_limit)
         out.debug = self._debug(legs, att, speed, wheel_t, tp)
         return out
+
+    def _air_step(self, legs: dict, att: Attitude, speed: float, cmd: Command) -> Output:
+        """In the air (control_notes §1.8): wheel torque 0, a leg-angle PD holds each
+        leg vertical (theta -> 0), a leg PD without gravity feed-forward holds
+        ``cmd.leg_length`` (or ``cmd.leg_force`` pushes); no roll, no yaw. The
+        position and heading references follow the robot, so nothing winds up."""
+        self.x_ref, self.yaw_ref = self.x, att.yaw
+        out = Output(legs=legs)
+        wheel_t, tp = {}, {}
+        for leg in LEGS:
+            s = legs[leg]
+            self.leg_ref[leg] = min(max(cmd.leg_length, P.LEG_LENGTH_MIN), P.LEG_LENGTH_MAX)
+            wheel_t[leg] = 0.0
+            tp[leg] = -(P.AIR_THETA_KP * s.theta + P.AIR_THETA_KD * s.dtheta)
+            force = cmd.leg_force if cmd.leg_force is not None else _clamp(
+                P.LEG_KP * (self.leg_ref[leg] - s.L0) - P.LEG_KD * s.dL0, P.AIR_LEG_FORCE_LIMIT)
+            self._hips(out, leg, s, force, tp[leg])
+            out.wheel_torque[_LEG_WHEEL[leg].esc_id] = 0.0
+        self._limit_hips(out, cmd.hip_torque_limit)
+        out.debug = self._debug(legs, att, speed, wheel_t, tp)
+        return out
+
+    def touchdown(self, bus: BusState) -> None:
+        """Landing: the position reference resets to where the robot is and each leg's
+        set point starts from the length it landed with (it then slews back)."""
+        att = attitude(bus.imu)
+        self.x_ref, self.yaw_ref = self.x, att.yaw
+        for leg in LEGS:
+            self.leg_ref[leg] = leg_state(bus, leg, att).L0
+            self.leg_integral[leg] = 0.0
 
     # -- pieces ----------------------------------------------------------------
     def _track_references(self, cmd: Command, att: Attitude) -> None:
@@ -261,11 +298,11 @@ class ChassisController:
         out.hip_torque[rear.motor_id] = rear.sign * t4
 
     @staticmethod
-    def _limit_hips(out: Output) -> None:
+    def _limit_hips(out: Output, limit: float = P.HIP_TORQUE_LIMIT) -> None:
         """On saturation scale all four hips by one factor (McMaster): keeps direction."""
         peak = max(abs(t) for t in out.hip_torque.values())
-        if peak > P.HIP_TORQUE_LIMIT:
-            scale = P.HIP_TORQUE_LIMIT / peak
+        if peak > limit:
+            scale = limit / peak
             for key in out.hip_torque:
                 out.hip_torque[key] *= scale
 

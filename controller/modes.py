@@ -57,7 +57,8 @@ def _running(mode: Mode) -> bool:
 TRANSITIONS: tuple = (
     ("*", lambda m, i: i.switch == Switch.ESTOP and m != Mode.ESTOP, Mode.ESTOP),
     ("*", lambda m, i: _running(m) and not i.devices_ok, Mode.DISABLED),
-    ("*", lambda m, i: _running(m) and m not in (Mode.JUMP, Mode.AIRBORNE) and i.fallen, Mode.FALLEN),
+    # in JUMP and AIRBORNE the controller judges "fallen" with wider limits (node.py)
+    ("*", lambda m, i: _running(m) and i.fallen, Mode.FALLEN),
     ((Mode.ESTOP, Mode.IDLE), lambda m, i: i.switch != Switch.ESTOP and i.devices_ok and i.can_rise,
      Mode.STAND_UP),
     ((Mode.DISABLED, Mode.FALLEN), lambda m, i: i.reenable and i.devices_ok and i.switch != Switch.ESTOP,

@@ -19,9 +19,10 @@ from dataclasses import dataclass, field
 import can
 
 from controller import constants as C
-from controller import detect, messages
+from controller import detect, messages, support
 from controller import params as P
 from controller.chassis import ChassisController, Command, attitude
+from controller.jump import JumpSequencer, Phase
 from controller.modes import ENABLED, Inputs, Mode, Switch, next_mode
 from controller.state import CAN1, CAN2, BusState
 
@@ -47,8 +48,13 @@ class Controller:
         self.bus = BusState()
         self.chassis = ChassisController(period_s)
         self.mode = Mode.IDLE
-        self._last_buttons = (False, False)  # reenable, jump
+        self._last_buttons = (False, False, False)  # reenable, jump, jump forward
         self._last_debug: dict = {}
+        self.support = {leg: support.SupportEstimator(period_s) for leg in ("left", "right")}
+        self.fn = {"left": 0.0, "right": 0.0}  # N, this tick's support force estimates
+        self.contact = support.ContactDebounce(period_s)
+        self.jump = JumpSequencer(period_s)
+        self._jump_forward = False  # the jump asked for is JumpForward
 
     def on_frame(self, msg: can.Message, bus: str, now_s: float) -> int | None:
         """Take one received frame; returns the SYNC tick counter if it is a SYNC."""
@@ -67,6 +73,10 @@ class Controller:
         inputs = self._inputs(report.balance_ok and not faulted)
         previous, self.mode = self.mode, next_mode(self.mode, inputs)
         result = TickResult(mode=self.mode, report=report)
+        if self.mode == Mode.JUMP and previous != Mode.JUMP:
+            self.jump.start(forward=self._jump_forward)
+        elif previous == Mode.AIRBORNE and self.mode == Mode.BALANCE:
+            self.chassis.touchdown(self.bus)
         if self.mode in ENABLED and previous not in ENABLED:
             self._enable(result, now_s)
         elif self.mode in ENABLED:
@@ -87,9 +97,14 @@ class Controller:
         op = self.bus.operator
         reenable_edge = op.reenable and not self._last_buttons[0]
         jump_edge = op.jump and not self._last_buttons[1]
-        self._last_buttons = (op.reenable, op.jump)
+        forward_edge = op.jump_forward and not self._last_buttons[2]
+        self._last_buttons = (op.reenable, op.jump, op.jump_forward)
+        if jump_edge or forward_edge:
+            self._jump_forward = forward_edge
         att = attitude(self.bus.imu)
         fallen = abs(att.pitch) > P.FALL_PITCH or abs(att.roll) > P.FALL_ROLL
+        if self.mode in (Mode.JUMP, Mode.AIRBORNE):  # tumbling in the air: wider limits
+            fallen = abs(att.pitch) > P.FALL_PITCH_AIR or abs(att.roll) > P.FALL_ROLL_AIR
         stood = False
         if self.mode == Mode.STAND_UP:
             debug = self._last_debug
@@ -101,9 +116,9 @@ class Controller:
             switch = Switch(op.mode)
         except ValueError:
             switch = Switch.ESTOP  # an unknown switch position is treated as E-stop
-        return Inputs(switch=switch, devices_ok=devices_ok, reenable=reenable_edge, jump=jump_edge,
-                      fallen=fallen, stood_up=stood, off_ground=False, jump_done=True,
-                      can_rise=not fallen)
+        return Inputs(switch=switch, devices_ok=devices_ok, reenable=reenable_edge,
+                      jump=jump_edge or forward_edge, fallen=fallen, stood_up=stood,
+                      off_ground=self.contact.airborne, jump_done=self.jump.done, can_rise=not fallen)
 
     # -- what each kind of tick sends --------------------------------------------
     def _enable(self, result: TickResult, now_s: float) -> None:
@@ -114,18 +129,51 @@ class Controller:
                                     messages.joint_enable(joint.motor_id, t_s=now_s)]
         result.frames[CAN1].append(messages.wheel_currents({}, t_s=now_s))
         self.chassis.reset(self.bus)
+        self.contact.reset()
 
     def _run(self, result: TickResult, now_s: float) -> None:
-        op = self.bus.operator
-        moving = self.mode == Mode.MOVE
-        cmd = Command(speed=op.speed if moving else 0.0, yaw_rate=op.yaw_rate if moving else 0.0,
-                      leg_length=op.leg_length, pitch=op.pitch, roll=op.roll)
+        cmd = self._command()
         out = self.chassis.step(self.bus, cmd)
+        self._update_support(out.legs)
         for joint in C.JOINTS:
             result.frames[CAN2].append(messages.joint_torque(joint.motor_id, out.hip_torque[joint.motor_id], now_s))
         currents = {esc: t / C.M3508_TORQUE_CONSTANT for esc, t in out.wheel_torque.items()}
         result.frames[CAN1].append(messages.wheel_currents(currents, now_s))
+        out.debug.update(Fn_left=self.fn["left"], Fn_right=self.fn["right"], jump_phase=int(self.jump.phase))
         result.debug = self._last_debug = out.debug
+
+    def _command(self) -> Command:
+        """What the chassis does this tick, by mode."""
+        op = self.bus.operator
+        moving = self.mode == Mode.MOVE
+        cmd = Command(speed=op.speed if moving else 0.0, yaw_rate=op.yaw_rate if moving else 0.0,
+                      leg_length=op.leg_length, pitch=op.pitch, roll=op.roll)
+        if self.mode == Mode.AIRBORNE:
+            cmd.airborne, cmd.leg_length = True, P.AIR_LEG_LENGTH
+        elif self.mode == Mode.JUMP:
+            self._jump_command(cmd)
+        return cmd
+
+    def _jump_command(self, cmd: Command) -> None:
+        """Fill ``cmd`` from the jump table's phase (controller/jump.py)."""
+        lengths = tuple(self._last_debug.get(f"{leg}_L0", P.LEG_LENGTH_NOMINAL) for leg in ("left", "right"))
+        touching = max(self.fn.values()) > P.FN_ON
+        jc = self.jump.step(lengths, touching)
+        if self.jump.entered == Phase.LAND:
+            self.chassis.touchdown(self.bus)
+        ahead = self._jump_forward and jc.phase in (Phase.SQUAT, Phase.THRUST, Phase.RETRACT, Phase.FLIGHT)
+        cmd.speed, cmd.yaw_rate = (P.JUMP_FORWARD_SPEED if ahead else 0.0), 0.0
+        cmd.airborne, cmd.leg_force, cmd.hip_torque_limit = jc.airborne, jc.leg_force, jc.hip_torque_limit
+        if jc.leg_length is not None:
+            cmd.leg_length = jc.leg_length
+
+    def _update_support(self, legs: dict) -> None:
+        """Fn per leg (seed's leg_fn_cal) and the debounced off-ground state."""
+        imu = self.bus.imu
+        accel_z = support.vertical_accel(imu.quat, imu.accel)
+        for leg, state in legs.items():
+            self.fn[leg] = self.support[leg].update(support.leg_measurement(self.bus.joints, leg, state), accel_z)
+        self.contact.update(self.fn["left"], self.fn["right"])
 
     def _disabled(self, result: TickResult, now_s: float) -> None:
         """Motors off: a stop frame to every joint each tick.

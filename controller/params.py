@@ -71,3 +71,39 @@ FALL_PITCH = 0.6  # rad, beyond it the robot has fallen (rm_controllers)
 FALL_THETA = 0.9  # rad
 FALL_ROLL = 0.8  # rad
 STAND_UP_TIME = 1.0  # s, leg length ramps from where it is to the set point
+
+# --- support force and off-ground detection (controller/support.py) ------------------
+# control_notes §1.8: teams use 10-20 N on 10-15 kg robots; this one's static Fn is
+# ~22.7 N per wheel, so thresholds scale to 7 N (off) / 12 N (on). The gap is the
+# hysteresis; the debounce rides out a wheel bouncing off a bump.
+FN_OFF = 7.0  # N, both legs below it ...
+FN_ON = 12.0  # N, either leg above it: touching
+OFF_GROUND_DEBOUNCE = 0.030  # s below FN_OFF before airborne (20-60 ms, tulingzt 60 ms)
+TOUCHDOWN_DEBOUNCE = 0.006  # s above FN_ON before landed: short, the wheels need power soon
+FN_FILTER_TAU = 0.008  # s, low-pass of the Fn estimate (an impact is a few ms long)
+FN_DERIVATIVE_TAU = 0.010  # s, low-pass on the differenced ddL0 and ddtheta
+
+# --- in the air (control_notes §1.8, §6 "In-air") -----------------------------------------
+AIR_THETA_KP = 5.0  # N m/rad, leg-angle PD on Tp (I ~0.014 kg m^2 -> ~20 rad/s)
+AIR_THETA_KD = 0.4  # N m s/rad
+AIR_LEG_LENGTH = 0.20  # m, long legs in the air leave stroke to absorb the landing
+AIR_LEG_FORCE_LIMIT = 40.0  # N, leg PD clamp in the air (no gravity feed-forward there)
+
+# --- jump (controller/jump.py; control_notes §1.9 mapped to this robot) --------------------
+JUMP_SQUAT_LENGTH = 0.12  # m, lowest leg length of the K(L0) fit: the longest stroke
+JUMP_SQUAT_MIN_S = 0.15  # s, settle in the squat before pushing
+JUMP_SQUAT_TIMEOUT = 0.8  # s, push anyway if the squat is not reached
+JUMP_THRUST_FORCE = 100.0  # N per leg on top of gravity, Hermite decay over the stroke
+JUMP_THRUST_END_LENGTH = 0.25  # m, thrust ends near full stretch (K fit ends at 0.26)
+JUMP_THRUST_TIMEOUT = 0.25  # s
+JUMP_HIP_TORQUE_LIMIT = 12.0  # N m, the CyberGear's peak, only while thrusting/retracting
+JUMP_RETRACT_FORCE = 40.0  # N per leg pulling the wheels up
+JUMP_RETRACT_LENGTH = 0.14  # m, retract until the legs are this short
+JUMP_RETRACT_TIMEOUT = 0.15  # s
+JUMP_LAND_LENGTH = 0.18  # m, legs held here in flight: stroke to absorb the landing
+JUMP_FLIGHT_MIN_S = 0.02  # s, ignore the retraction's own Fn transient
+JUMP_FLIGHT_TIMEOUT = 1.0  # s
+JUMP_LAND_TIME = 0.4  # s balancing before the jump counts as done
+JUMP_FORWARD_SPEED = 0.8  # m/s held from squat to landing by JumpForward
+FALL_PITCH_AIR = 1.2  # rad, in JUMP/AIRBORNE: the body swings more in the air, a tumble is past this
+FALL_ROLL_AIR = 1.2  # rad

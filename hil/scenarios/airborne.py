@@ -1,4 +1,268 @@
-"""Issue 4: jumps, drops, falls, E-stop and pose set points."""
+"""Issue 4: jumps, drops, falls, E-stop and pose set points.
+
+The sized scenarios come from factories (``jump_scenario(clearance_m)``,
+``jump_step_scenario(step_height_m)``, ``drop_scenario(height_m)``) so a
+search can find the largest that passes; the default instances are in
+``SCENARIOS``. Every check reads the trace only: /sim/state (wheel normal
+forces and clearances, pose), the heartbeat's Mode, and the commanded hip
+torques and wheel currents.
+"""
 from __future__ import annotations
 
-SCENARIOS: tuple = ()
+import numpy as np
+
+from emulators.physics import TerrainFeature
+from hil.scenario import Check, RunData, Scenario
+from hil.scenarios.common import DEG, no_deadline_miss, push, remote, stand
+
+# rig.dbc Heartbeat.Mode
+ESTOP, STAND_UP, BALANCE, MOVE, JUMP, AIRBORNE, FALLEN = 0, 2, 3, 4, 5, 6, 7
+MODE_NAMES = {0: "ESTOP", 1: "IDLE", 2: "STAND_UP", 3: "BALANCE", 4: "MOVE", 5: "JUMP", 6: "AIRBORNE",
+              7: "FALLEN", 8: "DISABLED"}
+NOMINAL = 0.17  # m, standing leg length
+OFF_GROUND_N = 0.5  # N, a wheel normal force below this is "off the ground" (contact noise ~0)
+TORQUE_OFF_NM = 0.05  # N m, |hip torque| that counts as off (CyberGear 16-bit step 0.0004)
+CURRENT_OFF_A = 0.05  # A, |wheel current| that counts as off
+REMOTE_PERIOD_S = 0.02  # s, the remote's frame period: a switch reaches the bus within it
+CONTROL_PERIOD_S = 0.002  # s
+
+
+def standing(leg_length: float = NOMINAL, drop_height_m: float = 0.0, x_m: float = 0.0):
+    return lambda physics: physics.reset_standing(leg_length_m=leg_length, drop_height_m=drop_height_m, x_m=x_m)
+
+
+# -- trace helpers -------------------------------------------------------------------
+def first_mode(run: RunData, mode: int, after_s: float = 0.0) -> float | None:
+    """Time (s) of the first heartbeat in ``mode`` at or after ``after_s``, or None."""
+    t, m = run.heartbeat["t"], run.heartbeat["Mode"]
+    hits = t[(m == mode) & (t >= after_s)]
+    return float(hits[0]) if len(hits) else None
+
+
+def airborne_spans(run: RunData) -> list[tuple[float, float]]:
+    """(start, end) s of the spans with both wheels' normal force below OFF_GROUND_N."""
+    s = run.state
+    off = (s["left_normal_force"] < OFF_GROUND_N) & (s["right_normal_force"] < OFF_GROUND_N)
+    edges = np.diff(np.concatenate(([0], off.astype(int), [0])))
+    starts, ends = np.nonzero(edges == 1)[0], np.nonzero(edges == -1)[0] - 1
+    return [(float(s["t"][a]), float(s["t"][b])) for a, b in zip(starts, ends)]
+
+
+def peak_clearance(run: RunData, t0: float = 0.0) -> float:
+    """Highest clearance (m) of the lower wheel's bottom above the ground below it, after t0."""
+    low = np.minimum(run.window("left_wheel_clearance", t0), run.window("right_wheel_clearance", t0))
+    return float(np.max(low)) if len(low) else float("nan")
+
+
+def torque_after(run: RunData, t0: float, t1: float = np.inf) -> tuple[float, float]:
+    """Largest |hip torque| (N m) and |wheel current| (A) commanded in [t0, t1)."""
+    hip = max((float(np.max(np.abs(tau[(t >= t0) & (t < t1)]), initial=0.0))
+               for t, tau in run.hip_torque.values()), default=0.0)
+    wheel = max((float(np.max(np.abs(i[(t >= t0) & (t < t1)]), initial=0.0))
+                 for t, i in run.wheel_current.values()), default=0.0)
+    return hip, wheel
+
+
+# -- checks --------------------------------------------------------------------------
+def leaves_ground(min_s: float = 0.05) -> Check:
+    def fn(run: RunData):
+        spans = airborne_spans(run)
+        longest = max((b - a for a, b in spans), default=0.0)
+        return longest >= min_s, f"longest time with both wheels off the ground {longest * 1000:.0f} ms (need {min_s * 1000:g})"
+
+    return Check(f"both wheels leave the ground for {min_s * 1000:g} ms", fn)
+
+
+def clearance_at_least(min_m: float, after_s: float = 0.0) -> Check:
+    def fn(run: RunData):
+        peak = peak_clearance(run, after_s)
+        return peak >= min_m, f"peak clearance of the lower wheel {peak * 100:.1f} cm (need {min_m * 100:g})"
+
+    return Check(f"peak wheel clearance >= {min_m * 100:g} cm", fn)
+
+
+def mode_seen(mode: int, after_s: float = 0.0) -> Check:
+    def fn(run: RunData):
+        t = first_mode(run, mode, after_s)
+        return t is not None, f"first {MODE_NAMES[mode]} heartbeat at {t:.3f} s" if t is not None else f"never {MODE_NAMES[mode]}"
+
+    return Check(f"heartbeat shows {MODE_NAMES[mode]}", fn)
+
+
+def never_fallen() -> Check:
+    def fn(run: RunData):
+        t = first_mode(run, FALLEN)
+        return t is None, "never FALLEN" if t is None else f"FALLEN at {t:.3f} s"
+
+    return Check("never FALLEN", fn)
+
+
+def upright_at_end(last_s: float = 1.0, tilt_rad: float = 5 * DEG, mode: int = BALANCE) -> Check:
+    """Over the last ``last_s``: |pitch|, |roll| below tilt, both wheels loaded, heartbeat in ``mode``."""
+
+    def fn(run: RunData):
+        t_end = float(run.state["t"][-1])
+        t0 = t_end - last_s
+        tilt = max(float(np.max(np.abs(run.window("pitch", t0)))), float(np.max(np.abs(run.window("roll", t0)))))
+        loaded = float(np.min(np.minimum(run.window("left_normal_force", t0), run.window("right_normal_force", t0))))
+        hb_t, hb_m = run.heartbeat["t"], run.heartbeat["Mode"]
+        modes = set(int(m) for m in hb_m[hb_t >= t0])
+        ok = tilt < tilt_rad and loaded > 5.0 and modes == {mode}
+        return ok, (f"last {last_s:g} s: max tilt {tilt / DEG:.1f} deg (limit {tilt_rad / DEG:g}), "
+                    f"min wheel load {loaded:.1f} N, modes {sorted(MODE_NAMES[m] for m in modes)}")
+
+    return Check(f"upright and {MODE_NAMES[mode]} over the last {last_s:g} s", fn)
+
+
+def on_top_of_step(edge_x_m: float, height_m: float) -> Check:
+    """At the end both wheels are past the edge and the body stands height_m higher than at the start."""
+
+    def fn(run: RunData):
+        s = run.state
+        rise = float(s["z"][-1] - s["z"][0])
+        past = float(s["x"][-1] - edge_x_m)
+        ok = past > 0.1 and abs(rise - height_m) < 0.03
+        return ok, f"body {past * 100:.1f} cm past the edge (need 10), risen {rise * 100:.1f} cm (step {height_m * 100:g})"
+
+    return Check(f"ends on top of the {height_m * 100:g} cm step", fn)
+
+
+def torque_off_after_fall(grace_s: float = CONTROL_PERIOD_S) -> Check:
+    """From the first FALLEN heartbeat (plus one tick) until an operator re-enable: no torque."""
+
+    def fn(run: RunData):
+        t_fall = first_mode(run, FALLEN)
+        if t_fall is None:
+            return False, "never FALLEN"
+        reenables = [e["t"] for e in run.events_of("operator") if e.get("Reenable") and e["t"] > t_fall]
+        t_end = reenables[0] if reenables else np.inf
+        hip, wheel = torque_after(run, t_fall + grace_s, t_end)
+        ok = hip < TORQUE_OFF_NM and wheel < CURRENT_OFF_A
+        return ok, (f"FALLEN at {t_fall:.3f} s; until re-enable max |hip torque| {hip:.3f} N m, "
+                    f"max |wheel current| {wheel:.3f} A")
+
+    return Check("torque off from FALLEN until re-enable", fn)
+
+
+def estops_cut_torque(expected_modes: tuple) -> Check:
+    """Each E-stop event: the ESTOP heartbeat within one remote period plus one control
+    period, no torque commanded after it until the switch leaves E-stop, and the
+    mode just before it was the expected one."""
+
+    def fn(run: RunData):
+        events = [e for e in run.events_of("operator") if "Mode" in e]
+        stops = [(i, e) for i, e in enumerate(events) if e["Mode"] == 0]
+        if len(stops) != len(expected_modes):
+            return False, f"{len(stops)} E-stops in the timeline, expected {len(expected_modes)}"
+        hb_t, hb_m = run.heartbeat["t"], run.heartbeat["Mode"]
+        notes, ok = [], True
+        for (i, e), expected in zip(stops, expected_modes):
+            before = hb_m[hb_t < e["t"]]
+            was = int(before[-1]) if len(before) else -1
+            t_stop = first_mode(run, ESTOP, e["t"])
+            t_resume = events[i + 1]["t"] if i + 1 < len(events) else np.inf
+            if t_stop is None:
+                ok = False
+                notes.append(f"{MODE_NAMES.get(was, was)}: no ESTOP")
+                continue
+            latency = t_stop - e["t"]
+            hip, wheel = torque_after(run, t_stop, t_resume)
+            good = was == expected and latency <= REMOTE_PERIOD_S + CONTROL_PERIOD_S + 1e-6 \
+                and hip < TORQUE_OFF_NM and wheel < CURRENT_OFF_A
+            ok = ok and good
+            notes.append(f"{MODE_NAMES.get(was, was)}: {latency * 1000:.0f} ms, then {hip:.3f} N m / {wheel:.3f} A")
+        return ok, "; ".join(notes)
+
+    return Check("E-stop cuts torque from every mode", fn)
+
+
+def tracks(field: str, target: float, t0: float, t1: float, tol: float, unit: str = "deg",
+           scale: float = 1 / DEG) -> Check:
+    """Mean of a /sim/state field over [t0, t1) within tol of target; also its spread."""
+
+    def fn(run: RunData):
+        values = run.window(field, t0, t1)
+        mean, worst = float(np.mean(values)), float(np.max(np.abs(values - target)))
+        return worst < tol, (f"{field} {mean * scale:.2f} {unit} (target {target * scale:g}), "
+                             f"worst error {worst * scale:.2f} over {t0:g}-{t1:g} s (limit {tol * scale:g})")
+
+    return Check(f"{field} holds {target * scale:g} {unit} over {t0:g}-{t1:g} s", fn)
+
+
+def mean_leg_tracks(target: float, t0: float, t1: float, tol: float = 0.01) -> Check:
+    def fn(run: RunData):
+        mean = 0.5 * (run.window("left_leg_length", t0, t1) + run.window("right_leg_length", t0, t1))
+        worst = float(np.max(np.abs(mean - target)))
+        return worst < tol, f"mean leg length worst error {worst * 1000:.1f} mm at {target:g} m over {t0:g}-{t1:g} s"
+
+    return Check(f"height {target:g} m over {t0:g}-{t1:g} s", fn)
+
+
+# -- scenarios -----------------------------------------------------------------------
+def jump_scenario(clearance_m: float = 0.2) -> Scenario:
+    """Jump in place from balance; pass if the lower wheel clears ``clearance_m``."""
+    return Scenario(
+        "jump", f"jump in place, lower wheel clears {clearance_m * 100:g} cm, land upright", 3.5, standing(),
+        timeline=(stand(), remote(0.8, Jump=1), remote(1.0, Jump=0)),
+        checks=(mode_seen(JUMP), leaves_ground(), clearance_at_least(clearance_m, 0.5),
+                never_fallen(), upright_at_end(0.8), no_deadline_miss()))
+
+
+def jump_step_scenario(step_height_m: float = 0.15, approach_m: float = 0.35) -> Scenario:
+    """Stand ``approach_m`` before a step and JumpForward onto it."""
+    edge = approach_m
+    return Scenario(
+        "jump-step", f"jump forward onto a {step_height_m * 100:g} cm step, balance on top", 4.0, standing(),
+        terrain=(TerrainFeature.step(x_m=edge, height_m=step_height_m),),
+        timeline=(stand(), remote(0.8, JumpForward=1), remote(1.0, JumpForward=0)),
+        checks=(mode_seen(JUMP), leaves_ground(), never_fallen(), on_top_of_step(edge, step_height_m),
+                upright_at_end(0.8), no_deadline_miss()))
+
+
+def drop_scenario(height_m: float = 0.5) -> Scenario:
+    """Released at ``height_m`` (lower wheel above the ground) with legs at 0.17 m."""
+    return Scenario(
+        "drop", f"released {height_m * 100:g} cm above the ground, lands and balances", 3.0,
+        standing(drop_height_m=height_m), timeline=(stand(),),
+        checks=(mode_seen(AIRBORNE), never_fallen(), upright_at_end(1.0), no_deadline_miss()))
+
+
+def fall_scenario(force_n: float = 60.0) -> Scenario:
+    """A shove it cannot save: detected, torque off; lying, the operator re-enables and it stands."""
+    return Scenario(
+        "fall", f"{force_n:g} N shove for 0.3 s topples it; torque off; re-enable stands it up", 7.0, standing(),
+        timeline=(stand(), *push(0.5, (force_n, 0.0, 0.0), 0.3), remote(3.0, Reenable=1), remote(3.2, Reenable=0)),
+        checks=(mode_seen(FALLEN), torque_off_after_fall(), mode_seen(STAND_UP, 3.0),
+                upright_at_end(1.0), no_deadline_miss()))
+
+
+ESTOP_S = 0.06  # s the switch stays on E-stop: torque off, the robot barely sags
+
+
+def estop_scenario() -> Scenario:
+    """E-stop flicked in STAND_UP, BALANCE, MOVE and JUMP; each time released again."""
+    def flick(t, back):
+        return (remote(t, Mode=0), remote(t + ESTOP_S, Mode=back))
+    return Scenario(
+        "estop", "E-stop in stand-up, balance, move and jump; torque off within a period each time", 7.0,
+        standing(), timeline=(remote(0.0, Mode=1, LegLength=0.12), *flick(0.1, 1), remote(0.8, LegLength=NOMINAL),
+                              *flick(1.5, 1), remote(2.5, Mode=2, SpeedX=0.3), *flick(3.0, 2),
+                              remote(3.8, SpeedX=0.0, Mode=1), remote(4.8, Jump=1), remote(4.9, Jump=0),
+                              *flick(4.9, 1)),
+        checks=(estops_cut_torque((STAND_UP, BALANCE, MOVE, JUMP)), never_fallen(), upright_at_end(1.0),
+                no_deadline_miss()))
+
+
+def pose_scenario() -> Scenario:
+    """Pitch, roll and height set points while standing, one after the other."""
+    return Scenario(
+        "pose", "pitch +-0.1 rad, roll +-0.1 rad, height 0.22 m while standing", 9.0, standing(),
+        timeline=(stand(), remote(0.5, Pitch=0.1), remote(2.0, Pitch=-0.1), remote(3.5, Pitch=0.0, Roll=0.1),
+                  remote(5.0, Roll=-0.1), remote(6.5, Roll=0.0, LegLength=0.22)),
+        checks=(tracks("pitch", 0.1, 1.5, 2.0, 2 * DEG), tracks("pitch", -0.1, 3.0, 3.5, 2 * DEG),
+                tracks("roll", 0.1, 4.5, 5.0, 2 * DEG), tracks("roll", -0.1, 6.0, 6.5, 2 * DEG),
+                mean_leg_tracks(0.22, 8.0, 9.0), never_fallen(), no_deadline_miss()))
+
+
+SCENARIOS = (jump_scenario(), jump_step_scenario(), drop_scenario(), fall_scenario(), estop_scenario(),
+             pose_scenario())

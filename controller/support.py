@@ -1,0 +1,147 @@
+"""Ground support force per leg and the off-ground decision (seed 000's leg_fn_cal).
+
+``fivebar.support_force`` is the seed's formula; this module feeds it what
+the robot measures each tick and turns its output into a debounced
+"both wheels off the ground":
+
+- F, Tp (N, N m): the leg's push and hip torque from the hip motors' feedback
+  torques (``fivebar.leg_force``), not from what was commanded;
+- the hip's vertical acceleration (m/s^2, up positive, 0 at rest) from the
+  IMU's specific force turned into the world frame, minus g;
+- ddL0 and ddtheta by differencing the leg rates, low-passed.
+
+The estimate is low-passed too (``P.FN_FILTER_TAU``): an impact or a wheel
+bounce is a few ms long, the decisions below want tens of ms.
+
+``ContactDebounce`` is a per-robot hysteresis with a counter: airborne only
+after both legs have been below ``FN_OFF`` for ``OFF_GROUND_DEBOUNCE``, back on
+the ground once either leg has been above ``FN_ON`` for
+``TOUCHDOWN_DEBOUNCE`` (control_notes §1.8: 7 N / 12 N for this 4.6 kg robot,
+whose static Fn is ~22.7 N per wheel).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from controller import constants as C
+from controller import fivebar
+from controller import params as P
+
+
+def vertical_accel(quat: tuple, specific_force: tuple) -> float:
+    """World-vertical acceleration (m/s^2, up positive, 0 at rest) of the IMU.
+
+    quat (w, x, y, z) body->world, specific_force (3,) in the body frame
+    (+g on z at rest). a_world = R f - g z.
+    """
+    w, x, y, z = quat
+    fx, fy, fz = specific_force
+    r20, r21, r22 = 2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)
+    return r20 * fx + r21 * fy + r22 * fz - C.GRAVITY
+
+
+def measured_leg_force(kin, front: C.Joint, rear: C.Joint, front_tau: float, rear_tau: float) -> tuple[float, float]:
+    """(F in N, Tp in N m) the hip motors exert, from their shaft torques (N m).
+
+    Near the leg's singular stretch there is no unique answer: (0, 0) then,
+    which reads as "no push", the safe side for a support estimate.
+    """
+    t1 = fivebar.phi_torque_from_shaft(front, front_tau)
+    t4 = fivebar.phi_torque_from_shaft(rear, rear_tau)
+    try:
+        return fivebar.leg_force(kin, t1, t4)
+    except ValueError:
+        return 0.0, 0.0
+
+
+class LowPass:
+    """First-order low-pass y += (x - y) dt / (tau + dt); starts at the first input."""
+
+    def __init__(self, tau_s: float, dt_s: float):
+        self.alpha = dt_s / (tau_s + dt_s)
+        self.value: float | None = None
+
+    def __call__(self, x: float) -> float:
+        self.value = x if self.value is None else self.value + self.alpha * (x - self.value)
+        return self.value
+
+
+class Derivative:
+    """Low-passed backward difference (units of x per s); 0 on the first input."""
+
+    def __init__(self, tau_s: float, dt_s: float):
+        self.dt = dt_s
+        self.last: float | None = None
+        self.filter = LowPass(tau_s, dt_s)
+
+    def __call__(self, x: float) -> float:
+        raw = 0.0 if self.last is None else (x - self.last) / self.dt
+        self.last = x
+        return self.filter(raw)
+
+
+@dataclass(frozen=True)
+class LegMeasurement:
+    """One leg this tick, in fivebar's signs."""
+
+    F: float  # N, measured push along the leg
+    Tp: float  # N m, measured virtual hip torque
+    L0: float  # m
+    dL0: float  # m/s
+    theta: float  # rad
+    dtheta: float  # rad/s
+
+
+class SupportEstimator:
+    """Fn (N) of one leg each tick: ``update(leg, body_accel_z) -> Fn`` (filtered)."""
+
+    def __init__(self, dt_s: float):
+        self.ddL0 = Derivative(P.FN_DERIVATIVE_TAU, dt_s)
+        self.ddtheta = Derivative(P.FN_DERIVATIVE_TAU, dt_s)
+        self.fn = LowPass(P.FN_FILTER_TAU, dt_s)
+
+    def update(self, leg: LegMeasurement, body_accel_z: float) -> float:
+        raw = fivebar.support_force(leg.F, leg.Tp, leg.theta, leg.L0, leg.dL0, self.ddL0(leg.dL0),
+                                    leg.dtheta, self.ddtheta(leg.dtheta), body_accel_z)
+        if not math.isfinite(raw):
+            raw = self.fn.value if self.fn.value is not None else 0.0
+        return self.fn(raw)
+
+
+class ContactDebounce:
+    """Both wheels off the ground, with hysteresis and debounce (module doc)."""
+
+    def __init__(self, dt_s: float):
+        self.off_ticks = max(1, round(P.OFF_GROUND_DEBOUNCE / dt_s))
+        self.on_ticks = max(1, round(P.TOUCHDOWN_DEBOUNCE / dt_s))
+        self.airborne = False
+        self.count = 0
+
+    def reset(self, airborne: bool = False) -> None:
+        self.airborne, self.count = airborne, 0
+
+    def update(self, fn_left: float, fn_right: float) -> bool:
+        """Feed this tick's Fn (N) of both legs; returns whether the robot is airborne."""
+        if self.airborne:
+            changing = max(fn_left, fn_right) > P.FN_ON
+            needed = self.on_ticks
+        else:
+            changing = max(fn_left, fn_right) < P.FN_OFF
+            needed = self.off_ticks
+        self.count = self.count + 1 if changing else 0
+        if self.count >= needed:
+            self.airborne, self.count = not self.airborne, 0
+        return self.airborne
+
+
+_LEG_JOINTS = {leg: (next(j for j in C.JOINTS if j.leg == leg and j.hip == "A"),
+                     next(j for j in C.JOINTS if j.leg == leg and j.hip == "E")) for leg in ("left", "right")}
+
+
+def leg_measurement(joints: dict, leg: str, state) -> LegMeasurement:
+    """This tick's measurement of ``leg`` from the joints' feedback (motor id ->
+    JointFeedback) and the chassis' LegState of it (kin, L0, dL0, theta, dtheta)."""
+    front, rear = _LEG_JOINTS[leg]
+    F, Tp = measured_leg_force(state.kin, front, rear, joints[front.motor_id].torque, joints[rear.motor_id].torque)
+    return LegMeasurement(F, Tp, state.L0, state.dL0, state.theta, state.dtheta)
