@@ -33,20 +33,52 @@ assert tuple(r.name for r in RULES) == C.DEVICES
 
 @dataclass(frozen=True)
 class Report:
-    offline_mask: int  # bit i set: RULES[i] offline
-    offline_count: int
-    warning_level: int  # highest level among the offline devices, 0 when all online
-    balance_ok: bool  # no device the balance needs is offline
+    offline_mask: int  # bit i set: RULES[i] offline or reporting a fault
+    offline_count: int  # devices offline or faulted
+    warning_level: int  # highest level among them, 0 when all is well
+    balance_ok: bool  # no device the balance needs is offline or faulted
 
 
-def check(last_seen_s: dict[str, float], now_s: float) -> Report:
-    """Which devices are offline at ``now_s`` given when each was last heard."""
+def check(last_seen_s: dict[str, float], now_s: float, faulted=frozenset()) -> Report:
+    """Which devices are offline at ``now_s`` given when each was last heard (s).
+
+    A device named in ``faulted`` (a CyberGear reporting fault bits) counts
+    as offline: the seed's detect task flags a device whose data is in error
+    the same way as one that went silent (``error_exist``).
+    """
     mask = count = level = 0
     balance_ok = True
     for bit, rule in enumerate(RULES):
-        if now_s - last_seen_s.get(rule.name, float("-inf")) > rule.offline_after_s:
+        if rule.name in faulted or now_s - last_seen_s.get(rule.name, float("-inf")) > rule.offline_after_s:
             mask |= 1 << bit
             count += 1
             level = max(level, rule.warning_level)
             balance_ok = balance_ok and not rule.needed_for_balance
     return Report(mask, count, level, balance_ok)
+
+
+class ReenableRequest:
+    """The operator's Reenable press, remembered for ``window_s`` (s) while the motors are off.
+
+    One press must both clear a latched CyberGear fault (the clear-fault stop
+    goes out on the press's tick, the clean reply comes a tick later) and
+    enable; a press made while the motors run is not remembered, so it can
+    never re-enable after a later fault.
+    """
+
+    def __init__(self, window_s: float):
+        self.window_s = window_s
+        self._until_s = float("-inf")
+
+    def update(self, pressed: bool, motors_off: bool, now_s: float) -> bool:
+        """Take this tick's press (an edge); True while a press is pending."""
+        if pressed and motors_off:
+            self._until_s = now_s + self.window_s
+        return self.pending(now_s)
+
+    def pending(self, now_s: float) -> bool:
+        return now_s <= self._until_s
+
+    def consume(self) -> None:
+        """The motors were enabled: the press is spent."""
+        self._until_s = float("-inf")

@@ -55,6 +55,7 @@ class Controller:
         self.contact = support.ContactDebounce(period_s)
         self.jump = JumpSequencer(period_s)
         self._jump_forward = False  # the jump asked for is JumpForward
+        self.reenable = detect.ReenableRequest(P.REENABLE_WINDOW_S)
 
     def on_frame(self, msg: can.Message, bus: str, now_s: float) -> int | None:
         """Take one received frame; returns the SYNC tick counter if it is a SYNC."""
@@ -68,10 +69,12 @@ class Controller:
         return seen
 
     def tick(self, tick: int, now_s: float) -> TickResult:
-        report = detect.check(self.last_seen(), now_s)
-        faulted = any(fb.faults for fb in self.bus.joints.values())
-        inputs = self._inputs(report.balance_ok and not faulted)
+        faulted = {_DEVICE_OF_JOINT[i] for i, fb in self.bus.joints.items() if fb.faults}
+        report = detect.check(self.last_seen(), now_s, faulted)
+        inputs = self._inputs(report.balance_ok, now_s)
         previous, self.mode = self.mode, next_mode(self.mode, inputs)
+        if self.mode in ENABLED:
+            self.reenable.consume()
         result = TickResult(mode=self.mode, report=report)
         if self.mode == Mode.JUMP and previous != Mode.JUMP:
             self.jump.start(forward=self._jump_forward)
@@ -86,14 +89,14 @@ class Controller:
         hb = messages.heartbeat(
             tick, int(self.mode), report.warning_level, report.offline_mask, report.offline_count,
             motors_enabled=self.mode in ENABLED, off_ground=self.mode == Mode.AIRBORNE,
-            fallen=self.mode == Mode.FALLEN, fault_latched=faulted, bad_frames=self.bus.bad_frames,
+            fallen=self.mode == Mode.FALLEN, fault_latched=bool(faulted), bad_frames=self.bus.bad_frames,
             t_s=now_s)
         result.frames[CAN1].append(hb)
         result.frames[CAN2].append(hb)
         return result
 
     # -- mode inputs -----------------------------------------------------------
-    def _inputs(self, devices_ok: bool) -> Inputs:
+    def _inputs(self, devices_ok: bool, now_s: float) -> Inputs:
         op = self.bus.operator
         reenable_edge = op.reenable and not self._last_buttons[0]
         jump_edge = op.jump and not self._last_buttons[1]
@@ -116,7 +119,8 @@ class Controller:
             switch = Switch(op.mode)
         except ValueError:
             switch = Switch.ESTOP  # an unknown switch position is treated as E-stop
-        return Inputs(switch=switch, devices_ok=devices_ok, reenable=reenable_edge,
+        reenable = self.reenable.update(reenable_edge, self.mode not in ENABLED, now_s)
+        return Inputs(switch=switch, devices_ok=devices_ok, reenable=reenable,
                       jump=jump_edge or forward_edge, fallen=fallen, stood_up=stood,
                       off_ground=self.contact.airborne, jump_done=self.jump.done, can_rise=not fallen)
 
@@ -182,8 +186,9 @@ class Controller:
         the last host id it saw; a type-4 stop carries ours, keeps the motor in
         reset and brings its feedback back for offline detection.
         """
+        clear = self.reenable.pending(now_s)  # the operator asked: clear latched faults
         for joint in C.JOINTS:
-            result.frames[CAN2].append(messages.joint_stop(joint.motor_id, t_s=now_s))
+            result.frames[CAN2].append(messages.joint_stop(joint.motor_id, clear_fault=clear, t_s=now_s))
         # the C620 holds its last command: send zero every tick
         result.frames[CAN1].append(messages.wheel_currents({}, t_s=now_s))
 

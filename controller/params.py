@@ -70,6 +70,10 @@ WHEEL_TORQUE_LIMIT = 5.5  # N m, below the C620's 20 A x 0.3 N m/A
 FALL_PITCH = 0.6  # rad, beyond it the robot has fallen (rm_controllers)
 FALL_THETA = 0.9  # rad
 FALL_ROLL = 0.8  # rad
+# A Reenable press is remembered this long while the motors are off: one press
+# sends the clear-fault stop and enables on the clean reply a tick later (2 ms),
+# with room for a lost reply; short, so a press is never a standing order.
+REENABLE_WINDOW_S = 0.05  # s
 STAND_UP_TIME = 1.0  # s, leg length ramps from where it is to the set point
 
 # --- support force and off-ground detection (controller/support.py) ------------------
