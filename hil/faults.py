@@ -181,6 +181,10 @@ class FrameFault:
         """False: the devices never get ``msg``."""
         return True
 
+    def spontaneous(self, now_ns: int) -> list[can.Message]:
+        """Frames the fault itself puts on the bus by ``now_ns`` (a babbling node)."""
+        return []
+
 
 class Drop(FrameFault):
     def __init__(self, select, rng, rate: float, direction: str):
@@ -275,7 +279,7 @@ class Babble(FrameFault):
         self.period_ns = frame_bits(frame_id, extended, self.data) * 1e9 / bitrate / load
         self.next_ns: float | None = None
 
-    def outbound(self, msg, now_ns, bus):
+    def spontaneous(self, now_ns):
         if self.next_ns is None:
             self.next_ns = float(now_ns)
         out = []
@@ -284,7 +288,7 @@ class Babble(FrameFault):
                                    timestamp=self.next_ns / 1e9, check=False))
             self.next_ns += self.period_ns
         self.count += len(out)
-        return out + [msg]
+        return out
 
 
 class Arbitration(FrameFault):
@@ -429,7 +433,7 @@ class BusFaults:
     def outbound(self, msg: can.Message) -> list[can.Message]:
         """Frames that go on the wire, towards the controller, when the plant sends ``msg``."""
         now = self.clock()
-        frames = self._released(now)
+        frames = self._released(now) + [m for f in self.faults for m in f.spontaneous(now)]
         lockstep = _is_lockstep(msg)
         if not lockstep:
             frames.append(msg)
@@ -464,6 +468,7 @@ def _frame_fault(kind: str, bus: str, t_s: float, duration_s: float | None, make
     The end event reports ``frames_affected``: how many frames the fault
     dropped, delayed, corrupted, followed or sent.
     """
+    make(np.random.default_rng(0))  # a bad argument fails here, when the scenario is defined
     active = {}
 
     def start(rig):
