@@ -1,0 +1,99 @@
+"""Issue 5's fault scenarios, run in the rig (one cached run each) and judged from their traces."""
+import argparse
+
+import numpy as np
+import pytest
+
+from controller import detect
+from controller.modes import Mode
+from hil.commands.run import execute
+from hil.scenario import RunData
+from hil.scenarios import faults as fs
+
+FAULTS = ("offline-wheel", "offline-joint", "offline-imu", "offline-remote", "motor-fault", "frame-loss",
+          "bus-off", "overload")
+
+
+@pytest.mark.parametrize("name", FAULTS)
+def test_scenario_passes_its_checks(name, rig_run):
+    rig_run(name).assert_passed()
+
+
+@pytest.mark.parametrize("name", FAULTS)
+def test_every_injected_fault_is_an_event_with_its_target(name, rig_run):
+    events = [e for e in rig_run(name).events if e["kind"].startswith("fault_") and e["kind"] != "fault_end"]
+    assert events
+    for e in events:
+        assert ("device" in e or "bus" in e) and "duration_s" in e and e["t"] == pytest.approx(e["t_s"], abs=1e-9)
+
+
+def test_offline_joint_reaction_is_the_joint_threshold(rig_run):
+    """Not just under the bound: the controller waits the threshold out (no premature trip)."""
+    run = rig_run("offline-joint")
+    t_f = fs.fault_time(run, "fault_silent")
+    last = fs.nonzero_command_times(run)
+    reaction = last[last >= t_f][-1] - t_f
+    assert detect.RULES[0].offline_after_s - 0.002 < reaction <= detect.RULES[0].offline_after_s + 0.002
+
+
+def test_frame_loss_keeps_the_robot_balancing_in_balance_mode(rig_run):
+    run = rig_run("frame-loss")
+    hb = run.heartbeat
+    late = hb["t"] > 0.5
+    assert np.all(hb["Mode"][late] == int(Mode.BALANCE))
+    assert np.all(hb["MotorsEnabled"][late] == 1)
+
+
+def test_overload_shows_the_load_before_and_during(rig_run):
+    """At 500 Hz CAN2 carries ~65 %; the babbling node pushes the wire to ~100 %."""
+    t, load = rig_run("overload").bus_load["can2"]
+    before = load[(t > 0.2) & (t <= fs.FAULT_AT)]
+    during = load[(t > fs.FAULT_AT + 0.1) & (t <= fs.FAULT_AT + 0.3)]
+    assert np.all((before > 0.55) & (before < 0.75)), before
+    assert np.all(during > 0.95), during
+
+
+def test_the_same_seed_gives_the_same_lost_frames(tmp_path):
+    def log(out, seed):
+        args = argparse.Namespace(scenario="frame-loss", out=out, interface="virtual", channels="vcan0,vcan1",
+                                  seed=seed, duration=0.7, realtime=False, external_controller=False,
+                                  no_plot=True)
+        return execute(args)[0].log_path.read_bytes()
+
+    assert log(tmp_path / "a", 4) == log(tmp_path / "b", 4)
+
+
+# -- the checks themselves can fail ----------------------------------------------------------
+def _synthetic(torque_stops_s: float, mask: int = 0x01, mode: int = int(Mode.DISABLED)) -> RunData:
+    """A run with a silent event at 1 s, torque commands every 2 ms until ``torque_stops_s``."""
+    t = np.arange(0, 1.5, 0.002)
+    tau = np.where(t < torque_stops_s, 1.0, 0.0)
+    cmd_t = t[t < torque_stops_s]
+    after = t >= 1.0
+    hb = {"t": t, "Tick": np.arange(len(t)), "Mode": np.where(after, mode, int(Mode.BALANCE)),
+          "OfflineMask": np.where(after, mask, 0), "OfflineCount": np.where(after, 1, 0),
+          "WarningLevel": np.where(after, 4, 0), "FaultLatched": np.zeros(len(t)),
+          "MotorsEnabled": np.where(t < torque_stops_s, 1, 0)}
+    return RunData(state={"t": t}, heartbeat=hb, hip_torque={1: (cmd_t, tau[t < torque_stops_s])},
+                   wheel_current={}, events=[{"kind": "fault_silent", "t": 1.0, "device": "left_front_hip"}],
+                   meta={"duration_s": "1.5"})
+
+
+def test_a_late_stop_fails_the_reaction_check():
+    check = fs.torque_off_within("fault_silent", 0.022, "joint")
+    assert check(_synthetic(1.020)).passed
+    late = check(_synthetic(1.030))
+    assert not late.passed and "28.00 ms" in late.detail
+
+
+def test_torque_after_the_stop_fails_the_silence_check():
+    check = fs.motors_stay_off("fault_silent", 0.022)
+    assert check(_synthetic(1.020)).passed
+    assert not check(_synthetic(1.2)).passed
+
+
+def test_a_wrong_mask_or_mode_fails_the_heartbeat_check():
+    check = fs.heartbeat_reports("fault_silent", ["left_front_hip"])
+    assert check(_synthetic(1.02)).passed
+    assert not check(_synthetic(1.02, mask=0x02)).passed
+    assert not check(_synthetic(1.02, mode=int(Mode.FALLEN))).passed
