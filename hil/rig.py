@@ -51,7 +51,7 @@ class RigConfig:
     physics_dt_s: float = 0.001
     in_process_controller: bool = True  # False: an external `wheelleg controller` answers
     deadline_s: float = 0.5  # wall-clock bound for the heartbeats of one tick
-    realtime: bool = False
+    realtime: bool = False  # plant at wall-clock pace, controller on its own timer (hil/realtime.py)
     record_debug: bool = True  # the in-process controller's internals on /controller/debug
     decode: bool = True  # also write /decoded/ channels (raw frames are always recorded)
     plant: PlantConfig = field(default_factory=PlantConfig)
@@ -65,6 +65,7 @@ class RunOutcome:
     deadline_misses: int
     wall_s: float
     sim_s: float
+    timing: dict | None = None  # real-time mode: {"controller": ..., "plant": ...} (hil/loop_timing.py)
 
 
 def git_revision() -> str:
@@ -101,12 +102,13 @@ class Rig:
         self._raw = {k: _open_bus(config, ch) for k, ch in self.names.items()}
         # Real transports deliver each socket's frames at their own pace: hold them
         # until both heartbeats are in, then serve them in the virtual bus's order.
-        self._held = {} if config.interface == "virtual" else {k: HeldBus(b) for k, b in self._raw.items()}
+        lockstep_real = config.interface != "virtual" and not config.realtime
+        self._held = {k: HeldBus(b) for k, b in self._raw.items()} if lockstep_real else {}
         self.plant_buses = {k: RecordingBus(self._held.get(k, b), self.names[k], self.recorder, self._watch)
                             for k, b in self._raw.items()}
         self.plant = Plant(self.physics, self.plant_buses, self.rng, config.plant)
         self.controller = None
-        if config.in_process_controller:
+        if config.in_process_controller and not config.realtime:  # real time: hil/realtime.py
             self.controller = ControllerNode(_open_bus(config, self.names[CAN1]),
                                              _open_bus(config, self.names[CAN2]),
                                              sync=True, period_s=config.period_s)
@@ -220,22 +222,27 @@ class Rig:
             self.trace.event(self.recorder.now_ns, action.kind, **fields)
 
     def run(self) -> RunOutcome:
+        if self.config.realtime:
+            return self._run_realtime()
         ticks = round(self.scenario.duration_s / self.config.period_s)
         wall0 = time.perf_counter()
         try:
             for _ in range(ticks):
                 self.step_tick()
-                if self.config.realtime:
-                    self._pace(wall0)
         finally:
             self.close()
         return RunOutcome(self.trace_path, self.log_path, ticks, self.deadline_misses,
                           time.perf_counter() - wall0, ticks * self.config.period_s)
 
-    def _pace(self, wall0: float) -> None:
-        ahead = self.tick * self.config.period_s - (time.perf_counter() - wall0)
-        if ahead > 0:
-            time.sleep(ahead)
+    def _run_realtime(self) -> RunOutcome:
+        from hil.realtime import RealtimeRun
+
+        try:
+            ticks, sim_s, wall_s, timing = RealtimeRun(self).run()
+        finally:
+            self.close()
+        misses = timing.get("controller", {}).get("missed_deadlines", 0)
+        return RunOutcome(self.trace_path, self.log_path, ticks, misses, wall_s, sim_s, timing)
 
     def close(self) -> None:
         if self.controller is not None:

@@ -7,9 +7,11 @@ from pathlib import Path
 import numpy as np
 
 from dbc import cybergear as cg
+from dbc import load_bus
+from emulators.plant import CAN1, CAN2
 from hil.busload import LOAD_TOPIC
 from hil.scenario import RunData
-from hil.trace import TraceReader
+from hil.trace import DECODED_PREFIX, TraceReader
 
 
 def _commands(reader: TraceReader, joints_channel: str) -> dict:
@@ -36,6 +38,9 @@ def load_run(path: Path | str) -> RunData:
     reader = TraceReader(path)
     run_meta = reader.metadata.get("run", {})
     can1, can2 = run_meta.get("can1", "vcan0"), run_meta.get("can2", "vcan1")
+    if not any(topic.startswith(DECODED_PREFIX) for topic in reader.topics):
+        # recorded with --no-decode: decode the raw frames with the DBCs on reading
+        reader = TraceReader(path, dbs={can1: load_bus(CAN1), can2: load_bus(CAN2)})
     return RunData(
         state=reader.sim_state(),
         heartbeat=reader.decoded(can1, "Heartbeat"),

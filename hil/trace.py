@@ -155,6 +155,11 @@ class TraceWriter:
 
     close = finish
 
+    def add_metadata(self, name: str, record: dict[str, str]) -> None:
+        """One more metadata record (e.g. totals known only at the end of a run)."""
+        checked = _checked_metadata({name: record})
+        self._writer().add_metadata(name, checked[name])
+
     def __enter__(self) -> "TraceWriter":
         return self.start()
 

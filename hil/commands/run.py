@@ -5,6 +5,7 @@ import argparse
 from pathlib import Path
 
 from hil import scenarios
+from hil.loop_timing import describe, describe_plant
 from hil.plot import plot_run
 from hil.rig import Rig, RigConfig
 from hil.rundata import load_run
@@ -22,7 +23,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="CAN1 (wheels) and CAN2 (joints) channel names, comma separated")
     parser.add_argument("--seed", type=int, default=0, help="random seed (noise, faults)")
     parser.add_argument("--duration", type=float, default=None, help="override the duration (s)")
-    parser.add_argument("--realtime", action="store_true", help="pace the plant at wall-clock speed")
+    parser.add_argument("--realtime", action="store_true",
+                        help="plant at wall-clock pace, controller free-running on its own timer in its own "
+                             "thread; prints the control loop's period statistics")
+    parser.add_argument("--no-decode", action="store_true",
+                        help="record raw frames only, no /decoded/ channels (less work per frame)")
     parser.add_argument("--external-controller", action="store_true",
                         help="do not start the controller in-process; wait for `wheelleg controller --sync`")
     parser.add_argument("--no-plot", action="store_true", help="skip the PNG")
@@ -38,7 +43,8 @@ def execute(args: argparse.Namespace):
     if len(channels) != 2:
         raise SystemExit("--channels needs two names: CAN1 (wheels),CAN2 (joints)")
     config = RigConfig(interface=args.interface, channels=channels, seed=args.seed,
-                       realtime=args.realtime, in_process_controller=not args.external_controller)
+                       realtime=args.realtime, in_process_controller=not args.external_controller,
+                       decode=not getattr(args, "no_decode", False))
     outcome = Rig(scenario, config, args.out).run()
     run = load_run(outcome.trace_path)
     results = [check(run) for check in scenario.checks]
@@ -56,6 +62,10 @@ def run(args: argparse.Namespace) -> int:
     rtf = outcome.sim_s / outcome.wall_s if outcome.wall_s > 0 else float("inf")
     print(f"{args.scenario}: {outcome.sim_s:.2f} s simulated in {outcome.wall_s:.2f} s "
           f"({rtf:.1f}x real time), {outcome.ticks} ticks, {outcome.deadline_misses} deadline misses")
+    if outcome.timing is not None:
+        if "controller" in outcome.timing:
+            print(f"  {describe(outcome.timing['controller'])}")
+        print(f"  {describe_plant(outcome.timing['plant'])}")
     print(f"  trace {outcome.trace_path}\n  log   {outcome.log_path}")
     for r in results:
         print(f"  [{'PASS' if r.passed else 'FAIL'}] {r.name}: {r.detail}")

@@ -1,0 +1,96 @@
+"""Period statistics of a control loop and of the real-time plant (pure functions).
+
+A free-running controller (``ControllerNode(sync=False)``) runs tick
+``k = floor(t / T)`` at the first chance after ``k T`` of its own clock and
+skips the ticks whose whole period passed while it was busy elsewhere. From
+its ``tick_log`` of (tick, monotonic start s):
+
+- period: the wall time between consecutive tick starts (s); mean, min, max;
+- jitter: |period - T| (s); p99 and max;
+- missed deadlines: periods in which no tick ran at all, i.e. a tick started
+  more than one period after the one before it (sum of skipped tick numbers).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+TIMING_FIELDS = {  # summary key -> unit, the order of the printed line and the trace record
+    "ticks": "", "period_s": "s", "mean_period_s": "s", "min_period_s": "s", "max_period_s": "s",
+    "p99_jitter_s": "s", "max_jitter_s": "s", "missed_deadlines": "",
+}
+
+
+def loop_timing(ticks, starts_s, period_s: float) -> dict:
+    """Statistics of one loop run; ``ticks`` (n,) int tick numbers, ``starts_s`` (n,) s.
+
+    Needs at least two ticks for periods; with fewer the period fields are NaN.
+    """
+    ticks = np.asarray(ticks, dtype=np.int64)
+    starts = np.asarray(starts_s, dtype=float)
+    if ticks.shape != starts.shape or ticks.ndim != 1:
+        raise ValueError(f"ticks {ticks.shape} and starts_s {starts.shape} must be equal 1-d shapes")
+    if not period_s > 0:
+        raise ValueError(f"period_s must be > 0, got {period_s!r}")
+    periods = np.diff(starts)
+    steps = np.diff(ticks)
+    if np.any(steps <= 0):
+        raise ValueError("tick numbers must increase")
+    jitter = np.abs(periods - period_s)
+    nan = float("nan")
+    return {
+        "ticks": int(ticks.size),
+        "period_s": float(period_s),
+        "mean_period_s": float(periods.mean()) if periods.size else nan,
+        "min_period_s": float(periods.min()) if periods.size else nan,
+        "max_period_s": float(periods.max()) if periods.size else nan,
+        "p99_jitter_s": float(np.percentile(jitter, 99)) if jitter.size else nan,
+        "max_jitter_s": float(jitter.max()) if jitter.size else nan,
+        "missed_deadlines": int(np.sum(steps - 1)),
+    }
+
+
+def per_tick(ticks, starts_s, period_s: float) -> list[dict]:
+    """One record per tick after the first: its period, jitter and the ticks skipped before it."""
+    out = []
+    for k in range(1, len(ticks)):
+        period = float(starts_s[k] - starts_s[k - 1])
+        out.append({"tick": int(ticks[k]), "start_s": float(starts_s[k] - starts_s[0]), "period_s": period,
+                    "jitter_s": period - period_s, "missed": int(ticks[k] - ticks[k - 1] - 1)})
+    return out
+
+
+def describe(timing: dict) -> str:
+    """One line for the run summary, in ms."""
+    if not timing or timing.get("ticks", 0) < 2:
+        return "control loop: no timing (fewer than two ticks, or the controller ran elsewhere)"
+    ms = {k: 1e3 * timing[k] for k in ("period_s", "mean_period_s", "p99_jitter_s", "max_jitter_s",
+                                        "max_period_s")}
+    return (f"control loop: {timing['ticks']} ticks, period {ms['mean_period_s']:.3f} ms mean "
+            f"(nominal {ms['period_s']:g}, max {ms['max_period_s']:.3f}), jitter p99 {ms['p99_jitter_s']:.3f} ms, "
+            f"max {ms['max_jitter_s']:.3f} ms, {timing['missed_deadlines']} missed deadlines")
+
+
+def plant_timing(batches, lags_s, dt_s: float, sim_s: float, wall_s: float) -> dict:
+    """The real-time plant's pacing: ``batches`` (n,) physics steps taken at once,
+    ``lags_s`` (n,) how late each batch started after its first step was due (s)."""
+    batches = np.asarray(batches, dtype=np.int64)
+    lags = np.asarray(lags_s, dtype=float)
+    return {
+        "physics_dt_s": float(dt_s),
+        "steps": int(batches.sum()),
+        "overruns": int(np.count_nonzero(batches > 1)),  # batches that had to catch up
+        "steps_caught_up": int(np.sum(np.maximum(batches - 1, 0))),
+        "max_batch": int(batches.max()) if batches.size else 0,
+        "p99_lag_s": float(np.percentile(lags, 99)) if lags.size else 0.0,
+        "max_lag_s": float(lags.max()) if lags.size else 0.0,
+        "sim_s": float(sim_s),
+        "wall_s": float(wall_s),
+        "stretched_s": float(max(0.0, wall_s - sim_s)),  # wall time the plant fell behind for good
+    }
+
+
+def describe_plant(plant: dict) -> str:
+    return (f"plant: {plant['steps']} physics steps, {plant['overruns']} overruns "
+            f"({plant['steps_caught_up']} steps caught up in batches, largest {plant['max_batch']}), "
+            f"lag p99 {1e3 * plant['p99_lag_s']:.3f} ms, max {1e3 * plant['max_lag_s']:.3f} ms, "
+            f"{plant['sim_s']:.2f} s simulated in {plant['wall_s']:.2f} s wall")

@@ -1,0 +1,189 @@
+"""Real-time mode: the plant at wall-clock pace, the controller on its own timer.
+
+``wheelleg run SCENARIO --realtime``. Nothing is in lockstep: no SYNC, no
+waiting for heartbeats. The controller is a free-running ``ControllerNode``
+(as on the robot, ``python -m controller`` without ``--sync``) in its own
+thread; with ``--external-controller`` it is whatever process answers on the
+buses. The plant steps the physics each ``physics_dt_s`` of wall time since
+the start, serving the buses before each batch of steps and after it.
+
+When the plant cannot keep pace (the machine is slow or busy), it does not
+stretch simulated time: it takes the physics steps that are due in one batch
+(up to ``MAX_BATCH_S`` of them), serving the buses only around the batch, and
+reports each such catch-up as a plant overrun (events ``plant_overrun``, and
+totals in the summary). Only when even a full batch is not enough does
+simulated time fall behind wall time; that is reported as ``stretched_s``.
+
+The controller's ticks are timed from its ``tick_log``; periods in which it
+ran no tick are deadline misses (``deadline_miss`` events, which the
+scenarios' ``no_deadline_miss`` check counts). Per-tick timing goes to
+``/controller/timing``, the totals to the trace metadata records
+``controller_timing`` and ``plant_timing`` and to the run summary.
+"""
+from __future__ import annotations
+
+import gc
+import os
+import sys
+import threading
+import time
+
+from controller.node import ControllerNode
+from emulators.plant import CAN1, CAN2
+from hil import schemas
+from hil.loop_timing import loop_timing, per_tick, plant_timing
+from hil.transport import open_bus
+
+MAX_BATCH_S = 0.05  # s of physics the plant takes in one batch when behind (then it stretches time)
+SWITCH_INTERVAL_S = 0.0002  # Python's GIL hand-over bound while two loops share the process
+FIFO_PRIORITY = 10  # SCHED_FIFO priority of the controller thread, when the OS allows it (as on the robot)
+PLANT_FIFO_PRIORITY = 5  # the plant's, below the controller's: other processes must not preempt the
+# plant while it holds the GIL the controller waits for (priority inversion through the GIL)
+
+
+class ControllerThread:
+    """A free-running ControllerNode on its own buses and thread; its ticks logged."""
+
+    def __init__(self, interface: str, channels: dict, period_s: float):
+        self.node = ControllerNode(open_bus(interface, channels[CAN1]), open_bus(interface, channels[CAN2]),
+                                   sync=False, period_s=period_s)
+        self.node.tick_log = []
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, name="controller", daemon=True)
+        self.error: BaseException | None = None
+        self.scheduler = "not started"
+
+    def _run(self) -> None:
+        self.scheduler = _realtime_priority()
+        try:
+            self.node.run(self._stop)
+        except BaseException as exc:  # re-raised in the rig's thread by stop()
+            self.error = exc
+
+    def start(self) -> None:
+        self._thread.start()
+
+    def stop(self) -> None:
+        """Stop the loop (it disables the motors on its way out) and close its buses."""
+        self._stop.set()
+        self._thread.join(5.0)
+        for bus in self.node.buses.values():
+            bus.shutdown()
+        if self.error is not None:
+            raise RuntimeError(f"the controller thread failed: {self.error!r}") from self.error
+
+
+def _realtime_priority(priority: int = FIFO_PRIORITY) -> str:
+    """Ask for SCHED_FIFO for the calling thread: without it a busy machine delays the
+    controller's wake-ups by whole scheduler slices. Returns what it got."""
+    try:
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(priority))
+        return f"SCHED_FIFO {priority}"
+    except (OSError, AttributeError) as exc:  # no CAP_SYS_NICE, or not Linux
+        return f"SCHED_OTHER (SCHED_FIFO refused: {exc})"
+
+
+class RealtimeRun:
+    """Drives one rig in real time; ``run`` returns (ticks, sim s, wall s, timing dict)."""
+
+    def __init__(self, rig):
+        self.rig = rig
+        cfg = rig.config
+        self.dt = cfg.physics_dt_s
+        self.steps_per_tick = round(cfg.period_s / cfg.physics_dt_s)
+        self.max_batch = max(1, round(MAX_BATCH_S / cfg.physics_dt_s))
+        self.batches: list[int] = []
+        self.lags: list[float] = []
+
+    def run(self) -> tuple[int, float, float, dict]:
+        rig, cfg = self.rig, self.rig.config
+        total = round(rig.scenario.duration_s / cfg.period_s) * self.steps_per_tick
+        controller = None
+        if cfg.in_process_controller:
+            controller = ControllerThread(cfg.interface, rig.names, cfg.period_s)
+        switch, gc_was_on = sys.getswitchinterval(), gc.isenabled()
+        sys.setswitchinterval(SWITCH_INTERVAL_S)
+        gc.disable()  # a cyclic collection stalls both loops for milliseconds; collect after the run
+        policy = os.sched_getscheduler(0), os.sched_getparam(0)
+        self.plant_scheduler = _realtime_priority(PLANT_FIFO_PRIORITY)
+        wall0 = time.monotonic()
+        try:
+            if controller is not None:
+                controller.start()
+            self._loop(total, wall0)
+        finally:
+            wall_s = time.monotonic() - wall0
+            if controller is not None:
+                controller.stop()
+            sys.setswitchinterval(switch)
+            os.sched_setscheduler(0, *policy)
+            if gc_was_on:
+                gc.enable()
+        sim_s = total * self.dt
+        timing = {"plant": dict(plant_timing(self.batches, self.lags, self.dt, sim_s, wall_s),
+                                scheduler=self.plant_scheduler)}
+        if controller is not None:
+            timing["controller"] = self._record_controller(controller.node, controller.scheduler)
+        self._record_plant(timing["plant"])
+        return total // self.steps_per_tick, sim_s, wall_s, timing
+
+    # -- the plant's wall-clock loop ---------------------------------------------------------
+    def _loop(self, total: int, wall0: float) -> None:
+        step = 0
+        while step < total:
+            now = time.monotonic() - wall0
+            due = min(int(now / self.dt), total)  # steps that should be done by now
+            if due <= step:
+                time.sleep(max(0.0, (step + 1) * self.dt - now))
+                continue
+            batch = min(due - step, self.max_batch)
+            self.batches.append(batch)
+            self.lags.append(now - (step + 1) * self.dt)
+            if batch > 1:
+                self.rig.trace.event(round(step * self.dt * 1e9), "plant_overrun", steps=batch,
+                                     lag_s=now - (step + 1) * self.dt)
+            self._advance(step, batch)
+            step += batch
+
+    def _advance(self, first: int, count: int) -> None:
+        """Physics steps ``first`` .. ``first + count - 1``, the buses served around them."""
+        rig = self.rig
+        t0 = first * self.dt
+        rig.recorder.now_ns = round(t0 * 1e9)
+        rig._serve_plant(t0)  # the controller's frames that came while we slept
+        for k in range(first, first + count):
+            now = k * self.dt
+            if k % self.steps_per_tick == 0:
+                rig.recorder.now_ns = round(now * 1e9)
+                rig._apply_actions(now)
+            rig.plant.step(now)
+            if (k + 1) % self.steps_per_tick == 0:
+                rig.trace.sim_state(round((now + self.dt) * 1e9), rig.physics.ground_truth())
+        t1 = (first + count) * self.dt
+        rig.recorder.now_ns = round(t1 * 1e9)
+        rig._serve_plant(t1)  # feedback of the new state
+
+    # -- the record ------------------------------------------------------------------------------
+    def _record_controller(self, node: ControllerNode, scheduler: str) -> dict:
+        log = node.tick_log or []
+        ticks = [tick for tick, _ in log]
+        starts = [start for _, start in log]
+        period = self.rig.config.period_s
+        timing = dict(loop_timing(ticks, starts, period), scheduler=scheduler)
+        trace = self.rig.trace
+        for rec in per_tick(ticks, starts, period):
+            t_ns = round(rec["tick"] * period * 1e9)
+            trace.message("/controller/timing", t_ns, rec, "wheelleg.ControllerTiming", schemas.CONTROLLER_TIMING)
+            if rec["missed"]:
+                trace.event(t_ns, "deadline_miss", tick=rec["tick"], missed=rec["missed"],
+                            source="controller timer")
+        trace.add_metadata("controller_timing", _strings(timing))
+        return timing
+
+    def _record_plant(self, plant: dict) -> None:
+        self.rig.trace.add_metadata("plant_timing", _strings(plant))
+
+
+def _strings(record: dict) -> dict[str, str]:
+    """A metadata record: str values as they are, numbers as repr (round-trips through float())."""
+    return {k: v if isinstance(v, str) else repr(v) for k, v in record.items()}

@@ -1,0 +1,143 @@
+"""Real-time mode: the plant at wall-clock pace, the controller free-running on its own
+timer in its own thread; the control loop's period statistics in the trace and summary."""
+from __future__ import annotations
+
+import argparse
+import time
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from hil import realtime, scenarios
+from hil.commands import run as run_command
+from hil.loop_timing import describe, loop_timing, per_tick, plant_timing
+from hil.rig import Rig, RigConfig
+from hil.rundata import load_run
+from hil.trace import TraceReader
+
+PERIOD_S = 0.002
+
+
+# -- the statistics (pure) --------------------------------------------------------------------
+def test_loop_timing_of_a_perfect_loop():
+    ticks = np.arange(100)
+    t = loop_timing(ticks, 5.0 + ticks * PERIOD_S, PERIOD_S)
+    assert t["ticks"] == 100 and t["missed_deadlines"] == 0
+    assert t["mean_period_s"] == pytest.approx(PERIOD_S)
+    assert t["max_jitter_s"] == pytest.approx(0.0, abs=1e-9)
+
+
+def test_loop_timing_counts_skipped_periods_and_jitter():
+    # ticks 0..9 on time, tick 10 starts 0.3 ms late, ticks 11 and 12 never run (the loop
+    # stalled), tick 13 runs 0.1 ms into its period
+    ticks = np.array([*range(11), 13])
+    starts = ticks * PERIOD_S
+    starts[10] += 0.0003
+    starts[11] += 0.0001
+    t = loop_timing(ticks, starts, PERIOD_S)
+    assert t["missed_deadlines"] == 2
+    assert t["max_period_s"] == pytest.approx(3 * PERIOD_S - 0.0002)
+    assert t["max_jitter_s"] == pytest.approx(2 * PERIOD_S - 0.0002)
+    assert t["mean_period_s"] == pytest.approx((starts[-1] - starts[0]) / 11)
+    rows = per_tick(ticks, starts, PERIOD_S)
+    assert [r["missed"] for r in rows] == [0] * 9 + [0, 2]
+    assert rows[9]["jitter_s"] == pytest.approx(0.0003)
+    assert "2 missed deadlines" in describe(t)
+
+
+@pytest.mark.parametrize("ticks, starts, period, message", [
+    ([0, 1], [0.0], PERIOD_S, "shapes"),
+    ([0, 0], [0.0, 0.002], PERIOD_S, "increase"),
+    ([0, 1], [0.0, 0.002], 0.0, "period_s"),
+])
+def test_loop_timing_rejects_bad_input(ticks, starts, period, message):
+    with pytest.raises(ValueError, match=message):
+        loop_timing(ticks, starts, period)
+
+
+def test_one_tick_has_no_periods():
+    t = loop_timing([3], [1.0], PERIOD_S)
+    assert t["ticks"] == 1 and np.isnan(t["mean_period_s"]) and t["missed_deadlines"] == 0
+    assert "no timing" in describe(t)
+
+
+def test_plant_timing_counts_catch_up_batches():
+    p = plant_timing([1, 1, 3, 1, 2], [0.0, 0.0001, 0.0025, 0.0, 0.0012], 0.001, sim_s=0.008, wall_s=0.0081)
+    assert (p["steps"], p["overruns"], p["steps_caught_up"], p["max_batch"]) == (8, 2, 3, 3)
+    assert p["max_lag_s"] == pytest.approx(0.0025)
+    assert p["stretched_s"] == pytest.approx(0.0001)
+
+
+# -- a real-time run ----------------------------------------------------------------------------
+def _realtime_rig(tmp_path, duration_s: float) -> Rig:
+    scenario = replace(scenarios.get("balance"), duration_s=duration_s)
+    return Rig(scenario, RigConfig(realtime=True), tmp_path)
+
+
+def test_realtime_run_keeps_wall_clock_pace_and_records_the_loop_timing(tmp_path):
+    duration_s = 1.0
+    rig = _realtime_rig(tmp_path, duration_s)
+    outcome = rig.run()
+    assert outcome.wall_s == pytest.approx(duration_s, abs=0.25)  # paced, not as fast as possible
+    ctl, plant = outcome.timing["controller"], outcome.timing["plant"]
+    # free-running on its own timer: about one tick per period of wall time
+    assert ctl["ticks"] == pytest.approx(duration_s / PERIOD_S, rel=0.1)
+    assert ctl["mean_period_s"] == pytest.approx(PERIOD_S, rel=0.1)
+    assert plant["steps"] == round(duration_s / 0.001)
+    reader = TraceReader(outcome.trace_path)
+    rows = [p for _, p in reader.topic("/controller/timing")]
+    assert len(rows) == ctl["ticks"] - 1
+    assert sum(r["missed"] for r in rows) == ctl["missed_deadlines"] == outcome.deadline_misses
+    assert len([e for e in reader.events() if e["kind"] == "deadline_miss"]) == \
+        sum(1 for r in rows if r["missed"])
+    meta = reader.metadata["controller_timing"]
+    assert float(meta["p99_jitter_s"]) == pytest.approx(ctl["p99_jitter_s"])
+    assert int(reader.metadata["plant_timing"]["steps"]) == plant["steps"]
+    # no SYNC in real time: the controller ticks on its own clock
+    assert not any(f.arbitration_id == 0x700 for f in reader.frames("vcan0"))
+    assert len(reader.sim_state()["t"]) == round(duration_s / PERIOD_S)
+
+
+def test_a_plant_that_cannot_keep_pace_reports_overruns_instead_of_stretching_time(tmp_path, monkeypatch):
+    """Each physics step costs 1.5 ms of wall time for a 1 ms step: the plant catches up
+    in batches, says so (plant_overrun events, overruns), and simulated time stays with
+    the wall clock."""
+    duration_s = 0.5
+    rig = _realtime_rig(tmp_path, duration_s)
+    step = rig.plant.step
+
+    def slow_step(now_s):
+        deadline = time.perf_counter() + 0.0015
+        step(now_s)
+        while time.perf_counter() < deadline:
+            pass
+    monkeypatch.setattr(rig.plant, "step", slow_step)
+    outcome = rig.run()
+    plant = outcome.timing["plant"]
+    assert plant["overruns"] > 10 and plant["max_batch"] > 1
+    assert plant["steps"] == round(duration_s / 0.001)
+    # 0.75 s of stepping work for 0.5 s simulated: batches serve the buses less often, but
+    # time is not silently stretched; what stretching is left is reported
+    assert plant["stretched_s"] == pytest.approx(outcome.wall_s - outcome.sim_s, abs=1e-6)
+    events = [e for e in TraceReader(outcome.trace_path).events() if e["kind"] == "plant_overrun"]
+    assert len(events) == plant["overruns"]
+    assert all(e["steps"] > 1 for e in events)
+
+
+def test_batches_are_bounded(tmp_path):
+    assert realtime.RealtimeRun(_realtime_rig(tmp_path, 0.1)).max_batch == round(realtime.MAX_BATCH_S / 0.001)
+
+
+def test_run_command_prints_the_loop_statistics(tmp_path, capsys):
+    parser = argparse.ArgumentParser()
+    run_command.add_arguments(parser)
+    args = parser.parse_args(["balance", "--realtime", "--duration", "0.6", "--out", str(tmp_path),
+                              "--no-plot", "--no-decode"])
+    run_command.run(args)
+    out = capsys.readouterr().out
+    assert "control loop:" in out and "jitter p99" in out and "missed deadlines" in out
+    assert "plant:" in out and "overruns" in out
+    trace = tmp_path / "balance.mcap"
+    assert not TraceReader(trace).decoded("vcan0", "Heartbeat")  # --no-decode: raw frames only
+    assert len(load_run(trace).heartbeat["t"]) > 200  # the checks still get them, decoded on reading
