@@ -13,6 +13,7 @@ import argparse
 import signal
 import sys
 import threading
+import time
 
 import can
 
@@ -42,20 +43,40 @@ def open_bus(interface: str, channel: str) -> can.BusABC:
         raise SystemExit(f"cannot open {interface} channel {channel!r}: {exc}") from exc
 
 
+def log_copy(msg: can.Message, channel: str, sent: bool) -> can.Message:
+    """What the log keeps of one frame: a copy (the frame the node holds is not touched)
+    named by its channel, ``is_rx`` False for frames we sent, and for those the wall-clock
+    time of sending (their own timestamp is controller time; a received frame keeps the
+    time the interface stamped on it)."""
+    return can.Message(timestamp=time.time() if sent else msg.timestamp, arbitration_id=msg.arbitration_id,
+                       is_extended_id=msg.is_extended_id, is_remote_frame=msg.is_remote_frame,
+                       is_error_frame=msg.is_error_frame, channel=channel, dlc=msg.dlc, data=bytes(msg.data),
+                       is_fd=msg.is_fd, bitrate_switch=msg.bitrate_switch,
+                       error_state_indicator=msg.error_state_indicator, is_rx=not sent, check=False)
+
+
+def log_listener(writer: can.Listener, names: dict):
+    """A ``ControllerNode`` listener that hands ``writer`` a ``log_copy`` of each frame;
+    ``names`` maps the node's bus names (can1, can2) to channel names."""
+    def listener(bus: str, msg: can.Message, sent: bool) -> None:
+        writer.on_message_received(log_copy(msg, names[bus], sent))
+    return listener
+
+
+def stop_on_signals(stop: threading.Event) -> None:
+    """SIGINT and SIGTERM set ``stop``: the loop ends and disables the motors."""
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, lambda *_: stop.set())
+
+
 def main(args: argparse.Namespace) -> int:
     wheels, joints = open_bus(args.interface, args.wheels), open_bus(args.interface, args.joints)
     writer = can.CanutilsLogWriter(args.log) if args.log else None
     names = {"can1": args.wheels, "can2": args.joints}
-
-    def listener(bus: str, msg: can.Message, sent: bool) -> None:
-        if writer is not None:
-            msg.channel = names[bus]
-            writer.on_message_received(msg)
-
+    listener = log_listener(writer, names) if writer is not None else None
     node = ControllerNode(wheels, joints, sync=args.sync, period_s=args.period, listener=listener)
     stop = threading.Event()
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(sig, lambda *_: stop.set())
+    stop_on_signals(stop)
     try:
         node.run(stop)  # disables the motors on the way out
     finally:
