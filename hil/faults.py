@@ -291,6 +291,56 @@ class Babble(FrameFault):
         return out
 
 
+class Garbage(FrameFault):
+    """A faulty node: frames of unknown ids, the robot's own ids with a wrong length, remote frames.
+
+    Nothing it sends is a valid frame of the robot: the controller must count
+    and ignore all of it. SYNC and Heartbeat ids are left out (the rig's).
+    """
+
+    def __init__(self, select, rng, bus: str, frames_per_s: float):
+        super().__init__(select, rng)
+        if not frames_per_s > 0.0:
+            raise ValueError(f"frames_per_s must be > 0, got {frames_per_s!r}")
+        self.period_ns = 1e9 / frames_per_s
+        self.next_ns: float | None = None
+        db = load_bus(bus)
+        self.known = [(m.frame_id, m.is_extended_frame, m.length) for m in db.messages
+                      if m.frame_id not in LOCKSTEP_IDS]
+        if bus == "can2":  # CyberGear feedback to our host, as the controller parses it
+            self.known += [(cg.reply_id(cg.T_FEEDBACK, j.motor_id, C.CG_HOST_ID, 2), True, 8) for j in C.JOINTS]
+        self._ids = {(fid, ext) for fid, ext, _ in self.known} | {(fid, False) for fid in LOCKSTEP_IDS}
+
+    def spontaneous(self, now_ns):
+        if self.next_ns is None:
+            self.next_ns = float(now_ns)
+        out = []
+        while self.next_ns <= now_ns:
+            out.append(self._frame(self.next_ns / 1e9))
+            self.next_ns += self.period_ns
+        self.count += len(out)
+        return out
+
+    def _frame(self, t_s: float) -> can.Message:
+        rng = self.rng
+        kind = int(rng.integers(3))
+        if kind == 0:  # an id nobody on the robot uses
+            ext = bool(rng.integers(2))
+            while True:
+                fid = int(rng.integers(1 << (29 if ext else 11)))
+                if (fid, ext) not in self._ids and not (ext and cg.target(fid) in {j.motor_id for j in C.JOINTS}):
+                    break
+            return can.Message(arbitration_id=fid, is_extended_id=ext, timestamp=t_s, check=False,
+                               data=rng.bytes(int(rng.integers(9))))
+        fid, ext, length = self.known[int(rng.integers(len(self.known)))]
+        if kind == 1:  # the robot's id, the wrong length
+            size = int(rng.choice([n for n in range(9) if n != length]))
+            return can.Message(arbitration_id=fid, is_extended_id=ext, data=rng.bytes(size), timestamp=t_s,
+                               check=False)
+        return can.Message(arbitration_id=fid, is_extended_id=ext, is_remote_frame=True, dlc=length,
+                           timestamp=t_s, check=False)
+
+
 class Arbitration(FrameFault):
     """Plant frames wait for the wire in CAN priority order; too old ones are dropped.
 
@@ -524,6 +574,12 @@ def babble(bus: str, t_s: float, duration_s: float | None, load: float, frame_id
     return _frame_fault("babble", bus, t_s, duration_s,
                         lambda rng: Babble(Select(), rng, load, frame_id, extended, bitrate),
                         load=load, frame_id=frame_id, extended=extended)
+
+
+def garbage(bus: str, t_s: float, duration_s: float | None, frames_per_s: float) -> list[Action]:
+    """A faulty node on ``bus`` sending ``frames_per_s`` malformed or unknown frames (``Garbage``)."""
+    return _frame_fault("garbage", bus, t_s, duration_s, lambda rng: Garbage(Select(), rng, bus, frames_per_s),
+                        frames_per_s=frames_per_s)
 
 
 def arbitration(bus: str, t_s: float = 0.0, duration_s: float | None = None, max_wait_s: float = 0.005,

@@ -1,0 +1,64 @@
+"""A Controller fed the frames of an upright, standing robot, tick by tick (no rig, no physics)."""
+import can
+
+from controller import constants as C
+from controller import params as P
+from controller.node import Controller
+from controller.state import CAN1, CAN2
+from dbc import cybergear as cg
+from dbc import load_bus, truncating_raw
+
+DB1, DB2 = load_bus("can1"), load_bus("can2")
+HEARTBEAT = DB1.get_message_by_name("Heartbeat")
+
+
+def _std(name, **signals):
+    msg = DB1.get_message_by_name(name)
+    return can.Message(arbitration_id=msg.frame_id, data=msg.encode(signals, strict=False), is_extended_id=False)
+
+
+def _joint_feedback(motor_id, faults=()):
+    msg = DB2.get_message_by_name("CG_Feedback")
+    raw = {s.name: truncating_raw(s, 0.0) for s in msg.signals}
+    raw["Temp"] = 300
+    return can.Message(arbitration_id=cg.reply_id(cg.T_FEEDBACK, motor_id, C.CG_HOST_ID, 2, faults),
+                       data=msg.encode(raw, scaling=False), is_extended_id=True)
+
+
+class Robot:
+    """Feeds a Controller the frames of an upright robot, tick by tick, with devices switchable off."""
+
+    def __init__(self):
+        self.ctl = Controller()
+        self.silent: set = set()
+        self.faults: dict = {}
+        self.reenable = 0
+        self.tick_no = 0
+        self.sent: list = []
+
+    def frames(self):
+        out = [(CAN2, _joint_feedback(j.motor_id, self.faults.get(j.name, ())))
+               for j in C.JOINTS if j.name not in self.silent]
+        out += [(CAN1, _std(f"C620_Feedback_{w.esc_id}", RotorAngle=0, RotorSpeed=0, TorqueCurrent=0,
+                            MotorTemp=30)) for w in C.WHEELS if w.name not in self.silent]
+        if "imu" not in self.silent:
+            out += [(CAN1, _std("IMU_Orientation", QuatW=1.0, QuatX=0.0, QuatY=0.0, QuatZ=0.0)),
+                    (CAN1, _std("IMU_Gyro", RateX=0.0, RateY=0.0, RateZ=0.0)),
+                    (CAN1, _std("IMU_Accel", AccX=0.0, AccY=0.0, AccZ=9.81))]
+        if "remote" not in self.silent:
+            out.append((CAN1, _std("Operator", Mode=1, Jump=0, JumpForward=0, Reenable=self.reenable,
+                                   SpeedX=0.0, YawRate=0.0, LegLength=0.17, Pitch=0.0, Roll=0.0)))
+        return out
+
+    def step(self, n: int = 1):
+        for _ in range(n):
+            now = self.tick_no * P.CONTROL_PERIOD
+            for bus, msg in self.frames():
+                self.ctl.on_frame(msg, bus, now)
+            result = self.ctl.tick(self.tick_no, now)
+            self.sent.append(result)
+            self.tick_no += 1
+        return self.sent[-1]
+
+    def heartbeat(self) -> dict:
+        return HEARTBEAT.decode(bytes(self.sent[-1].frames[CAN1][-1].data))
