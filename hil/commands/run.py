@@ -67,8 +67,17 @@ def run(args: argparse.Namespace) -> int:
             print(f"  {describe(outcome.timing['controller'])}")
         print(f"  {describe_plant(outcome.timing['plant'])}")
     print(f"  trace {outcome.trace_path}\n  log   {outcome.log_path}")
+    print_bus_load(load_run(outcome.trace_path))
     for r in results:
         print(f"  [{'PASS' if r.passed else 'FAIL'}] {r.name}: {r.detail}")
     ok = all(r.passed for r in results)
     print(f"{args.scenario}: {'PASSED' if ok else 'FAILED'}")
     return 0 if ok else 1
+
+
+def print_bus_load(run) -> None:
+    """Each bus's mean and peak load over the run's 100 ms windows (/bus/load)."""
+    for bus, (_, load) in sorted(run.bus_load.items()):
+        if len(load):
+            print(f"  bus load {bus}: mean {load.mean() * 100:.1f} %, peak {load.max() * 100:.1f} % "
+                  f"({len(load)} windows of 100 ms at 1 Mbit/s)")
