@@ -1,0 +1,96 @@
+"""What the seed's frame layout costs each bus at a control rate: ``python -m hil.layout_load TRACE``.
+
+Reads a steady stretch of a rig trace (a balance run), measures each frame
+kind's wire bits exactly (``hil.busload.frame_bits``: the recorded payloads,
+stuff bits included) and its rate, and scales the frames that go with the
+control loop (commands, CyberGear replies, SYNC, heartbeat) to other control
+rates. Frames a device sends on its own clock (C620 feedback at 1 kHz, IMU at
+500 Hz, remote at 50 Hz) keep their rate.
+
+    wheelleg run balance --duration 2 --out /tmp/bl --no-plot
+    python -m hil.layout_load /tmp/bl/balance.mcap --rates 500 1000
+"""
+from __future__ import annotations
+
+import argparse
+from collections import defaultdict
+
+from dbc import cybergear as cg
+from dbc import load_bus
+from hil.busload import DEFAULT_BITRATE, frame_bits
+from hil.trace import TraceReader
+
+_DB1 = load_bus("can1")
+_SYNC_KIND = f"0x{_DB1.get_message_by_name('SYNC').frame_id:03X}"
+_LOOP_STD_IDS = {_DB1.get_message_by_name(n).frame_id for n in ("SYNC", "Heartbeat", "C620_Cmd_1_4")}
+
+
+def frame_kind(arbitration_id: int, is_extended: bool) -> str:
+    """A name for one kind of frame: the CyberGear type and motor, or the standard id."""
+    if is_extended:
+        motor = (arbitration_id >> 8) & 0xFF if cg.comm_type(arbitration_id) == cg.T_FEEDBACK \
+            else cg.target(arbitration_id)
+        return f"cybergear type {cg.comm_type(arbitration_id)} motor {motor}"
+    return f"0x{arbitration_id:03X}"
+
+
+def follows_the_loop(arbitration_id: int, is_extended: bool) -> bool:
+    """Sent once per control tick (or in answer to one): scales with the control rate."""
+    return is_extended or arbitration_id in _LOOP_STD_IDS
+
+
+def measure(path, t0_s: float, t1_s: float) -> dict:
+    """channel -> kind -> (frames/s, mean wire bits, follows the loop) over [t0_s, t1_s)."""
+    reader = TraceReader(path)
+    meta = reader.metadata.get("run", {})
+    names = {meta.get("can1", "vcan0"): "can1", meta.get("can2", "vcan1"): "can2"}
+    bits = defaultdict(lambda: defaultdict(list))
+    loop = {}
+    for frame in reader.frames():
+        if not t0_s * 1e9 <= frame.t_ns < t1_s * 1e9 or frame.is_error:
+            continue
+        kind = frame_kind(frame.arbitration_id, frame.is_extended)
+        bus = names.get(frame.channel, frame.channel)
+        bits[bus][kind].append(frame_bits(frame.arbitration_id, frame.is_extended, bytes(frame.data)))
+        loop[kind] = follows_the_loop(frame.arbitration_id, frame.is_extended)
+    span = t1_s - t0_s
+    return {bus: {k: (len(v) / span, sum(v) / len(v), loop[k]) for k, v in kinds.items()}
+            for bus, kinds in bits.items()}
+
+
+def load_at(kinds: dict, measured_hz: float, control_hz: float, bitrate: int = DEFAULT_BITRATE) -> float:
+    """Load fraction of one bus at ``control_hz`` from its kinds measured at ``measured_hz``."""
+    total = 0.0
+    for rate, mean_bits, loop in kinds.values():
+        total += rate * (control_hz / measured_hz if loop else 1.0) * mean_bits
+    return total / bitrate
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m hil.layout_load", description=__doc__.splitlines()[0])
+    parser.add_argument("trace", help="MCAP trace of a steady run (balance)")
+    parser.add_argument("--from", dest="t0", type=float, default=0.5, help="start of the steady stretch (s)")
+    parser.add_argument("--to", dest="t1", type=float, default=None, help="end (s; default: the trace's end - 0.1)")
+    parser.add_argument("--control-hz", type=float, default=500.0, help="control rate the trace ran at")
+    parser.add_argument("--rates", type=float, nargs="+", default=[500.0, 1000.0], help="control rates to show")
+    args = parser.parse_args(argv)
+    t1 = args.t1
+    if t1 is None:
+        reader = TraceReader(args.trace)
+        t1 = float(reader.sim_state()["t"][-1]) - 0.1
+    table = measure(args.trace, args.t0, t1)
+    for bus in sorted(table):
+        kinds = table[bus]
+        print(f"{bus}:")
+        for kind, (rate, mean_bits, loop) in sorted(kinds.items()):
+            print(f"  {kind:<28} {rate:7.1f} /s  {mean_bits:6.1f} bits{'  (control loop)' if loop else ''}")
+        robot = {k: v for k, v in kinds.items() if k != _SYNC_KIND}  # the rig's SYNC is not on the robot
+        print("  with the rig's SYNC: " + ", ".join(
+            f"{hz:g} Hz {load_at(kinds, args.control_hz, hz) * 100:.1f} %" for hz in args.rates))
+        print("  robot only:          " + ", ".join(
+            f"{hz:g} Hz {load_at(robot, args.control_hz, hz) * 100:.1f} %" for hz in args.rates))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
