@@ -10,7 +10,10 @@ leg's Fn above ``P.FN_ON``), so a thrust too weak to leave the ground just
 lands at once.
 
 JumpForward is the same table with a forward speed set point held from the
-squat to the landing, so the robot carries momentum onto a step.
+squat to the landing, so the robot carries momentum onto a step; its squat
+also waits for a steady run-up (at speed, legs upright): a thrust while the
+robot still leans into its acceleration throws the legs back and, in the
+air, swinging them upright pitches the body nose down.
 """
 from __future__ import annotations
 
@@ -24,7 +27,7 @@ from controller import params as P
 class Phase(enum.IntEnum):
     SQUAT = 0  # legs to the squat length, balancing on the wheels
     THRUST = 1  # open-loop push along the legs, decaying towards full stretch
-    RETRACT = 2  # pull the wheels up towards the body, wheels unpowered
+    RETRACT = 2  # pull the wheels up towards the body (leg PD, damped: no slam on the stop)
     FLIGHT = 3  # legs held vertical at the landing length until touchdown
     LAND = 4  # balancing again, legs absorb from where they touched down
     DONE = 5
@@ -37,6 +40,7 @@ class JumpView:
     elapsed_s: float  # s in this phase
     leg_length: float  # m, the shorter leg in SQUAT/RETRACT, the longer one in THRUST
     touching: bool  # either leg's Fn above P.FN_ON this tick
+    steady: bool = True  # a forward jump's run-up: at its speed with the legs upright
 
 
 @dataclass(frozen=True)
@@ -71,12 +75,12 @@ class PhaseSpec:
 
 PHASES: dict = {
     Phase.SQUAT: PhaseSpec(False, P.JUMP_SQUAT_LENGTH, None, P.HIP_TORQUE_LIMIT,
-                           lambda v: v.leg_length < P.JUMP_SQUAT_LENGTH + 0.01 and v.elapsed_s > P.JUMP_SQUAT_MIN_S,
+                           lambda v: v.leg_length < P.JUMP_SQUAT_LENGTH + 0.01 and v.elapsed_s > P.JUMP_SQUAT_MIN_S and v.steady,
                            Phase.THRUST, P.JUMP_SQUAT_TIMEOUT, Phase.THRUST),
     Phase.THRUST: PhaseSpec(False, None, _thrust_force, P.JUMP_HIP_TORQUE_LIMIT,
                             lambda v: v.leg_length > P.JUMP_THRUST_END_LENGTH,
                             Phase.RETRACT, P.JUMP_THRUST_TIMEOUT, Phase.RETRACT),
-    Phase.RETRACT: PhaseSpec(True, None, lambda v: -P.JUMP_RETRACT_FORCE, P.JUMP_HIP_TORQUE_LIMIT,
+    Phase.RETRACT: PhaseSpec(True, P.JUMP_RETRACT_TARGET, None, P.JUMP_HIP_TORQUE_LIMIT,
                              lambda v: v.leg_length < P.JUMP_RETRACT_LENGTH,
                              Phase.FLIGHT, P.JUMP_RETRACT_TIMEOUT, Phase.FLIGHT),
     Phase.FLIGHT: PhaseSpec(True, P.JUMP_LAND_LENGTH, None, P.HIP_TORQUE_LIMIT,
@@ -116,10 +120,11 @@ class JumpSequencer:
     def done(self) -> bool:
         return self.phase == Phase.DONE
 
-    def step(self, lengths: tuple[float, float], touching: bool) -> JumpCommand:
-        """Advance with both legs' lengths (m) and touchdown; the command for this tick."""
+    def step(self, lengths: tuple[float, float], touching: bool, steady: bool = True) -> JumpCommand:
+        """Advance with both legs' lengths (m), touchdown and (forward jumps) whether the
+        run-up is steady; the command for this tick."""
         pick = max if self.phase == Phase.THRUST else min
-        view = JumpView(self.elapsed_s, pick(lengths), touching)
+        view = JumpView(self.elapsed_s, pick(lengths), touching, steady)
         new = next_phase(self.phase, view)
         self.entered = new if new != self.phase else None
         if self.entered is not None:

@@ -162,7 +162,11 @@ class Controller:
         """Fill ``cmd`` from the jump table's phase (controller/jump.py)."""
         lengths = tuple(self._last_debug.get(f"{leg}_L0", P.LEG_LENGTH_NOMINAL) for leg in ("left", "right"))
         touching = max(self.fn.values()) > P.FN_ON
-        jc = self.jump.step(lengths, touching)
+        debug = self._last_debug
+        steady = not self._jump_forward or (
+            abs(debug.get("speed", 0.0) - P.JUMP_FORWARD_SPEED) < P.JUMP_RUN_UP_SPEED_TOL
+            and all(abs(debug.get(f"{leg}_theta", 1.0)) < P.JUMP_RUN_UP_THETA_TOL for leg in ("left", "right")))
+        jc = self.jump.step(lengths, touching, steady)
         if self.jump.entered == Phase.LAND:
             self.chassis.touchdown(self.bus)
         ahead = self._jump_forward and jc.phase in (Phase.SQUAT, Phase.THRUST, Phase.RETRACT, Phase.FLIGHT)
@@ -177,7 +181,8 @@ class Controller:
         accel_z = support.vertical_accel(imu.quat, imu.accel)
         for leg, state in legs.items():
             self.fn[leg] = self.support[leg].update(support.leg_measurement(self.bus.joints, leg, state), accel_z)
-        self.contact.update(self.fn["left"], self.fn["right"])
+        self.contact.update(self.fn["left"], self.fn["right"],
+                            support.estimate_trusted(state.theta for state in legs.values()))
 
     def _disabled(self, result: TickResult, now_s: float) -> None:
         """Motors off: a stop frame to every joint each tick.

@@ -86,6 +86,7 @@ OFF_GROUND_DEBOUNCE = 0.030  # s below FN_OFF before airborne (20-60 ms, tulingz
 TOUCHDOWN_DEBOUNCE = 0.006  # s above FN_ON before landed: short, the wheels need power soon
 FN_FILTER_TAU = 0.008  # s, low-pass of the Fn estimate (an impact is a few ms long)
 FN_DERIVATIVE_TAU = 0.010  # s, low-pass on the differenced ddL0 and ddtheta
+FN_TRUST_THETA = 0.3  # rad, legs further from vertical: Fn may not call it airborne (support.estimate_trusted)
 
 # --- in the air (control_notes §1.8, §6 "In-air") -----------------------------------------
 AIR_THETA_KP = 5.0  # N m/rad, leg-angle PD on Tp (I ~0.014 kg m^2 -> ~20 rad/s)
@@ -96,18 +97,22 @@ AIR_LEG_FORCE_LIMIT = 40.0  # N, leg PD clamp in the air (no gravity feed-forwar
 # --- jump (controller/jump.py; control_notes §1.9 mapped to this robot) --------------------
 JUMP_SQUAT_LENGTH = 0.12  # m, lowest leg length of the K(L0) fit: the longest stroke
 JUMP_SQUAT_MIN_S = 0.15  # s, settle in the squat before pushing
-JUMP_SQUAT_TIMEOUT = 0.8  # s, push anyway if the squat is not reached
+JUMP_SQUAT_TIMEOUT = 1.5  # s, push anyway if the squat (and a forward run-up) is not reached
 JUMP_THRUST_FORCE = 100.0  # N per leg on top of gravity, Hermite decay over the stroke
 JUMP_THRUST_END_LENGTH = 0.25  # m, thrust ends near full stretch (K fit ends at 0.26)
 JUMP_THRUST_TIMEOUT = 0.25  # s
 JUMP_HIP_TORQUE_LIMIT = 12.0  # N m, the CyberGear's peak, only while thrusting/retracting
-JUMP_RETRACT_FORCE = 40.0  # N per leg pulling the wheels up
+# retract with the in-air leg PD towards a short target (its damping stops the legs
+# before the mechanical stop: an open-loop pull slammed them into it at 0.105 m)
+JUMP_RETRACT_TARGET = 0.13  # m
 JUMP_RETRACT_LENGTH = 0.14  # m, retract until the legs are this short
 JUMP_RETRACT_TIMEOUT = 0.15  # s
 JUMP_LAND_LENGTH = 0.18  # m, legs held here in flight: stroke to absorb the landing
-JUMP_FLIGHT_MIN_S = 0.02  # s, ignore the retraction's own Fn transient
+JUMP_FLIGHT_MIN_S = 0.05  # s, ignore the retraction's own Fn transient
 JUMP_FLIGHT_TIMEOUT = 1.0  # s
 JUMP_LAND_TIME = 0.4  # s balancing before the jump counts as done
 JUMP_FORWARD_SPEED = 0.8  # m/s held from squat to landing by JumpForward
+JUMP_RUN_UP_SPEED_TOL = 0.1  # m/s, a forward jump thrusts only at its speed ...
+JUMP_RUN_UP_THETA_TOL = 0.05  # rad, ... with the legs upright (no lean left)
 FALL_PITCH_AIR = 1.2  # rad, in JUMP/AIRBORNE: the body swings more in the air, a tumble is past this
 FALL_ROLL_AIR = 1.2  # rad

@@ -109,6 +109,18 @@ class SupportEstimator:
         return self.fn(raw)
 
 
+def estimate_trusted(thetas) -> bool:
+    """Whether Fn can call the robot airborne: every leg within P.FN_TRUST_THETA of vertical.
+
+    With a leg swung far out (catching a shove, |theta| ~0.5 rad) and a large
+    hip torque, the massless-leg estimate reads near zero although the wheel
+    carries its full load (seen in the rig: 1 N estimated against 24 N, in a
+    30 N push); a robot that leaves the ground does so with its legs near
+    vertical (drop, jump, a bump at speed).
+    """
+    return all(abs(t) < P.FN_TRUST_THETA for t in thetas)
+
+
 class ContactDebounce:
     """Both wheels off the ground, with hysteresis and debounce (module doc)."""
 
@@ -121,13 +133,17 @@ class ContactDebounce:
     def reset(self, airborne: bool = False) -> None:
         self.airborne, self.count = airborne, 0
 
-    def update(self, fn_left: float, fn_right: float) -> bool:
-        """Feed this tick's Fn (N) of both legs; returns whether the robot is airborne."""
+    def update(self, fn_left: float, fn_right: float, trusted: bool = True) -> bool:
+        """Feed this tick's Fn (N) of both legs; returns whether the robot is airborne.
+
+        ``trusted`` False (legs far from vertical, see ``estimate_trusted``) keeps a
+        robot on the ground from being declared airborne; touchdown is always taken.
+        """
         if self.airborne:
             changing = max(fn_left, fn_right) > P.FN_ON
             needed = self.on_ticks
         else:
-            changing = max(fn_left, fn_right) < P.FN_OFF
+            changing = trusted and max(fn_left, fn_right) < P.FN_OFF
             needed = self.off_ticks
         self.count = self.count + 1 if changing else 0
         if self.count >= needed:

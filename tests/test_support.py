@@ -90,3 +90,15 @@ def test_touchdown_needs_a_leg_above_the_on_threshold_and_hysteresis_holds():
         assert c.update(P.FN_ON + 1, 0.0)
     assert not c.update(P.FN_ON + 1, 0.0)
     assert P.FN_OFF < P.FN_ON < 0.5 * C.MASS_TOTAL * C.GRAVITY  # thresholds below the static load
+
+
+def test_an_untrusted_estimate_never_makes_it_airborne_but_touchdown_still_counts():
+    from controller.support import estimate_trusted
+    assert estimate_trusted((0.1, -0.2)) and not estimate_trusted((0.1, -0.5))
+    c = ContactDebounce(DT)
+    for _ in range(200):
+        assert not c.update(0.0, 0.0, trusted=False)
+    c.reset(airborne=True)
+    for _ in range(round(P.TOUCHDOWN_DEBOUNCE / DT)):
+        c.update(30.0, 30.0, trusted=False)
+    assert not c.airborne

@@ -9,6 +9,8 @@ torques and wheel currents.
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from emulators.physics import TerrainFeature
@@ -183,10 +185,10 @@ def tracks(field: str, target: float, t0: float, t1: float, tol: float, unit: st
     def fn(run: RunData):
         values = run.window(field, t0, t1)
         mean, worst = float(np.mean(values)), float(np.max(np.abs(values - target)))
-        return worst < tol, (f"{field} {mean * scale:.2f} {unit} (target {target * scale:g}), "
+        return worst < tol, (f"{field} {mean * scale:.2f} {unit} (target {target * scale:.2f}), "
                              f"worst error {worst * scale:.2f} over {t0:g}-{t1:g} s (limit {tol * scale:g})")
 
-    return Check(f"{field} holds {target * scale:g} {unit} over {t0:g}-{t1:g} s", fn)
+    return Check(f"{field} holds {target * scale:.1f} {unit} over {t0:g}-{t1:g} s", fn)
 
 
 def mean_leg_tracks(target: float, t0: float, t1: float, tol: float = 0.01) -> Check:
@@ -199,8 +201,14 @@ def mean_leg_tracks(target: float, t0: float, t1: float, tol: float = 0.01) -> C
 
 
 # -- scenarios -----------------------------------------------------------------------
+def _positive(name: str, value: float, upper: float) -> None:
+    if not (0.0 < value <= upper):
+        raise ValueError(f"{name} must be in (0, {upper:g}], got {value}")
+
+
 def jump_scenario(clearance_m: float = 0.2) -> Scenario:
     """Jump in place from balance; pass if the lower wheel clears ``clearance_m``."""
+    _positive("clearance_m", clearance_m, 2.0)
     return Scenario(
         "jump", f"jump in place, lower wheel clears {clearance_m * 100:g} cm, land upright", 3.5, standing(),
         timeline=(stand(), remote(0.8, Jump=1), remote(1.0, Jump=0)),
@@ -208,8 +216,14 @@ def jump_scenario(clearance_m: float = 0.2) -> Scenario:
                 never_fallen(), upright_at_end(0.8), no_deadline_miss()))
 
 
-def jump_step_scenario(step_height_m: float = 0.15, approach_m: float = 0.35) -> Scenario:
-    """Stand ``approach_m`` before a step and JumpForward onto it."""
+def jump_step_scenario(step_height_m: float = 0.15, approach_m: float = 0.72) -> Scenario:
+    """Stand ``approach_m`` (m, body to the step's edge) before a step and JumpForward onto it.
+
+    The default approach suits the run-up JumpForward takes (it thrusts only at
+    its speed, ~0.55 m on), so the wheels pass the edge near the top of the jump.
+    """
+    _positive("step_height_m", step_height_m, 1.0)
+    _positive("approach_m", approach_m, 5.0)
     edge = approach_m
     return Scenario(
         "jump-step", f"jump forward onto a {step_height_m * 100:g} cm step, balance on top", 4.0, standing(),
@@ -221,13 +235,14 @@ def jump_step_scenario(step_height_m: float = 0.15, approach_m: float = 0.35) ->
 
 def drop_scenario(height_m: float = 0.5) -> Scenario:
     """Released at ``height_m`` (lower wheel above the ground) with legs at 0.17 m."""
+    _positive("height_m", height_m, 5.0)
     return Scenario(
         "drop", f"released {height_m * 100:g} cm above the ground, lands and balances", 3.0,
         standing(drop_height_m=height_m), timeline=(stand(),),
         checks=(mode_seen(AIRBORNE), never_fallen(), upright_at_end(1.0), no_deadline_miss()))
 
 
-def fall_scenario(force_n: float = 60.0) -> Scenario:
+def fall_scenario(force_n: float = 50.0) -> Scenario:
     """A shove it cannot save: detected, torque off; lying, the operator re-enables and it stands."""
     return Scenario(
         "fall", f"{force_n:g} N shove for 0.3 s topples it; torque off; re-enable stands it up", 7.0, standing(),
@@ -254,14 +269,18 @@ def estop_scenario() -> Scenario:
 
 
 def pose_scenario() -> Scenario:
-    """Pitch, roll and height set points while standing, one after the other."""
+    """Pitch, roll, height and then yaw set points while standing, one after the other."""
+    yaw_turn = math.pi / 4
     return Scenario(
-        "pose", "pitch +-0.1 rad, roll +-0.1 rad, height 0.22 m while standing", 9.0, standing(),
+        "pose", "pitch +-0.1 rad, roll +-0.1 rad, height 0.22 m, then a 45 deg yaw while standing", 10.5,
+        standing(),
         timeline=(stand(), remote(0.5, Pitch=0.1), remote(2.0, Pitch=-0.1), remote(3.5, Pitch=0.0, Roll=0.1),
-                  remote(5.0, Roll=-0.1), remote(6.5, Roll=0.0, LegLength=0.22)),
-        checks=(tracks("pitch", 0.1, 1.5, 2.0, 2 * DEG), tracks("pitch", -0.1, 3.0, 3.5, 2 * DEG),
-                tracks("roll", 0.1, 4.5, 5.0, 2 * DEG), tracks("roll", -0.1, 6.0, 6.5, 2 * DEG),
-                mean_leg_tracks(0.22, 8.0, 9.0), never_fallen(), no_deadline_miss()))
+                  remote(5.0, Roll=-0.1), remote(6.5, Roll=0.0, LegLength=0.22),
+                  remote(8.0, Mode=2, YawRate=1.0), remote(8.0 + yaw_turn, YawRate=0.0)),
+        checks=(tracks("pitch", 0.1, 1.5, 2.0, 1 * DEG), tracks("pitch", -0.1, 3.0, 3.5, 1 * DEG),
+                tracks("roll", 0.1, 4.5, 5.0, 1 * DEG), tracks("roll", -0.1, 6.0, 6.5, 1 * DEG),
+                mean_leg_tracks(0.22, 7.5, 10.5), tracks("yaw", yaw_turn, 9.5, 10.5, 2 * DEG),
+                never_fallen(), no_deadline_miss()))
 
 
 SCENARIOS = (jump_scenario(), jump_step_scenario(), drop_scenario(), fall_scenario(), estop_scenario(),

@@ -1,0 +1,96 @@
+"""Issue 4's airborne scenarios (jump, jump-step, drop, fall, estop, pose), run in the rig."""
+import numpy as np
+import pytest
+
+from hil.scenario import RunData
+from hil.scenarios import airborne as A
+
+PASSING = ("jump", "jump-step", "drop", "estop", "pose")
+
+
+@pytest.mark.parametrize("name", PASSING)
+def test_scenario_passes_its_checks(name, rig_run):
+    rig_run(name).assert_passed()
+
+
+def test_jump_reaches_the_issue_aim_and_lands_with_the_wheels_powered_again(rig_run):
+    run = rig_run("jump")
+    assert A.peak_clearance(run) >= 0.2
+    t, mode = run.heartbeat["t"], run.heartbeat["Mode"]
+    assert mode[-1] == A.BALANCE and A.first_mode(run, A.JUMP) is not None
+
+
+def test_in_the_air_the_wheels_get_no_current(rig_run):
+    """Drop: every wheel command sent while the heartbeat says AIRBORNE is zero."""
+    run = rig_run("drop")
+    hb_t, hb_m = run.heartbeat["t"], run.heartbeat["Mode"]
+    air = hb_t[hb_m == A.AIRBORNE]
+    assert len(air) > 50  # ~0.3 s of free fall at 500 Hz
+    for t, amps in run.wheel_current.values():
+        # commands of an AIRBORNE tick go out just before its heartbeat, within the tick
+        inside = (t > air[0]) & (t < air[-1] - 0.002)
+        assert inside.any() and np.all(amps[inside] == 0.0)
+
+
+def test_a_fall_is_detected_and_torque_stays_off_until_the_operator_asks(rig_run):
+    results = {c.name: c for c in rig_run("fall").checks}
+    assert results["heartbeat shows FALLEN"].passed
+    assert results["torque off from FALLEN until re-enable"].passed, results
+    assert results["heartbeat shows STAND_UP"].passed  # the re-enable is taken
+
+
+@pytest.mark.xfail(strict=True, reason="no recovery stand from lying nose-down on the body (legs limp, swung "
+                   "back on their stop): STAND_UP sees |pitch| > FALL_PITCH and goes back to FALLEN")
+def test_stands_up_after_a_fall(rig_run):
+    results = {c.name: c for c in rig_run("fall").checks}
+    assert results["upright and BALANCE over the last 1 s"].passed
+
+
+# -- the checks themselves, on synthetic runs -----------------------------------------
+def _run(modes, hip_tau, n_per=10, **state) -> RunData:
+    """Heartbeat modes in blocks of ``n_per`` ticks (2 ms), one hip torque per tick."""
+    m = np.repeat(np.array(modes), n_per)
+    t = np.arange(len(m)) * 0.002
+    fields = {k: np.zeros(len(t)) for k in ("pitch", "roll", "x", "z", "left_normal_force", "right_normal_force",
+                                            "left_wheel_clearance", "right_wheel_clearance")}
+    fields.update({k: np.asarray(v, dtype=float) for k, v in state.items()})
+    fields["t"] = t
+    return RunData(state=fields, heartbeat={"t": t, "Mode": m}, hip_torque={1: (t, np.asarray(hip_tau, float))},
+                   wheel_current={1: (t, np.zeros(len(t)))},
+                   events=[{"kind": "operator", "t": 0.07, "Mode": 0}, {"kind": "operator", "t": 0.19, "Mode": 1}])
+
+
+def test_estop_check_fails_on_torque_after_the_stop_and_on_a_slow_stop():
+    modes = [A.BALANCE] * 4 + [A.ESTOP] * 6
+    quiet = np.where(np.repeat(np.array(modes), 10) == A.ESTOP, 0.0, 1.0)
+    check = A.estops_cut_torque((A.BALANCE,))
+    assert check(_run(modes, quiet)).passed
+    spiked = quiet.copy()
+    spiked[70] = 2.0
+    assert not check(_run(modes, spiked)).passed
+    slow = [A.BALANCE] * 6 + [A.ESTOP] * 4  # ESTOP 50 ms after the switch
+    assert not check(_run(slow, np.where(np.repeat(np.array(slow), 10) == A.ESTOP, 0.0, 1.0))).passed
+    assert not A.estops_cut_torque((A.MOVE,))(_run(modes, quiet)).passed  # it was in BALANCE
+
+
+def test_clearance_and_leave_ground_checks_fail_when_the_wheels_stay_down():
+    n = 100
+    grounded = _run([A.BALANCE] * 10, np.zeros(n), left_normal_force=np.full(n, 20.0),
+                    right_normal_force=np.full(n, 20.0))
+    assert not A.leaves_ground()(grounded).passed
+    assert not A.clearance_at_least(0.01)(grounded).passed
+    lift = np.zeros(n)
+    lift[40:80] = 0.25
+    flying = _run([A.JUMP] * 10, np.zeros(n), left_wheel_clearance=lift, right_wheel_clearance=lift,
+                  left_normal_force=np.where(lift > 0, 0.0, 20.0), right_normal_force=np.where(lift > 0, 0.0, 20.0))
+    assert A.leaves_ground()(flying).passed and A.clearance_at_least(0.2)(flying).passed
+    assert not A.clearance_at_least(0.3)(flying).passed
+
+
+def test_factories_size_their_scenarios_and_refuse_nonsense():
+    assert A.drop_scenario(0.8).start is not None and "80 cm" in A.drop_scenario(0.8).summary
+    assert A.jump_step_scenario(0.2).terrain[0].height_m == 0.2
+    for make in (lambda: A.drop_scenario(0.0), lambda: A.jump_scenario(-0.1),
+                 lambda: A.jump_step_scenario(float("nan")), lambda: A.jump_step_scenario(0.1, approach_m=0.0)):
+        with pytest.raises(ValueError):
+            make()
