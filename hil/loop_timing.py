@@ -89,8 +89,15 @@ def plant_timing(batches, lags_s, dt_s: float, sim_s: float, wall_s: float) -> d
     }
 
 
+STRETCH_TOLERANCE_S = 0.01  # s of wall time the plant may end behind before the run is not real time
+
+
 def describe_plant(plant: dict) -> str:
-    return (f"plant: {plant['steps']} physics steps, {plant['overruns']} overruns "
+    text = (f"plant: {plant['steps']} physics steps, {plant['overruns']} overruns "
             f"({plant['steps_caught_up']} steps caught up in batches, largest {plant['max_batch']}), "
             f"lag p99 {1e3 * plant['p99_lag_s']:.3f} ms, max {1e3 * plant['max_lag_s']:.3f} ms, "
             f"{plant['sim_s']:.2f} s simulated in {plant['wall_s']:.2f} s wall")
+    if plant["stretched_s"] > STRETCH_TOLERANCE_S:
+        text += (f"\n  NOT REAL TIME: the plant fell {plant['stretched_s']:.2f} s behind the wall clock "
+                 "(simulated time stretched; the controller saw a slow world)")
+    return text

@@ -11,7 +11,7 @@ import pytest
 
 from hil import realtime, scenarios
 from hil.commands import run as run_command
-from hil.loop_timing import describe, loop_timing, per_tick, plant_timing
+from hil.loop_timing import describe, describe_plant, loop_timing, per_tick, plant_timing
 from hil.rig import Rig, RigConfig
 from hil.rundata import load_run
 from hil.trace import TraceReader
@@ -67,6 +67,10 @@ def test_plant_timing_counts_catch_up_batches():
     assert (p["steps"], p["overruns"], p["steps_caught_up"], p["max_batch"]) == (8, 2, 3, 3)
     assert p["max_lag_s"] == pytest.approx(0.0025)
     assert p["stretched_s"] == pytest.approx(0.0001)
+    assert "NOT REAL TIME" not in describe_plant(p)
+    late = plant_timing([50, 50], [0.5, 0.9], 0.001, sim_s=0.1, wall_s=1.0)
+    assert late["stretched_s"] == pytest.approx(0.9)
+    assert "NOT REAL TIME: the plant fell 0.90 s behind" in describe_plant(late)
 
 
 # -- a real-time run ----------------------------------------------------------------------------
