@@ -13,13 +13,14 @@ Each tick ends with a heartbeat on both buses.
 """
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, field
 
 import can
 
 from controller import constants as C
-from controller import detect, messages, support
+from controller import detect, messages, posture, support
 from controller import params as P
 from controller.chassis import ChassisController, Command, attitude
 from controller.jump import JumpSequencer, Phase
@@ -108,6 +109,7 @@ class Controller:
         fallen = abs(att.pitch) > P.FALL_PITCH or abs(att.roll) > P.FALL_ROLL
         if self.mode in (Mode.JUMP, Mode.AIRBORNE):  # tumbling in the air: wider limits
             fallen = abs(att.pitch) > P.FALL_PITCH_AIR or abs(att.roll) > P.FALL_ROLL_AIR
+        fallen = fallen or (self.mode in ENABLED and self._body_down(att))
         stood = False
         if self.mode == Mode.STAND_UP:
             debug = self._last_debug
@@ -123,6 +125,15 @@ class Controller:
         return Inputs(switch=switch, devices_ok=devices_ok, reenable=reenable,
                       jump=jump_edge or forward_edge, fallen=fallen, stood_up=stood,
                       off_ground=self.contact.airborne, jump_done=self.jump.done, can_rise=not fallen)
+
+    def _body_down(self, att) -> bool:
+        """The body box rests on the floor (posture.body_clearance from last tick's legs)."""
+        debug = self._last_debug
+        if not all(f"{leg}_L0" in debug for leg in ("left", "right")):
+            return False
+        legs = [(side * C.LEG_PLANE_Y, debug[f"{leg}_L0"], math.pi / 2 - debug[f"{leg}_theta"] + att.pitch)
+                for leg, side in (("left", 1.0), ("right", -1.0))]
+        return posture.body_clearance(att.roll, att.pitch, legs) < P.BODY_GROUND_CLEARANCE
 
     # -- what each kind of tick sends --------------------------------------------
     def _enable(self, result: TickResult, now_s: float) -> None:

@@ -1,0 +1,42 @@
+"""Is the body on the ground? A kinematic estimate from what the robot measures.
+
+The controller cannot feel the body touch the floor, but it knows its
+attitude and both legs: it can place the body box (constants.BODY_SIZE, its
+centre at the CoM, the hip midpoint O ``BODY_COM_ABOVE_HIP`` below it) and
+each wheel's lowest point in a frame that turns with roll and pitch only, and
+take the flat ground through the lower wheel. When the box's lowest corner
+comes down to that ground the body is resting on the floor: fallen (issue 4:
+"pitch or leg angle past a limit, body on the ground"), whatever the angles say
+(legs collapsed under a load, a slow topple onto the nose).
+"""
+from __future__ import annotations
+
+import itertools
+import math
+
+from controller import constants as C
+
+_HALF = tuple(0.5 * v for v in C.BODY_SIZE)
+_CORNERS = tuple(itertools.product((-_HALF[0], _HALF[0]), (-_HALF[1], _HALF[1]), (-_HALF[2], _HALF[2])))
+
+
+def _height(roll: float, pitch: float, point: tuple) -> float:
+    """World height (m) of a body-frame point (x fwd, y left, z up; (3,)) relative to
+    the CoM under R = Ry(pitch) Rx(roll) (yaw does not change heights)."""
+    x, y, z = point
+    return -math.sin(pitch) * x + math.cos(pitch) * math.sin(roll) * y + math.cos(pitch) * math.cos(roll) * z
+
+
+def axle_in_body(side_y: float, L0: float, phi0: float) -> tuple:
+    """Wheel axle C (m, body frame) of the leg in the plane y = side_y, from the
+    virtual leg (L0 m, phi0 rad in the five-bar frame: x_fb backward, y_fb down)."""
+    return (-L0 * math.cos(phi0), side_y, -C.BODY_COM_ABOVE_HIP - L0 * math.sin(phi0))
+
+
+def body_clearance(roll: float, pitch: float, legs) -> float:
+    """Height (m) of the body box's lowest corner above the flat ground under the lower
+    wheel; ``legs`` is an iterable of (side_y m, L0 m, phi0 rad), one per leg.
+    < 0 means the box would be below that ground: it rests on something."""
+    ground = min(_height(roll, pitch, axle_in_body(*leg)) for leg in legs) - C.WHEEL_RADIUS
+    lowest = min(_height(roll, pitch, corner) for corner in _CORNERS)
+    return lowest - ground

@@ -1,0 +1,35 @@
+"""Body-on-the-ground estimate (controller/posture.py)."""
+import math
+
+import pytest
+
+from controller import constants as C
+from controller.posture import body_clearance
+
+UPRIGHT = math.pi / 2  # phi0 of a leg straight down the body
+
+
+def _legs(L0, phi0=UPRIGHT):
+    return ((C.LEG_PLANE_Y, L0, phi0), (-C.LEG_PLANE_Y, L0, phi0))
+
+
+def test_standing_upright_the_body_is_well_clear():
+    # wheel bottom 0.02 + L0 + R below the CoM, box bottom 0.04 below it
+    expected = C.BODY_COM_ABOVE_HIP + 0.17 + C.WHEEL_RADIUS - C.BODY_SIZE[2] / 2
+    assert body_clearance(0.0, 0.0, _legs(0.17)) == pytest.approx(expected)
+
+
+def test_pitching_nose_down_with_short_legs_brings_the_nose_to_the_ground():
+    assert body_clearance(0.0, 0.3, _legs(0.12)) > 0.02
+    assert body_clearance(0.0, 1.0, _legs(0.12)) < 0.0
+
+
+def test_legs_swung_back_under_a_nose_down_body_put_it_on_the_ground():
+    # lying on its nose, legs limp and swung back (theta ~1.3 rad from the world vertical)
+    pitch, theta = 0.77, 1.31
+    phi0 = math.pi / 2 - theta + pitch
+    assert body_clearance(0.0, pitch, _legs(0.217, phi0)) < 0.01
+
+
+def test_roll_on_one_side():
+    assert body_clearance(0.5, 0.0, _legs(0.17)) < body_clearance(0.1, 0.0, _legs(0.17))
