@@ -2,7 +2,8 @@
 
 Only what the robot's own buses say reaches the controller: CyberGear type-2
 feedback (and type-21 fault words) on CAN2; C620 feedback, IMU, operator and
-SYNC on CAN1. A frame that fails its checks (wrong DLC, undecodable, NaN or out
+SYNC on CAN1. IMU frames count as heard only while their payloads change
+(a frozen IMU repeats them bit for bit). A frame that fails its checks (wrong DLC, undecodable, NaN or out
 of its DBC range, an IMU quaternion that is not unit) is counted in
 ``bad_frames`` and ignored: a frame never raises out of ``BusState.update``.
 """
@@ -85,6 +86,8 @@ class BusState:
     bad_frames: int = 0
     frames: int = 0
     _imu_parts: dict = field(default_factory=dict)
+    _imu_last_data: dict = field(default_factory=dict)  # part -> last payload
+    _imu_changed_s: float = -math.inf  # last time any IMU payload differed from the one before
 
     def update(self, msg: can.Message, bus: str, now_s: float) -> int | None:
         """Take one received frame; returns the SYNC tick when it is a SYNC."""
@@ -136,11 +139,11 @@ class BusState:
             return
         name = _MESSAGE_NAMES.get(msg.arbitration_id)
         if name in _IMU_PARTS:
-            self._imu(name, self._decode(CAN1, msg), now_s)
+            self._imu(name, self._decode(CAN1, msg), now_s, bytes(msg.data))
         elif name == "Operator":
             self._operator(self._decode(CAN1, msg), now_s)
 
-    def _imu(self, name: str, sig: dict, now_s: float) -> None:
+    def _imu(self, name: str, sig: dict, now_s: float, data: bytes) -> None:
         part = _IMU_PARTS[name]
         if part == "quat":
             quat = (sig["QuatW"], sig["QuatX"], sig["QuatY"], sig["QuatZ"])
@@ -153,8 +156,13 @@ class BusState:
         else:
             self.imu.accel = (sig["AccX"], sig["AccY"], sig["AccZ"])
         self._imu_parts[part] = now_s
+        if data != self._imu_last_data.get(part):
+            self._imu_last_data[part] = data
+            self._imu_changed_s = now_s
         if len(self._imu_parts) == 3:
-            self.imu.received_s = min(self._imu_parts.values())
+            # a frozen IMU (hung firmware repeating its frames) is not heard: a real
+            # sensor's noise changes some bit of its three frames every sample
+            self.imu.received_s = min(min(self._imu_parts.values()), self._imu_changed_s)
 
     def _operator(self, sig: dict, now_s: float) -> None:
         op = self.operator

@@ -485,11 +485,12 @@ class BusFaults:
         now = self.clock()
         frames = self._released(now) + [m for f in self.faults for m in f.spontaneous(now)]
         lockstep = _is_lockstep(msg)
-        if not lockstep:
-            frames.append(msg)
+        if not lockstep:  # only the new frame meets the faults: released ones already did
+            fresh = [msg]
             for fault in self.faults:
-                frames = [g for f in frames
-                          for g in (fault.outbound(f, now, self) if fault.select.matches(f, True) else [f])]
+                fresh = [g for f in fresh
+                         for g in (fault.outbound(f, now, self) if fault.select.matches(f, True) else [f])]
+            frames += fresh
         if self.arbiter is not None:
             frames = self.arbiter.admit(frames, now)
             if lockstep:

@@ -33,6 +33,7 @@ class Robot:
         self.silent: set = set()
         self.faults: dict = {}
         self.reenable = 0
+        self.imu_frozen = False  # the IMU repeats its frames bit for bit
         self.tick_no = 0
         self.sent: list = []
 
@@ -43,7 +44,9 @@ class Robot:
                             MotorTemp=30)) for w in C.WHEELS if w.name not in self.silent]
         if "imu" not in self.silent:
             out += [(CAN1, _std("IMU_Orientation", QuatW=1.0, QuatX=0.0, QuatY=0.0, QuatZ=0.0)),
-                    (CAN1, _std("IMU_Gyro", RateX=0.0, RateY=0.0, RateZ=0.0)),
+                    # a real IMU's noise changes its frames every sample (a frozen one is offline)
+                    (CAN1, _std("IMU_Gyro", RateX=0.001 * (self.tick_no % 2 and not self.imu_frozen),
+                                RateY=0.0, RateZ=0.0)),
                     (CAN1, _std("IMU_Accel", AccX=0.0, AccY=0.0, AccZ=9.81))]
         if "remote" not in self.silent:
             out.append((CAN1, _std("Operator", Mode=1, Jump=0, JumpForward=0, Reenable=self.reenable,

@@ -86,6 +86,16 @@ def test_a_needed_device_going_offline_disables_at_its_threshold(device):
     assert hb["MotorsEnabled"] == 0
 
 
+def test_a_frozen_imu_is_offline_after_its_threshold():
+    """Hung IMU firmware repeating its frames: no new data, so offline (the robot would fall unseen)."""
+    robot = running_robot()
+    robot.imu_frozen = True
+    threshold_ticks = round(detect.RULES[C.DEVICES.index("imu")].offline_after_s / P.CONTROL_PERIOD)
+    modes = [robot.step().mode for _ in range(threshold_ticks + 2)]
+    assert Mode.DISABLED in modes[threshold_ticks - 1:] and Mode.DISABLED not in modes[:threshold_ticks - 1]
+    assert robot.heartbeat()["OfflineMask"] == 1 << C.DEVICES.index("imu")
+
+
 def test_coming_back_re_enables_only_on_the_operators_command():
     robot = running_robot()
     robot.silent.add("imu")

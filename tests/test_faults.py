@@ -220,6 +220,15 @@ def test_delayed_frames_arrive_late_and_in_order():
     assert 0.003 <= released[0].timestamp <= 0.005 and released[1].timestamp >= released[0].timestamp
 
 
+def test_a_delayed_frame_is_released_by_a_later_frame_and_not_delayed_again():
+    rig = fake_rig()
+    apply(rig, faults.frame_delay("can1", 0.0, None, 0.002))
+    assert send(rig, "can1", std(0x201, 0.0), 0.0) == []
+    out = send(rig, "can1", std(0x202, 0.003), 0.003)  # held in turn; the first one is due
+    assert [m.arbitration_id for m in out] == [0x201]
+    assert [m.arbitration_id for m in send(rig, "can1", std(0x201, 0.005), 0.005)] == [0x202]
+
+
 def test_corruption_flips_one_bit_or_truncates():
     rig = fake_rig()
     apply(rig, faults.frame_corruption("can1", 0.0, None, 1.0))

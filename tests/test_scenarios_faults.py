@@ -10,7 +10,7 @@ from hil.commands.run import execute
 from hil.scenario import RunData
 from hil.scenarios import faults as fs
 
-FAULTS = ("offline-wheel", "offline-joint", "offline-imu", "offline-remote", "motor-fault", "frame-loss",
+FAULTS = ("offline-wheel", "offline-joint", "offline-imu", "frozen-imu", "offline-remote", "motor-fault", "frame-loss",
           "bus-off", "overload")
 
 

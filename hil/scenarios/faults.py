@@ -208,16 +208,16 @@ def bus_load_at_least(bus: str, load: float, t0: float, t1: float) -> Check:
 
 
 # -- scenarios -------------------------------------------------------------------------------
-def offline(name: str, device: str, duration_s: float = 1.3) -> Scenario:
-    """``device`` goes silent for good at FAULT_AT."""
+def offline(name: str, device: str, how: str = "silent", duration_s: float = 1.3) -> Scenario:
+    """``device`` goes ``how`` (silent, or frozen: repeating its last frames) for good at FAULT_AT."""
     bound = reaction_bound([device])
+    kind = f"fault_{how}"
     return Scenario(
-        name, f"{device} goes silent at {FAULT_AT:g} s: the motors stop within its threshold + one period",
-        duration_s, standing(), timeline=(stand(), *faults.silent(device, FAULT_AT)),
+        name, f"{device} goes {how} at {FAULT_AT:g} s: the motors stop within its threshold + one period",
+        duration_s, standing(), timeline=(stand(), *getattr(faults, how)(device, FAULT_AT)),
         checks=(pitch_below(3 * DEG, 0.5, FAULT_AT),
-                torque_off_within("fault_silent", bound, f"{device} threshold + one period"),
-                motors_stay_off("fault_silent", bound), heartbeat_reports("fault_silent", [device]),
-                controller_alive()))
+                torque_off_within(kind, bound, f"{device} threshold + one period"),
+                motors_stay_off(kind, bound), heartbeat_reports(kind, [device]), controller_alive()))
 
 
 REMOTE_BACK = FAULT_AT + 0.3  # s
@@ -295,6 +295,7 @@ SCENARIOS: tuple = (
     offline("offline-wheel", "left_wheel"),
     offline("offline-joint", "left_front_hip"),
     offline("offline-imu", "imu"),
+    offline("frozen-imu", "imu", how="frozen"),
     _remote_scenario(),
     _motor_fault_scenario(),
     _frame_loss_scenario(),
