@@ -242,8 +242,11 @@ class ChassisController:
         step = P.ACCEL_LIMIT * self.dt
         self.speed_ref += _clamp(target - self.speed_ref, step)
         self.x_ref += self.speed_ref * self.dt
-        # keep the position error bounded so a push or a stall cannot wind it up
-        self.x_ref = self.x + _clamp(self.x_ref - self.x, P.POSITION_ERROR_LIMIT)
+        if self.speed_ref != 0.0:
+            # moving: the reference is dragged along, so a stall (a wall) cannot wind it up
+            self.x_ref = self.x + _clamp(self.x_ref - self.x, P.POSITION_ERROR_LIMIT)
+        # standing, it stays put: pushed away, the robot comes back to its spot, with the
+        # error the LQR sees clamped (_lqr), so at a bounded speed
         self.yaw_ref = _wrap(self.yaw_ref + _clamp(cmd.yaw_rate, P.YAW_RATE_LIMIT) * self.dt)
         target_lean = turn_lean(self.speed_ref, _clamp(cmd.yaw_rate, P.YAW_RATE_LIMIT))
         self.lean += (target_lean - self.lean) * min(1.0, self.dt / P.TURN_LEAN_TAU)
@@ -260,7 +263,7 @@ class ChassisController:
         """u = -K (x - x_ref): wheel torque T and virtual hip torque Tp (N m)."""
         k = lqr.gain_matrix(leg.L0)
         phi, dphi = -att.pitch, -att.wy  # nose-up body angle and rate
-        err = (leg.theta, leg.dtheta, self.x - self.x_ref, speed - self.speed_ref,
+        err = (leg.theta, leg.dtheta, _clamp(self.x - self.x_ref, P.POSITION_ERROR_LIMIT), speed - self.speed_ref,
                phi - (-cmd.pitch), dphi)
         t = -sum(g * e for g, e in zip(k[0], err))
         tp = -sum(g * e for g, e in zip(k[1], err))

@@ -16,10 +16,13 @@ from hil.scenarios.common import DEG, no_deadline_miss, push, remote, stand
 FALLEN = 7  # rig.dbc Heartbeat.Mode "FALLEN"
 SUDDEN_S = 0.1  # s, a sudden impulse: a kick or a shove
 STEADY_S = 1.0  # s, a steady push: a hand leaning on the body
-RECOVER_S = 2.5  # s between pushes: long enough to come back to rest
+RECOVER_S = 3.0  # s between pushes: back to rest, most of the way home (it returns at ~0.15 m/s)
 TORQUE_OFF_NM = 0.05  # N m, |hip torque| that counts as "off" (CyberGear 16-bit scale is 0.0004)
 CURRENT_OFF_A = 0.05  # A, same for the wheel currents
 TORQUE_OFF_GRACE_S = 0.01  # s, the tick that saw the fall may still have sent its torques
+# m, "back near its spot": the controller returns to where it stood by wheel odometry,
+# which misses what the wheels skid under a sudden push (60 N > mu m g = 45 N)
+HOME_M = 0.5
 DIRECTIONS = {"front": (-1.0, 0.0, 0.0), "side": (0.0, -1.0, 0.0)}  # force directions: from the front / left
 
 
@@ -97,7 +100,8 @@ def push_scenario(impulse_ns: float = 5.0, kinds=("sudden", "steady"), sides=("f
     """Pushes at body height (the CoM), each of ``impulse_ns`` N s, one after another.
 
     sudden: impulse_ns / 0.1 s for 0.1 s; steady: impulse_ns / 1 s for 1 s.
-    From the front pushes backwards; from the side pushes to the right.
+    From the front pushes backwards; from the side pushes to the right. The
+    robot must come back upright, at rest, within HOME_M of where it stood.
     """
     if impulse_ns <= 0:
         raise ValueError(f"impulse_ns must be > 0, got {impulse_ns}")
@@ -111,7 +115,7 @@ def push_scenario(impulse_ns: float = 5.0, kinds=("sudden", "steady"), sides=("f
     return Scenario(
         "push", f"{impulse_ns:g} N s pushes at body height: {', '.join(kinds)} from the {' and '.join(sides)}",
         t, standing(), timeline=tuple(timeline),
-        checks=(pushed_robot_moved(), falls_safely(), recovers(), ends_near_start(1.0), no_deadline_miss()))
+        checks=(pushed_robot_moved(), falls_safely(), recovers(), ends_near_start(HOME_M), no_deadline_miss()))
 
 
 # -- impact: a moving object strikes the body ---------------------------------------------------
@@ -141,7 +145,7 @@ def impact_scenario(speed_mps: float = 4.0, mass_kg: float = IMPACT_MASS_KG) -> 
     return Scenario(
         "impact", f"a {mass_kg:g} kg ball at {speed_mps:g} m/s strikes the body, front then side", 7.0,
         standing(), terrain=(ball,), timeline=(stand(), front, side),
-        checks=(pushed_robot_moved(), falls_safely(), recovers(), ends_near_start(1.0), no_deadline_miss()))
+        checks=(pushed_robot_moved(), falls_safely(), recovers(), ends_near_start(HOME_M), no_deadline_miss()))
 
 
 # -- wall: drive into a low wall ----------------------------------------------------------------
