@@ -31,6 +31,11 @@ RULES = tuple(
 assert tuple(r.name for r in RULES) == C.DEVICES
 
 
+# Times are tick multiples in float: a gap of exactly the threshold must count
+# as offline whatever the rounding (1.01 - 1.0 is 0.010000000000000009).
+_ROUNDING_S = 1e-9
+
+
 @dataclass(frozen=True)
 class Report:
     offline_mask: int  # bit i set: RULES[i] offline or reporting a fault
@@ -49,7 +54,8 @@ def check(last_seen_s: dict[str, float], now_s: float, faulted=frozenset()) -> R
     mask = count = level = 0
     balance_ok = True
     for bit, rule in enumerate(RULES):
-        if rule.name in faulted or now_s - last_seen_s.get(rule.name, float("-inf")) > rule.offline_after_s:
+        silent_s = now_s - last_seen_s.get(rule.name, float("-inf"))
+        if rule.name in faulted or silent_s >= rule.offline_after_s - _ROUNDING_S:
             mask |= 1 << bit
             count += 1
             level = max(level, rule.warning_level)
