@@ -174,8 +174,8 @@ class RealtimeRun:
         for rec in per_tick(ticks, starts, period):
             t_ns = round(rec["tick"] * period * 1e9)
             trace.message("/controller/timing", t_ns, rec, "wheelleg.ControllerTiming", schemas.CONTROLLER_TIMING)
-            if rec["missed"]:
-                trace.event(t_ns, "deadline_miss", tick=rec["tick"], missed=rec["missed"],
+            for missed_tick in range(rec["tick"] - rec["missed"], rec["tick"]):  # one event per lost period
+                trace.event(round(missed_tick * period * 1e9), "deadline_miss", tick=missed_tick,
                             source="controller timer")
         trace.add_metadata("controller_timing", _strings(timing))
         return timing

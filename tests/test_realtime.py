@@ -93,8 +93,8 @@ def test_realtime_run_keeps_wall_clock_pace_and_records_the_loop_timing(tmp_path
     rows = [p for _, p in reader.topic("/controller/timing")]
     assert len(rows) == ctl["ticks"] - 1
     assert sum(r["missed"] for r in rows) == ctl["missed_deadlines"] == outcome.deadline_misses
-    assert len([e for e in reader.events() if e["kind"] == "deadline_miss"]) == \
-        sum(1 for r in rows if r["missed"])
+    missed = [e["tick"] for e in reader.events() if e["kind"] == "deadline_miss"]
+    assert missed == [t for r in rows for t in range(r["tick"] - r["missed"], r["tick"])]
     meta = reader.metadata["controller_timing"]
     assert float(meta["p99_jitter_s"]) == pytest.approx(ctl["p99_jitter_s"])
     assert int(reader.metadata["plant_timing"]["steps"]) == plant["steps"]
@@ -145,3 +145,25 @@ def test_run_command_prints_the_loop_statistics(tmp_path, capsys):
     trace = tmp_path / "balance.mcap"
     assert not TraceReader(trace).decoded("vcan0", "Heartbeat")  # --no-decode: raw frames only
     assert len(load_run(trace).heartbeat["t"]) > 200  # the checks still get them, decoded on reading
+
+
+def test_a_stalled_controller_tick_shows_as_missed_deadlines(tmp_path, monkeypatch):
+    """One tick that takes 7 ms: the periods it overran are deadline misses, one event each."""
+    from controller.node import Controller
+
+    tick = Controller.tick
+    calls = []
+
+    def stalling_tick(self, k, now_s):
+        calls.append(k)
+        if len(calls) == 100:
+            time.sleep(0.007)
+        return tick(self, k, now_s)
+    monkeypatch.setattr(Controller, "tick", stalling_tick)
+    outcome = _realtime_rig(tmp_path, 0.5).run()
+    ctl = outcome.timing["controller"]
+    assert ctl["missed_deadlines"] >= 3 and ctl["max_period_s"] > 0.007
+    stalled = calls[99]
+    missed = [e["tick"] for e in TraceReader(outcome.trace_path).events() if e["kind"] == "deadline_miss"]
+    assert {stalled + 1, stalled + 2, stalled + 3} <= set(missed)
+    assert len(missed) == ctl["missed_deadlines"] == outcome.deadline_misses
