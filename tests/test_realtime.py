@@ -162,8 +162,8 @@ def test_a_stalled_controller_tick_shows_as_missed_deadlines(tmp_path, monkeypat
     monkeypatch.setattr(Controller, "tick", stalling_tick)
     outcome = _realtime_rig(tmp_path, 0.5).run()
     ctl = outcome.timing["controller"]
-    assert ctl["missed_deadlines"] >= 3 and ctl["max_period_s"] > 0.007
+    assert ctl["missed_deadlines"] >= 2 and ctl["max_period_s"] > 0.007  # 7 ms: the next 2 periods lost
     stalled = calls[99]
     missed = [e["tick"] for e in TraceReader(outcome.trace_path).events() if e["kind"] == "deadline_miss"]
-    assert {stalled + 1, stalled + 2, stalled + 3} <= set(missed)
+    assert {stalled + 1, stalled + 2} <= set(missed)
     assert len(missed) == ctl["missed_deadlines"] == outcome.deadline_misses
