@@ -29,7 +29,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--no-decode", action="store_true",
                         help="record raw frames only, no /decoded/ channels (less work per frame)")
     parser.add_argument("--external-controller", action="store_true",
-                        help="do not start the controller in-process; wait for `wheelleg controller --sync`")
+                        help="do not start the controller in-process: another process answers on the buses "
+                             "(lockstep: `wheelleg controller --sync`; with --realtime: `wheelleg controller`)")
     parser.add_argument("--no-plot", action="store_true", help="skip the PNG")
 
 
