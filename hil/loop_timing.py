@@ -97,6 +97,8 @@ def describe_plant(plant: dict) -> str:
             f"({plant['steps_caught_up']} steps caught up in batches, largest {plant['max_batch']}), "
             f"lag p99 {1e3 * plant['p99_lag_s']:.3f} ms, max {1e3 * plant['max_lag_s']:.3f} ms, "
             f"{plant['sim_s']:.2f} s simulated in {plant['wall_s']:.2f} s wall")
+    if plant.get("host_steal_s") is not None:
+        text += f"; the hypervisor stole {1e3 * plant['host_steal_s']:.0f} ms of CPU meanwhile"
     if plant["stretched_s"] > STRETCH_TOLERANCE_S:
         text += (f"\n  NOT REAL TIME: the plant fell {plant['stretched_s']:.2f} s behind the wall clock "
                  "(simulated time stretched; the controller saw a slow world)")

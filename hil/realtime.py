@@ -83,6 +83,18 @@ def _realtime_priority(priority: int = FIFO_PRIORITY) -> str:
         return f"SCHED_OTHER (SCHED_FIFO refused: {exc})"
 
 
+def host_steal_s() -> float | None:
+    """CPU time the hypervisor took from this VM's CPUs so far (s, all CPUs; /proc/stat
+    'steal'), or None where that is not known. A stolen slice stalls whichever thread
+    holds the GIL, and with it the other loop: the run reports how much there was."""
+    try:
+        with open("/proc/stat") as stat:
+            fields = stat.readline().split()
+        return int(fields[8]) / os.sysconf("SC_CLK_TCK")
+    except (OSError, IndexError, ValueError):
+        return None
+
+
 class RealtimeRun:
     """Drives one rig in real time; ``run`` returns (ticks, sim s, wall s, timing dict)."""
 
@@ -106,6 +118,7 @@ class RealtimeRun:
         gc.disable()  # a cyclic collection stalls both loops for milliseconds; collect after the run
         policy = os.sched_getscheduler(0), os.sched_getparam(0)
         self.plant_scheduler = _realtime_priority(PLANT_FIFO_PRIORITY)
+        steal0 = host_steal_s()
         wall0 = time.monotonic()
         try:
             if controller is not None:
@@ -120,8 +133,10 @@ class RealtimeRun:
             if gc_was_on:
                 gc.enable()
         sim_s = total * self.dt
+        steal1 = host_steal_s()
+        stolen = None if steal0 is None or steal1 is None else steal1 - steal0
         timing = {"plant": dict(plant_timing(self.batches, self.lags, self.dt, sim_s, wall_s),
-                                scheduler=self.plant_scheduler)}
+                                scheduler=self.plant_scheduler, host_steal_s=stolen)}
         if controller is not None:
             timing["controller"] = self._record_controller(controller.node, controller.scheduler)
         self._record_plant(timing["plant"])

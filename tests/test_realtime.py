@@ -98,6 +98,8 @@ def test_realtime_run_keeps_wall_clock_pace_and_records_the_loop_timing(tmp_path
     meta = reader.metadata["controller_timing"]
     assert float(meta["p99_jitter_s"]) == pytest.approx(ctl["p99_jitter_s"])
     assert int(reader.metadata["plant_timing"]["steps"]) == plant["steps"]
+    if realtime.host_steal_s() is not None:  # Linux: the hypervisor's share is reported, >= 0
+        assert 0.0 <= plant["host_steal_s"] < duration_s * 4
     # no SYNC in real time: the controller ticks on its own clock
     assert not any(f.arbitration_id == 0x700 for f in reader.frames("vcan0"))
     assert len(reader.sim_state()["t"]) == round(duration_s / PERIOD_S)
