@@ -114,6 +114,7 @@ class Rig:
                                              sync=True, period_s=config.period_s)
         self._heartbeat_seen = {CAN1: -1, CAN2: -1}
         self.deadline_misses = 0
+        self.controller_died = False  # the in-process controller raised (see _service_controller)
         self.tick = 0
 
     # -- metadata ------------------------------------------------------------
@@ -167,7 +168,7 @@ class Rig:
             if done or time.monotonic() > deadline:
                 break
             if self.controller is not None:
-                self.controller.service()  # its SYNC may have been in flight
+                self._service_controller()  # its SYNC may have been in flight
             time.sleep(0.00005)
         self._serve_plant(t_s)  # CAN1's held frames, then CAN2's: the virtual bus's order
         return done
@@ -189,7 +190,7 @@ class Rig:
         self._apply_actions(t_s)
         self._send_sync(tick, t_s)
         if self.controller is not None:
-            self.controller.service()
+            self._service_controller()
         if not self._await_heartbeats(tick, t_s):
             self.deadline_misses += 1
             self.trace.event(self.recorder.now_ns, "deadline_miss", tick=tick)
@@ -202,6 +203,22 @@ class Rig:
             self._serve_plant(now + cfg.physics_dt_s)
         self.trace.sim_state(self.recorder.now_ns, self.physics.ground_truth())
         self.tick += 1
+
+    def _service_controller(self) -> None:
+        """Give the in-process controller its turn; an exception kills it, as it would the robot's program.
+
+        The exception is an event (``controller_exception``) and the rig goes on
+        without a controller: no more heartbeats (deadline misses), and the
+        devices keep what they were last told, as on the robot.
+        """
+        if self.controller_died:
+            return
+        try:
+            self.controller.service()
+        except Exception as exc:  # noqa: BLE001 - recorded, never hidden
+            self.controller_died = True
+            self.trace.event(self.recorder.now_ns, "controller_exception", tick=self.tick,
+                             error=f"{type(exc).__name__}: {exc}")
 
     def _record_debug(self) -> None:
         if self.controller is None or not self.config.record_debug:

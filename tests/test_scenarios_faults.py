@@ -63,6 +63,28 @@ def test_the_same_seed_gives_the_same_lost_frames(tmp_path):
     assert log(tmp_path / "a", 4) == log(tmp_path / "b", 4)
 
 
+def test_a_controller_exception_is_an_event_and_fails_the_alive_check(tmp_path, monkeypatch):
+    from controller.node import Controller
+    from hil.rundata import load_run
+
+    real_tick = Controller.tick
+
+    def tick(self, n, now_s):
+        if n == 100:
+            raise ZeroDivisionError("injected")
+        return real_tick(self, n, now_s)
+
+    monkeypatch.setattr(Controller, "tick", tick)
+    args = argparse.Namespace(scenario="offline-joint", out=tmp_path, interface="virtual", channels="vcan0,vcan1",
+                              seed=0, duration=0.3, realtime=False, external_controller=False, no_plot=True)
+    outcome, results = execute(args)
+    crash = load_run(outcome.trace_path).events_of("controller_exception")
+    assert len(crash) == 1 and crash[0]["tick"] == 100 and "ZeroDivisionError: injected" in crash[0]["error"]
+    assert outcome.deadline_misses == 150 - 100
+    alive = [r for r in results if r.name.startswith("controller answered")][0]
+    assert not alive.passed and "ZeroDivisionError" in alive.detail
+
+
 # -- the checks themselves can fail ----------------------------------------------------------
 def _synthetic(torque_stops_s: float, mask: int = 0x01, mode: int = int(Mode.DISABLED)) -> RunData:
     """A run with a silent event at 1 s, torque commands every 2 ms until ``torque_stops_s``."""

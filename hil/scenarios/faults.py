@@ -168,10 +168,12 @@ def controller_alive() -> Check:
     def fn(run: RunData):
         ticks = run.heartbeat["Tick"]
         misses = len(run.events_of("deadline_miss"))
+        crashes = [e.get("error", "?") for e in run.events_of("controller_exception")]
         expected = round(float(run.meta.get("duration_s", "nan")) / PERIOD)
         consecutive = bool(np.all(np.diff(ticks) == 1)) and len(ticks) and ticks[0] == 0
-        ok = misses == 0 and consecutive and len(ticks) == expected
-        return ok, f"{len(ticks)} heartbeats for {expected} ticks, consecutive: {consecutive}, {misses} deadline misses"
+        ok = misses == 0 and not crashes and consecutive and len(ticks) == expected
+        return ok, (f"{len(ticks)} heartbeats for {expected} ticks, consecutive: {consecutive}, {misses} deadline "
+                    f"misses, exceptions: {crashes or 'none'}")
 
     return Check("controller answered every tick (no exception, no deadline miss)", fn)
 
