@@ -47,11 +47,19 @@ SIM_STATE_FIELDS: dict[str, str] = {
     "left_leg_angle": "rad", "right_leg_angle": "rad",
     "left_normal_force": "N", "right_normal_force": "N",
 }
+# Fields Physics.ground_truth adds beyond the contract (optional in the schema, so
+# a trace from another plant still validates); the airborne checks read them.
+SIM_STATE_EXTRA_FIELDS: dict[str, str] = {
+    "body_on_ground": "", "left_wheel_clearance": "m", "right_wheel_clearance": "m",
+}
 _SIM_STATE_NOTES = {
     "t": "simulated time", "x": "body position, world frame", "roll": "body attitude",
     "vx": "body velocity, world frame", "wx": "body angular velocity, body frame",
     "left_leg_length": "five-bar virtual leg length L0", "left_leg_angle": "virtual leg angle phi0",
     "left_normal_force": "wheel-floor normal force",
+    "body_on_ground": "1 when the body box touches the ground, else 0",
+    "left_wheel_clearance": "lowest wheel point above the ground below it (< 0 pressed in)",
+    "right_wheel_clearance": "lowest wheel point above the ground below it (< 0 pressed in)",
 }
 
 EVENT: dict = {
@@ -92,7 +100,7 @@ def sim_state_schema(extra_fields: list[str] = ()) -> dict:
     """Schema of ``/sim/state``: the contract's fields plus ``extra_fields`` (numbers)."""
     props = {name: _number(unit, _SIM_STATE_NOTES.get(name, "")) for name, unit in SIM_STATE_FIELDS.items()}
     for name in extra_fields:
-        props.setdefault(name, _number(""))
+        props.setdefault(name, _number(SIM_STATE_EXTRA_FIELDS.get(name, ""), _SIM_STATE_NOTES.get(name, "")))
     return {
         "title": "wheelleg.SimState",
         "description": "Simulation ground truth (never seen by the controller), SI units.",

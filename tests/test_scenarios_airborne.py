@@ -94,3 +94,13 @@ def test_factories_size_their_scenarios_and_refuse_nonsense():
                  lambda: A.jump_step_scenario(float("nan")), lambda: A.jump_step_scenario(0.1, approach_m=0.0)):
         with pytest.raises(ValueError):
             make()
+
+
+def test_sim_state_schema_gives_the_airborne_fields_their_units(rig_run):
+    from hil import schemas
+    run = rig_run("jump")
+    extra = [k for k in run.state if k not in schemas.SIM_STATE_FIELDS]
+    assert {"left_wheel_clearance", "right_wheel_clearance", "body_on_ground"} <= set(extra)
+    props = schemas.sim_state_schema(extra)["properties"]
+    assert props["left_wheel_clearance"]["description"].startswith("[m]")
+    assert "left_wheel_clearance" not in schemas.sim_state_schema()["required"]
