@@ -254,17 +254,22 @@ def fall_scenario(force_n: float = 50.0) -> Scenario:
 ESTOP_S = 0.06  # s the switch stays on E-stop: torque off, the robot barely sags
 
 
+LIFT_N = 55.0  # N up at the CoM (weight 45 N): a hand lifting the robot off the floor
+LIFT_S = 0.4  # s
+
+
 def estop_scenario() -> Scenario:
-    """E-stop flicked in STAND_UP, BALANCE, MOVE and JUMP; each time released again."""
+    """E-stop flicked in STAND_UP, BALANCE, MOVE, JUMP and AIRBORNE (lifted by a hand);
+    each time released again."""
     def flick(t, back):
         return (remote(t, Mode=0), remote(t + ESTOP_S, Mode=back))
     return Scenario(
-        "estop", "E-stop in stand-up, balance, move and jump; torque off within a period each time", 7.0,
+        "estop", "E-stop in stand-up, balance, move, jump and lifted; torque off within a period each time", 8.5,
         standing(), timeline=(remote(0.0, Mode=1, LegLength=0.12), *flick(0.1, 1), remote(0.8, LegLength=NOMINAL),
                               *flick(1.5, 1), remote(2.5, Mode=2, SpeedX=0.3), *flick(3.0, 2),
                               remote(3.8, SpeedX=0.0, Mode=1), remote(4.8, Jump=1), remote(4.9, Jump=0),
-                              *flick(4.9, 1)),
-        checks=(estops_cut_torque((STAND_UP, BALANCE, MOVE, JUMP)), never_fallen(), upright_at_end(1.0),
+                              *flick(4.9, 1), *push(6.0, (0.0, 0.0, LIFT_N), LIFT_S), *flick(6.3, 1)),
+        checks=(estops_cut_torque((STAND_UP, BALANCE, MOVE, JUMP, AIRBORNE)), never_fallen(), upright_at_end(1.0),
                 no_deadline_miss()))
 
 
