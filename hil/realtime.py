@@ -27,6 +27,7 @@ import os
 import sys
 import threading
 import time
+from contextlib import contextmanager
 
 from controller.node import ControllerNode
 from emulators.plant import CAN1, CAN2
@@ -83,6 +84,25 @@ def _realtime_priority(priority: int = FIFO_PRIORITY) -> str:
         return f"SCHED_OTHER (SCHED_FIFO refused: {exc})"
 
 
+@contextmanager
+def _realtime_process():
+    """For the run: a short GIL hand-over, no cyclic GC (a collection stalls both loops
+    for milliseconds), SCHED_FIFO for the calling (plant) thread; all restored after.
+    Yields the scheduler the plant got."""
+    switch, gc_was_on = sys.getswitchinterval(), gc.isenabled()
+    policy = (os.sched_getscheduler(0), os.sched_getparam(0)) if hasattr(os, "sched_getscheduler") else None
+    sys.setswitchinterval(SWITCH_INTERVAL_S)
+    gc.disable()
+    try:
+        yield _realtime_priority(PLANT_FIFO_PRIORITY)
+    finally:
+        sys.setswitchinterval(switch)
+        if policy is not None:
+            os.sched_setscheduler(0, *policy)
+        if gc_was_on:
+            gc.enable()
+
+
 def host_steal_s() -> float | None:
     """CPU time the hypervisor took from this VM's CPUs so far (s, all CPUs; /proc/stat
     'steal'), or None where that is not known. A stolen slice stalls whichever thread
@@ -113,30 +133,22 @@ class RealtimeRun:
         controller = None
         if cfg.in_process_controller:
             controller = ControllerThread(cfg.interface, rig.names, cfg.period_s)
-        switch, gc_was_on = sys.getswitchinterval(), gc.isenabled()
-        sys.setswitchinterval(SWITCH_INTERVAL_S)
-        gc.disable()  # a cyclic collection stalls both loops for milliseconds; collect after the run
-        policy = os.sched_getscheduler(0), os.sched_getparam(0)
-        self.plant_scheduler = _realtime_priority(PLANT_FIFO_PRIORITY)
         steal0 = host_steal_s()
-        wall0 = time.monotonic()
-        try:
-            if controller is not None:
-                controller.start()
-            self._loop(total, wall0)
-        finally:
-            wall_s = time.monotonic() - wall0
-            if controller is not None:
-                controller.stop()
-            sys.setswitchinterval(switch)
-            os.sched_setscheduler(0, *policy)
-            if gc_was_on:
-                gc.enable()
+        with _realtime_process() as plant_scheduler:
+            wall0 = time.monotonic()
+            try:
+                if controller is not None:
+                    controller.start()
+                self._loop(total, wall0)
+            finally:
+                wall_s = time.monotonic() - wall0
+                if controller is not None:
+                    controller.stop()
         sim_s = total * self.dt
         steal1 = host_steal_s()
         stolen = None if steal0 is None or steal1 is None else steal1 - steal0
         timing = {"plant": dict(plant_timing(self.batches, self.lags, self.dt, sim_s, wall_s),
-                                scheduler=self.plant_scheduler, host_steal_s=stolen)}
+                                scheduler=plant_scheduler, host_steal_s=stolen)}
         if controller is not None:
             timing["controller"] = self._record_controller(controller.node, controller.scheduler)
         self._record_plant(timing["plant"])

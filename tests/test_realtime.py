@@ -3,6 +3,9 @@ timer in its own thread; the control loop's period statistics in the trace and s
 from __future__ import annotations
 
 import argparse
+import gc
+import os
+import sys
 import time
 from dataclasses import replace
 
@@ -82,7 +85,9 @@ def _realtime_rig(tmp_path, duration_s: float) -> Rig:
 def test_realtime_run_keeps_wall_clock_pace_and_records_the_loop_timing(tmp_path):
     duration_s = 1.0
     rig = _realtime_rig(tmp_path, duration_s)
+    before = (sys.getswitchinterval(), gc.isenabled(), os.sched_getscheduler(0))
     outcome = rig.run()
+    assert (sys.getswitchinterval(), gc.isenabled(), os.sched_getscheduler(0)) == before  # restored
     assert outcome.wall_s == pytest.approx(duration_s, abs=0.25)  # paced, not as fast as possible
     ctl, plant = outcome.timing["controller"], outcome.timing["plant"]
     # free-running on its own timer: about one tick per period of wall time
