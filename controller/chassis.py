@@ -243,8 +243,9 @@ class ChassisController:
         self.speed_ref += _clamp(target - self.speed_ref, step)
         self.x_ref += self.speed_ref * self.dt
         if self.speed_ref != 0.0:
-            # moving: the reference is dragged along, so a stall (a wall) cannot wind it up
-            self.x_ref = self.x + _clamp(self.x_ref - self.x, P.POSITION_ERROR_LIMIT)
+            # moving: speed alone is tracked (a position lead would overshoot the speed
+            # and wind up against a wall); the spot to hold is where it stops
+            self.x_ref = self.x
         # standing, it stays put: pushed away, the robot comes back to its spot, with the
         # error the LQR sees clamped (_lqr), so at a bounded speed
         self.yaw_ref = _wrap(self.yaw_ref + _clamp(cmd.yaw_rate, P.YAW_RATE_LIMIT) * self.dt)

@@ -161,7 +161,7 @@ def wall_scenario(speed_mps: float = 0.3, height_m: float = 0.08) -> Scenario:
     wall = TerrainFeature.wall(x_m=0.5, height_m=height_m)
     t_stop = 0.5 + 0.5 / speed_mps + 2.0  # about 2 s against the wall
     return Scenario(
-        "wall", f"drive at {speed_mps:g} m/s into a {height_m * 100:g} cm wall, push 2 s, stop", t_stop + 3.0,
+        "wall", f"drive at {speed_mps:g} m/s into a {height_m * 100:g} cm wall, push 2 s, stop", t_stop + 4.0,
         standing(), terrain=(wall,),
         timeline=(stand(), remote(0.5, Mode=2, SpeedX=speed_mps), remote(t_stop, SpeedX=0.0)),
         checks=(reaches_wall(0.5), falls_safely(), recovers(), no_deadline_miss()))

@@ -11,6 +11,7 @@ import math
 import numpy as np
 
 from controller import constants as C
+from controller import params as P
 from emulators.physics import TerrainFeature
 from hil.scenario import Check, RunData, Scenario
 from hil.scenarios.basic import forward_position, speed_tracks
@@ -78,8 +79,13 @@ def slope_scenario(angle_deg: float = 15.0) -> Scenario:
     """Stand across a side slope of ``angle_deg`` (left side up) and level the body."""
     if not 0 < angle_deg < 60:
         raise ValueError(f"angle_deg must be in (0, 60), got {angle_deg}")
+    # the uphill leg shortened by half the tilt across the track (not below the
+    # controller's shortest), the downhill one fitted to the ground
+    across = 2 * C.HALF_TRACK * math.tan(math.radians(angle_deg))
+    uphill = max(P.LEG_LENGTH_MIN, 0.17 - across / 2)
     return Scenario(
-        "slope", f"stand across a {angle_deg:g} deg side slope, body held level", 5.0, on_uneven_ground(),
+        "slope", f"stand across a {angle_deg:g} deg side slope, body held level", 5.0,
+        on_uneven_ground(leg_length=uphill),
         terrain=(TerrainFeature.slope(math.radians(angle_deg)),), timeline=(stand(),),
         checks=(never_fallen(), roll_below(LEVEL, 3.0), pitch_below(3 * DEG, 3.0), both_wheels_down(1.0, 5.0),
                 no_deadline_miss()))
@@ -107,7 +113,7 @@ def step_down_scenario(height_m: float = 0.1, speed_mps: float = 0.8) -> Scenari
         raise ValueError(f"height_m must be > 0, got {height_m}")
     step = TerrainFeature.step(x_m=0.5, height_m=-height_m)
     return Scenario(
-        "step-down", f"drive at {speed_mps:g} m/s off a {height_m * 100:g} cm step, then stop", 5.0,
+        "step-down", f"drive at {speed_mps:g} m/s off a {height_m * 100:g} cm step, then stop", 6.5,
         lambda physics: physics.reset_standing(leg_length_m=0.17), terrain=(step,),
         timeline=(stand(), remote(0.5, Mode=2, SpeedX=speed_mps), remote(2.5, SpeedX=0.0)),
         checks=(travels_past(0.8), never_fallen(), falls_safely(), recovers(), no_deadline_miss()))
