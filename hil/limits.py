@@ -17,6 +17,7 @@ import argparse
 import tempfile
 import time
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 from typing import Callable
 
@@ -141,6 +142,14 @@ def figures() -> tuple:
                (0.1, 0.3, 0.5, 0.7, 1.0, 1.5), (0.1, 0.5, 1.0), 0.5),
         Figure("push", "push impulse at body height survived", "N s", collisions.push_scenario,
                (1.0, 3.0, 5.0, 7.0, 9.0, 12.0, 15.0), (3.0, 6.0, 9.0, 12.0), 5.0),
+        Figure("push-front", "push impulse, front only (sudden and steady)", "N s",
+               partial(collisions.push_scenario, sides=("front",)),
+               (3.0, 5.0, 7.0, 9.0, 12.0, 15.0), (5.0, 9.0, 13.0), 5.0),
+        Figure("push-side", "push impulse, side only (sudden and steady)", "N s",
+               partial(collisions.push_scenario, sides=("side",)),
+               (3.0, 5.0, 7.0, 9.0, 12.0, 15.0), (5.0, 9.0, 13.0), 5.0),
+        Figure("wall", "speed into an 8 cm wall, stays up", "m/s", collisions.wall_scenario,
+               (0.2, 0.3, 0.4, 0.5, 0.7, 1.0), (0.3, 0.5, 0.7), 0.0, note="no aim in the issue"),
         Figure("slope", "side slope held level", "deg", ground.slope_scenario,
                (5.0, 10.0, 15.0, 20.0, 25.0, 30.0), (10.0, 15.0, 20.0, 25.0), 15.0),
         Figure("speed", "top speed (tracked, upright)", "m/s", ground.sprint_scenario,
@@ -152,14 +161,15 @@ def figures() -> tuple:
 
 
 def _row(fig: Figure, result: SearchResult | None) -> str:
+    aim = f"{fig.aim:g} {fig.unit}" if fig.aim else "-"
     if result is None:
-        return f"| {fig.label} | not yet: no factory in the code | {fig.aim:g} {fig.unit} | |"
+        return f"| {fig.label} | not yet: no factory in the code | {aim} | |"
     best = "below the first size tried" if result.best is None else f"{result.best:g} {fig.unit}"
     if result.first_fail is None:
         best = f">= {best} (every size tried passed)"
     tried = ", ".join(f"{s:g}{'' if ok else ' x'}" for s, ok in result.tried)
     note = f"; {fig.note}" if fig.note else ""
-    return f"| {fig.label} | {best} | {fig.aim:g} {fig.unit} | tried {tried}{note} |"
+    return f"| {fig.label} | {best} | {aim} | tried {tried}{note} |"
 
 
 def table(rows: list) -> str:

@@ -149,7 +149,7 @@ def impact_scenario(speed_mps: float = 4.0, mass_kg: float = IMPACT_MASS_KG) -> 
 
 
 # -- wall: drive into a low wall ----------------------------------------------------------------
-def wall_scenario(speed_mps: float = 0.3, height_m: float = 0.08) -> Scenario:
+def wall_scenario(speed_mps: float = 0.4, height_m: float = 0.08) -> Scenario:
     """Drive at ``speed_mps`` into a wall ``height_m`` high, 0.5 m ahead, keep
     pushing for 2 s, then stop. It must stay up (or fall safely) and end at rest.
 
