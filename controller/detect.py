@@ -88,3 +88,44 @@ class ReenableRequest:
     def consume(self) -> None:
         """The motors were enabled: the press is spent."""
         self._until_s = float("-inf")
+
+
+def esc_follows(commanded_a: float, reported_a: float, speed_rad_s: float, tolerance_a: float,
+                back_emf_fraction: float) -> bool:
+    """Whether a C620's reported current (A) is its command (A) within ``tolerance_a``.
+
+    Driving near the no-load speed the back-EMF caps the current the ESC can
+    reach, so there (same sign as the speed, above ``back_emf_fraction`` of
+    the no-load speed, rad/s) any current counts as following.
+    """
+    if commanded_a * speed_rad_s > 0.0 and abs(speed_rad_s) > back_emf_fraction * C.M3508_NO_LOAD_SPEED:
+        return True
+    return abs(reported_a - commanded_a) <= tolerance_a
+
+
+class EscWatch:
+    """A C620 that does not do what it is told (hung, holding its last current): a latched fault.
+
+    ``update`` compares the current reported now with the command of the tick
+    before (the one the feedback answers); a mismatch that lasts ``hold_s``
+    latches the fault, as a CyberGear latches its fault bits: a hung ESC
+    spinning its wheel up to no-load speed reports no current (back-EMF) and
+    would look well again. ``clear`` (the operator's Reenable) unlatches it.
+    """
+
+    def __init__(self, tolerance_a: float, hold_s: float, back_emf_fraction: float):
+        self.tolerance_a, self.hold_s, self.back_emf_fraction = tolerance_a, hold_s, back_emf_fraction
+        self._since_s: float | None = None
+        self.latched = False
+
+    def update(self, commanded_a: float, reported_a: float, speed_rad_s: float, now_s: float) -> bool:
+        """True while the fault is latched."""
+        if esc_follows(commanded_a, reported_a, speed_rad_s, self.tolerance_a, self.back_emf_fraction):
+            self._since_s = None
+        else:
+            self._since_s = now_s if self._since_s is None else self._since_s
+            self.latched = self.latched or now_s - self._since_s >= self.hold_s - _ROUNDING_S
+        return self.latched
+
+    def clear(self) -> None:
+        self.latched, self._since_s = False, None

@@ -57,6 +57,9 @@ class Controller:
         self.jump = JumpSequencer(period_s)
         self._jump_forward = False  # the jump asked for is JumpForward
         self.reenable = detect.ReenableRequest(P.REENABLE_WINDOW_S)
+        self.esc_watch = {w.esc_id: detect.EscWatch(P.ESC_CURRENT_TOLERANCE_A, P.ESC_MISMATCH_S,
+                                                    P.ESC_BACK_EMF_FRACTION) for w in C.WHEELS}
+        self._wheel_command_a: dict = {}  # esc id -> A sent last tick (what the feedback answers)
 
     def on_frame(self, msg: can.Message, bus: str, now_s: float) -> int | None:
         """Take one received frame; returns the SYNC tick counter if it is a SYNC."""
@@ -70,7 +73,7 @@ class Controller:
         return seen
 
     def tick(self, tick: int, now_s: float) -> TickResult:
-        faulted = {_DEVICE_OF_JOINT[i] for i, fb in self.bus.joints.items() if fb.faults}
+        faulted = self._faulted(now_s)
         report = detect.check(self.last_seen(), now_s, faulted)
         inputs = self._inputs(report.balance_ok, now_s)
         previous, self.mode = self.mode, next_mode(self.mode, inputs)
@@ -95,6 +98,25 @@ class Controller:
         result.frames[CAN1].append(hb)
         result.frames[CAN2].append(hb)
         return result
+
+    def _faulted(self, now_s: float) -> set:
+        """Devices reporting a fault: CyberGear fault bits, a C620 caught not following its command."""
+        faulted = {_DEVICE_OF_JOINT[i] for i, fb in self.bus.joints.items() if fb.faults}
+        for esc_id, watch in self.esc_watch.items():
+            if self.reenable.pending(now_s):  # the operator asked: trust the ESC again, watch anew
+                watch.clear()
+            fb = self.bus.wheels[esc_id]
+            fresh = now_s - fb.received_s <= 2 * self.period_s  # stale feedback is detect's business
+            commanded = self._wheel_command_a.get(esc_id, 0.0)
+            if fresh and watch.update(commanded, fb.current, fb.speed, now_s):
+                faulted.add(_DEVICE_OF_WHEEL[esc_id])
+        return faulted
+
+    def _wheel_frame(self, currents_a: dict, now_s: float) -> can.Message:
+        """The C620 current frame; remembers what it asked (clamped as sent) for the ESC watch."""
+        limit = C.C620_CURRENT_LIMIT
+        self._wheel_command_a = {esc: min(max(a, -limit), limit) for esc, a in currents_a.items()}
+        return messages.wheel_currents(currents_a, t_s=now_s)
 
     # -- mode inputs -----------------------------------------------------------
     def _inputs(self, devices_ok: bool, now_s: float) -> Inputs:
@@ -142,7 +164,7 @@ class Controller:
             result.frames[CAN2] += [messages.joint_stop(joint.motor_id, clear_fault=True, t_s=now_s),
                                     messages.joint_run_mode(joint.motor_id, 0, t_s=now_s),
                                     messages.joint_enable(joint.motor_id, t_s=now_s)]
-        result.frames[CAN1].append(messages.wheel_currents({}, t_s=now_s))
+        result.frames[CAN1].append(self._wheel_frame({}, now_s))
         self.chassis.reset(self.bus)
         self.contact.reset()
 
@@ -153,7 +175,7 @@ class Controller:
         for joint in C.JOINTS:
             result.frames[CAN2].append(messages.joint_torque(joint.motor_id, out.hip_torque[joint.motor_id], now_s))
         currents = {esc: t / C.M3508_TORQUE_CONSTANT for esc, t in out.wheel_torque.items()}
-        result.frames[CAN1].append(messages.wheel_currents(currents, now_s))
+        result.frames[CAN1].append(self._wheel_frame(currents, now_s))
         out.debug.update(Fn_left=self.fn["left"], Fn_right=self.fn["right"], jump_phase=int(self.jump.phase))
         result.debug = self._last_debug = out.debug
 
@@ -206,7 +228,7 @@ class Controller:
         for joint in C.JOINTS:
             result.frames[CAN2].append(messages.joint_stop(joint.motor_id, clear_fault=clear, t_s=now_s))
         # the C620 holds its last command: send zero every tick
-        result.frames[CAN1].append(messages.wheel_currents({}, t_s=now_s))
+        result.frames[CAN1].append(self._wheel_frame({}, now_s))
 
     def shutdown_frames(self, now_s: float) -> dict:
         """Frames that leave the robot safe: every joint stopped, zero current."""

@@ -74,6 +74,12 @@ FALL_ROLL = 0.8  # rad
 # sends the clear-fault stop and enables on the clean reply a tick later (2 ms),
 # with room for a lost reply; short, so a press is never a standing order.
 REENABLE_WINDOW_S = 0.05  # s
+# A C620 whose reported current stays off its command is faulted (hung ESC holding
+# its last current): 1 A is well above the feedback's noise and a tick's change while
+# balancing (+-0.7 A peak in place); 10 ms (5 ticks) rides out one late feedback frame.
+ESC_CURRENT_TOLERANCE_A = 1.0  # A
+ESC_MISMATCH_S = 0.010  # s
+ESC_BACK_EMF_FRACTION = 0.8  # above 0.8 x no-load speed, driving, the current may be capped
 STAND_UP_TIME = 1.0  # s, leg length ramps from where it is to the set point
 
 # --- support force and off-ground detection (controller/support.py) ------------------

@@ -10,6 +10,7 @@ from dbc import load_bus, truncating_raw
 
 DB1, DB2 = load_bus("can1"), load_bus("can2")
 HEARTBEAT = DB1.get_message_by_name("Heartbeat")
+_ESC_CMD = DB1.get_message_by_name("C620_Cmd_1_4")
 
 
 def _std(name, **signals):
@@ -34,13 +35,15 @@ class Robot:
         self.faults: dict = {}
         self.reenable = 0
         self.imu_frozen = False  # the IMU repeats its frames bit for bit
+        self.esc_held: dict = {}  # esc id -> A it reports whatever it is told (a hung C620)
         self.tick_no = 0
         self.sent: list = []
 
     def frames(self):
         out = [(CAN2, _joint_feedback(j.motor_id, self.faults.get(j.name, ())))
                for j in C.JOINTS if j.name not in self.silent]
-        out += [(CAN1, _std(f"C620_Feedback_{w.esc_id}", RotorAngle=0, RotorSpeed=0, TorqueCurrent=0,
+        out += [(CAN1, _std(f"C620_Feedback_{w.esc_id}", RotorAngle=0, RotorSpeed=0,
+                            TorqueCurrent=self.esc_held.get(w.esc_id, self._commanded_a(w.esc_id)),
                             MotorTemp=30)) for w in C.WHEELS if w.name not in self.silent]
         if "imu" not in self.silent:
             out += [(CAN1, _std("IMU_Orientation", QuatW=1.0, QuatX=0.0, QuatY=0.0, QuatZ=0.0)),
@@ -52,6 +55,13 @@ class Robot:
             out.append((CAN1, _std("Operator", Mode=1, Jump=0, JumpForward=0, Reenable=self.reenable,
                                    SpeedX=0.0, YawRate=0.0, LegLength=0.17, Pitch=0.0, Roll=0.0)))
         return out
+
+    def _commanded_a(self, esc_id: int) -> float:
+        """A healthy C620 reports the current it was last told (0x200 slot ``esc_id``)."""
+        if not self.sent:
+            return 0.0
+        frame = [m for m in self.sent[-1].frames[CAN1] if m.arbitration_id == _ESC_CMD.frame_id][0]
+        return _ESC_CMD.decode(bytes(frame.data))[f"ESC{esc_id}_Current"]
 
     def step(self, n: int = 1):
         for _ in range(n):

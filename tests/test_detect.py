@@ -58,6 +58,24 @@ def test_a_reenable_press_is_remembered_only_while_the_motors_are_off():
     assert not req.pending(2.0)
 
 
+def test_an_esc_follows_its_command_within_the_tolerance_or_when_back_emf_caps_it():
+    fast = 0.9 * C.M3508_NO_LOAD_SPEED
+    assert detect.esc_follows(3.0, 2.5, 0.0, 1.0, 0.8) and not detect.esc_follows(3.0, 1.5, 0.0, 1.0, 0.8)
+    assert detect.esc_follows(3.0, 0.0, fast, 1.0, 0.8)  # driving near no-load: the current is capped
+    assert not detect.esc_follows(-3.0, 0.0, fast, 1.0, 0.8)  # braking is never capped
+
+
+def test_an_esc_watch_latches_after_a_lasting_mismatch_and_clears_on_command():
+    watch = detect.EscWatch(1.0, 0.010, 0.8)
+    assert not any(watch.update(0.0, 4.0, 0.0, k * 0.002) for k in range(5))  # 8 ms: not yet
+    assert watch.update(0.0, 4.0, 0.0, 0.010)
+    assert watch.update(0.0, 0.0, 0.0, 0.012)  # looks well again: still latched
+    watch.clear()
+    assert not watch.update(0.0, 0.0, 0.0, 0.014)
+    watch.update(0.0, 4.0, 0.0, 0.016)
+    assert not watch.update(0.0, 0.5, 0.0, 0.018) and not watch.update(0.0, 4.0, 0.0, 0.026)  # the run restarted
+
+
 # -- the controller's reaction ---------------------------------------------------------------
 def running_robot() -> Robot:
     robot = Robot()
@@ -145,3 +163,18 @@ def test_bad_frames_are_counted_in_the_heartbeat_and_change_nothing():
         robot.ctl.on_frame(can.Message(arbitration_id=0x100, data=data, is_extended_id=False), CAN1, 0.01)
     robot.step()
     assert robot.heartbeat()["BadFrames"] == 2 and robot.ctl.mode == mode
+
+
+def test_a_c620_holding_its_current_is_a_latched_fault_until_reenable():
+    robot = running_robot()
+    robot.esc_held[2] = 5.0  # right wheel: 5 A whatever it is told
+    modes = [robot.step().mode for _ in range(8)]
+    assert modes.index(Mode.DISABLED) in (5, 6)  # 10 ms of mismatch, then at once
+    hb = robot.heartbeat()
+    assert hb["FaultLatched"] == 1 and hb["OfflineMask"] == 1 << C.DEVICES.index("right_wheel")
+    robot.esc_held.clear()  # it follows again: still faulted until the operator says so
+    robot.step(10)
+    assert robot.ctl.mode == Mode.DISABLED and robot.heartbeat()["FaultLatched"] == 1
+    robot.reenable = 1
+    robot.step(3)
+    assert robot.ctl.mode in ENABLED and robot.heartbeat()["FaultLatched"] == 0

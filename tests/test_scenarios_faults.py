@@ -10,8 +10,8 @@ from hil.commands.run import execute
 from hil.scenario import RunData
 from hil.scenarios import faults as fs
 
-FAULTS = ("offline-wheel", "offline-joint", "offline-imu", "frozen-imu", "offline-remote", "motor-fault", "frame-loss",
-          "bus-off", "overload")
+FAULTS = ("offline-wheel", "offline-joint", "offline-imu", "frozen-imu", "offline-remote", "motor-fault", "esc-hold",
+          "frame-loss", "bus-off", "overload")
 
 
 @pytest.mark.parametrize("name", FAULTS)

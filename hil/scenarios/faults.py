@@ -17,7 +17,7 @@ from controller.modes import Mode
 from hil import faults
 from hil.scenario import Check, RunData, Scenario
 from hil.scenarios.basic import standing
-from hil.scenarios.common import DEG, pitch_below, remote, stand
+from hil.scenarios.common import DEG, pitch_below, push, remote, stand
 
 FAULT_AT = 1.0  # s: the robot balances by then
 PERIOD = P.CONTROL_PERIOD
@@ -162,6 +162,44 @@ def reenabled_by_operator(within_s: float) -> Check:
     return Check(f"re-enabled within {within_s * 1000:.0f} ms of the operator's command", fn)
 
 
+def mismatch_time(run: RunData, kind: str, esc_id: int, tolerance_a: float, lasting_s: float) -> tuple[float, float]:
+    """(held current A, start s of the first run of commands off it by > ``tolerance_a`` lasting ``lasting_s``)."""
+    t_f = fault_time(run, kind)
+    t, amps = run.wheel_current[esc_id]
+    held = float(amps[t < t_f][-1])  # the last command the ESC took
+    start = None
+    for ti, off in zip(t[t >= t_f], np.abs(amps[t >= t_f] - held) > tolerance_a):
+        start = (ti if start is None else start) if off else None
+        if start is not None and ti - start >= lasting_s - 1e-6:
+            return held, float(start)
+    return held, float("inf")
+
+
+def esc_hold_caught(kind: str, device: str, esc_id: int) -> Check:
+    """Once the commands leave the held current: torque off within ESC_MISMATCH_S + 2 periods, then off,
+    and the heartbeat shows the ESC faulted (mask bit, FaultLatched, DISABLED) while it holds."""
+    bound = P.ESC_MISMATCH_S + 2 * PERIOD  # one period for the feedback to show it, one for the tick
+    mask, _, level = expected_report([device])
+
+    def fn(run: RunData):
+        held, t_m = mismatch_time(run, kind, esc_id, P.ESC_CURRENT_TOLERANCE_A, P.ESC_MISMATCH_S)
+        if not np.isfinite(t_m):
+            return False, f"the commands never left the held {held:.2f} A for long: nothing to catch"
+        times = nonzero_command_times(run)
+        last = float(times[times >= t_m][-1]) if np.any(times >= t_m) else t_m
+        hip_after = sum(int(np.count_nonzero(t > t_m + bound)) for t, _ in run.hip_torque.values())
+        hb = run.heartbeat
+        sel = hb["t"] >= t_m + bound
+        shown = np.all((hb["OfflineMask"][sel].astype(int) & mask) == mask) and np.all(hb["FaultLatched"][sel] == 1) \
+            and np.all(hb["WarningLevel"][sel] >= level) and np.all(hb["Mode"][sel] == int(Mode.DISABLED))
+        ok = last - t_m <= bound and hip_after == 0 and bool(shown) and np.any(sel)
+        return ok, (f"held {held:.2f} A; commands left it at {t_m:.3f} s; last non-zero torque command "
+                    f"{(last - t_m) * 1000:.2f} ms later (bound {bound * 1000:.0f} ms); {hip_after} torque commands "
+                    f"after; heartbeat faulted/DISABLED: {bool(shown)}")
+
+    return Check(f"{device} not following its command is caught within {bound * 1000:.0f} ms", fn)
+
+
 def controller_alive() -> Check:
     """Every SYNC answered: one heartbeat per tick, ticks consecutive, no deadline miss."""
 
@@ -255,6 +293,15 @@ def _motor_fault_scenario() -> Scenario:
                 reenabled_by_operator(0.05), controller_alive()))
 
 
+def _esc_hold_scenario() -> Scenario:
+    wheel = "left_wheel"
+    return Scenario(
+        "esc-hold", f"pushed (40 N, 0.1 s), the {wheel} C620 freezes its current mid-reaction (ignores commands)",
+        1.4, standing(),
+        timeline=(stand(), *push(FAULT_AT - 0.05, (40.0, 0.0, 0.0), 0.1), *faults.esc_hold(wheel, FAULT_AT)),
+        checks=(esc_hold_caught("fault_esc_hold", wheel, 1), controller_alive()))
+
+
 def _frame_loss_scenario() -> Scenario:
     loss = [a for bus in faults.BUSES
             for a in faults.frame_loss(bus, FAULT_AT - 0.5, 1.5, LOSS_RATE, direction=faults.BOTH)]
@@ -300,6 +347,7 @@ SCENARIOS: tuple = (
     offline("frozen-imu", "imu", how="frozen"),
     _remote_scenario(),
     _motor_fault_scenario(),
+    _esc_hold_scenario(),
     _frame_loss_scenario(),
     _bus_off_scenario(),
     _overload_scenario(),
