@@ -70,7 +70,15 @@ def _device(rig, name: str):
 
 
 # -- device faults ----------------------------------------------------------------------
+def _known(device: str, kinds=C.DEVICES) -> str:
+    """``device`` if the robot has it (checked when the scenario is defined, not mid-run)."""
+    if device not in kinds:
+        raise ValueError(f"no device {device!r}; known: {', '.join(kinds)}")
+    return device
+
+
 def _policy(kind: str, flag: str, device: str, t_s: float, duration_s: float | None) -> list[Action]:
+    _known(device)
     return _window(kind, t_s, duration_s, lambda rig: setattr(_device(rig, device), flag, True),
                    lambda rig: setattr(_device(rig, device), flag, False), device=device)
 
@@ -96,6 +104,7 @@ def cybergear_fault(joint: str, fault: str, t_s: float) -> list[Action]:
     """A CyberGear latches ``fault`` (dbc.cybergear.FAULT_NAMES); only a clear-fault stop clears it."""
     if fault not in cg.FAULT_NAMES:
         raise ValueError(f"unknown CyberGear fault {fault!r}; expected one of {cg.FAULT_NAMES}")
+    _known(joint, tuple(j.name for j in C.JOINTS))
     return _window("cybergear", t_s, None, lambda rig: _device(rig, joint).inject_fault(fault), None,
                    device=joint, fault=fault)
 
@@ -146,6 +155,8 @@ def _frame_fault(kind: str, bus: str, t_s: float, duration_s: float | None, make
     The end event reports ``frames_affected``: how many frames the fault
     dropped, delayed, corrupted, followed or sent.
     """
+    if bus not in BUSES:
+        raise ValueError(f"bus must be one of {BUSES}, got {bus!r}")
     make(np.random.default_rng(0))  # a bad argument fails here, when the scenario is defined
     active = {}
 

@@ -162,11 +162,19 @@ def test_imu_spikes_hit_one_axis_by_the_magnitude():
         faults.imu_spikes(0.0, None, probability=1.5, magnitude_rad_s=1.0)
 
 
-def test_unknown_device_is_a_clear_error():
-    with pytest.raises(KeyError, match="no device 'left_knee'"):
-        apply(fake_rig(), faults.silent("left_knee", 0.0))
+def test_bad_arguments_are_clear_errors_when_the_scenario_is_defined():
+    with pytest.raises(ValueError, match="no device 'left_knee'"):
+        faults.silent("left_knee", 0.0)
+    with pytest.raises(ValueError, match="no device 'imu'"):
+        faults.cybergear_fault("imu", "FaultOverTemp", 0.0)
     with pytest.raises(ValueError, match="duration"):
         faults.silent("imu", 0.0, 0.0)
+    with pytest.raises(ValueError, match="bus must be"):
+        faults.frame_loss("can3", 0.0, None, 0.1)
+    with pytest.raises(ValueError, match="direction"):
+        faults.frame_loss("can1", 0.0, None, 0.1, direction="sideways")
+    with pytest.raises(ValueError, match="babble load"):
+        faults.babble("can2", 0.0, None, 0.0)
 
 
 # -- frame faults ---------------------------------------------------------------------------
