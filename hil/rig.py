@@ -9,7 +9,12 @@ a deadline miss: reported in the trace and the summary, never waited on.
 
 With the in-process controller (the default, on python-can's virtual bus)
 the rig hands the controller the turn itself instead of sleeping: the same
-frames in the same order, just no thread switches.
+frames in the same order, just no thread switches. Over a real transport
+(SocketCAN) the plant holds each bus's frames until both heartbeats are in
+and then takes them in the virtual bus's order (hil/held_bus.py): the same
+bytes in the recording on every transport.
+
+``RigConfig(realtime=True)`` is not lockstep: hil/realtime.py.
 """
 from __future__ import annotations
 
