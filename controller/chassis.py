@@ -68,6 +68,7 @@ class Command:
     airborne: bool = False  # in the air: wheels unpowered, legs held vertical (``_air_step``)
     leg_force: float | None = None  # N per leg, open-loop push replacing the leg PID (jump)
     hip_torque_limit: float = P.HIP_TORQUE_LIMIT  # N m, raised only for a jump's thrust
+    air_leg_hold: bool = True  # in the air, hold the legs vertical (False: Tp 0, legs swing free)
 
 
 @dataclass
@@ -218,7 +219,7 @@ class ChassisController:
             s = legs[leg]
             self.leg_ref[leg] = min(max(cmd.leg_length, P.LEG_LENGTH_MIN), P.LEG_LENGTH_MAX)
             wheel_t[leg] = 0.0
-            tp[leg] = -(P.AIR_THETA_KP * s.theta + P.AIR_THETA_KD * s.dtheta)
+            tp[leg] = -(P.AIR_THETA_KP * s.theta + P.AIR_THETA_KD * s.dtheta) if cmd.air_leg_hold else 0.0
             force = cmd.leg_force if cmd.leg_force is not None else _clamp(
                 P.LEG_KP * (self.leg_ref[leg] - s.L0) - P.LEG_KD * s.dL0, P.AIR_LEG_FORCE_LIMIT)
             self._hips(out, leg, s, force, tp[leg])
@@ -226,6 +227,10 @@ class ChassisController:
         self._limit_hips(out, cmd.hip_torque_limit)
         out.debug = self._debug(legs, att, speed, wheel_t, tp)
         return out
+
+    def follow_position(self) -> None:
+        """The position reference jumps to where the robot is (no pull back this tick)."""
+        self.x_ref = self.x
 
     def touchdown(self, bus: BusState) -> None:
         """Landing: the position reference resets to where the robot is and each leg's

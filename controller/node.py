@@ -24,6 +24,8 @@ from controller import detect, messages, posture, support
 from controller import params as P
 from controller.chassis import ChassisController, Command, attitude
 from controller.jump import JumpSequencer, Phase
+from controller.recovery import Phase as RecoveryPhase
+from controller.recovery import RecoverySequencer
 from controller.modes import ENABLED, Inputs, Mode, Switch, next_mode
 from controller.state import CAN1, CAN2, BusState
 
@@ -55,6 +57,7 @@ class Controller:
         self.fn = {"left": 0.0, "right": 0.0}  # N, this tick's support force estimates
         self.contact = support.ContactDebounce(period_s)
         self.jump = JumpSequencer(period_s)
+        self.recovery = RecoverySequencer(period_s)
         self._jump_forward = False  # the jump asked for is JumpForward
         self.reenable = detect.ReenableRequest(P.REENABLE_WINDOW_S)
         self.esc_watch = {w.esc_id: detect.EscWatch(P.ESC_CURRENT_TOLERANCE_A, P.ESC_MISMATCH_S,
@@ -84,6 +87,10 @@ class Controller:
             self.jump.start(forward=self._jump_forward)
         elif previous == Mode.AIRBORNE and self.mode == Mode.BALANCE:
             self.chassis.touchdown(self.bus)
+        if self.mode == Mode.STAND_UP and previous != Mode.STAND_UP and self._lying():
+            self.recovery.start()
+        elif self.mode != Mode.STAND_UP:
+            self.recovery.stop()
         if self.mode in ENABLED and previous not in ENABLED:
             self._enable(result, now_s)
         elif self.mode in ENABLED:
@@ -139,6 +146,8 @@ class Controller:
             mean_l0 = 0.5 * (debug.get("left_L0", 0) + debug.get("right_L0", 0))
             stood = abs(mean_l0 - op.leg_length) < 0.01 and abs(att.pitch) < 0.1
             fallen = fallen or any(abs(debug.get(f"{leg}_theta", 0)) > P.FALL_THETA for leg in ("left", "right"))
+            if self.recovery.active:  # righting itself from lying: only a second tumble counts
+                stood, fallen = False, abs(att.pitch) > P.RECOVERY_FALL_PITCH or abs(att.roll) > P.FALL_ROLL
         try:
             switch = Switch(op.mode)
         except ValueError:
@@ -189,7 +198,28 @@ class Controller:
             cmd.airborne, cmd.leg_length = True, P.AIR_LEG_LENGTH
         elif self.mode == Mode.JUMP:
             self._jump_command(cmd)
+        elif self.mode == Mode.STAND_UP and self.recovery.active:
+            self._recovery_command(cmd)
         return cmd
+
+    def _lying(self) -> bool:
+        """Past the fall limit on pitch, not on its side: stand-up starts with a recovery."""
+        att = attitude(self.bus.imu)
+        return abs(att.pitch) > P.FALL_PITCH and abs(att.roll) < P.FALL_ROLL
+
+    def _recovery_command(self, cmd: Command) -> None:
+        """Fill ``cmd`` from the recovery table's phase (controller/recovery.py)."""
+        debug = self._last_debug
+        lengths = tuple(debug.get(f"{leg}_L0", P.LEG_LENGTH_MAX) for leg in ("left", "right"))
+        rc = self.recovery.step(lengths, attitude(self.bus.imu).pitch, cmd.pitch)
+        if self.recovery.entered == RecoveryPhase.TILT_UP:
+            self.chassis.reset(self.bus)
+        cmd.airborne, cmd.air_leg_hold = rc.airborne, False
+        if rc.leg_length is not None:
+            cmd.leg_length = rc.leg_length
+        if rc.pitch is not None:
+            cmd.pitch = rc.pitch
+            self.chassis.follow_position()
 
     def _jump_command(self, cmd: Command) -> None:
         """Fill ``cmd`` from the jump table's phase (controller/jump.py)."""

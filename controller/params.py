@@ -124,3 +124,11 @@ BODY_GROUND_CLEARANCE = 0.01  # m, body box this close to the floor under the wh
 #                               fallen (controller/posture.py); standing it is ~0.2 m clear
 FALL_PITCH_AIR = 1.2  # rad, in JUMP/AIRBORNE: the body swings more in the air, a tumble is past this
 FALL_ROLL_AIR = 1.2  # rad
+
+# --- recovery stand from lying (controller/recovery.py) -----------------------------------
+RECOVERY_TUCK_LENGTH = 0.12  # m, legs pulled short (lowest of the K fit): hips down to the wheels
+RECOVERY_TUCK_MIN_S = 0.3  # s, the first ticks after enabling still see the fall's leg data
+RECOVERY_TUCK_TIMEOUT = 1.0  # s
+RECOVERY_PITCH_RATE = 0.5  # rad/s, the pitch set point ramps from lying (~0.8 rad) to level in ~1.6 s
+RECOVERY_TILT_TIMEOUT = 4.0  # s
+RECOVERY_FALL_PITCH = 1.3  # rad, while recovering only a body past this has fallen again
