@@ -7,8 +7,10 @@ writes what a candump on the robot would show: a free-running ``Controller``
 (no SYNC), ticks on a jittered clock, the log's timestamps as its clock (ns
 since the first frame, microsecond resolution) -- the convention replay uses.
 
-Device frame rates: C620 feedback 1 kHz per wheel, IMU 500 Hz (three frames),
-remote 50 Hz, one CyberGear reply per command, SYNC and heartbeat 500 Hz.
+Device frame rates: C620 feedback 1 kHz per wheel (reporting the current it was
+last told, as a healthy ESC: the controller faults one that does not), IMU 500 Hz
+(three frames), remote 50 Hz, one CyberGear reply per command, SYNC and
+heartbeat 500 Hz.
 """
 from __future__ import annotations
 
@@ -33,6 +35,7 @@ from hil.trace import TraceWriter
 
 DB1, DB2 = dbc.load_bus("can1"), dbc.load_bus("can2")
 PERIOD = P.CONTROL_PERIOD
+_ESC_CMD = DB1.get_message_by_name("C620_Cmd_1_4")
 REMOTE_EVERY = 10  # ticks: 50 Hz at 2 ms
 # standing pose: shaft angles (rad) that give a leg length of about 0.15 m on both legs
 POSE = {1: 0.3, 2: -0.3, 3: -0.3, 4: 0.3}
@@ -54,13 +57,21 @@ class Devices:
         self.remote_silent_after = remote_silent_after
         self.fault_at = fault_at  # tick from which motor 3 reports over-temperature
         self._feedback = DB2.get_message_by_name("CG_Feedback")
+        self.currents = {w.esc_id: 0.0 for w in C.WHEELS}  # A each C620 was last told (and reports)
+
+    def command(self, msg: can.Message) -> None:
+        """A C620 takes its slot of the controller's 0x200 frame (and reports that current, as a healthy one)."""
+        if msg.arbitration_id == _ESC_CMD.frame_id and not msg.is_extended_id:
+            values = _ESC_CMD.decode(bytes(msg.data))
+            self.currents = {esc: values[f"ESC{esc}_Current"] for esc in self.currents}
 
     def pitch(self, t_s: float) -> float:
         return 0.02 * math.sin(2 * math.pi * 1.5 * t_s)  # rad
 
     def wheels(self, t_s: float) -> list[can.Message]:
         return [_std(f"C620_Feedback_{w.esc_id}", RotorAngle=(37.0 * t_s * 360) % 359,
-                     RotorSpeed=round(120 * math.sin(3 * t_s)), TorqueCurrent=0.1, MotorTemp=35)
+                     RotorSpeed=round(120 * math.sin(3 * t_s)), TorqueCurrent=self.currents[w.esc_id],
+                     MotorTemp=35)
                 for w in C.WHEELS]
 
     def imu(self, t_s: float) -> list[can.Message]:
@@ -145,6 +156,7 @@ class SyntheticRig:
         self.sent.append(sent)
         for msg in sent["can1"]:
             self.recorder.observe(self.names["can1"], msg)
+            d.command(msg)
         for msg in sent["can2"]:
             self.recorder.observe(self.names["can2"], msg)
             for reply in d.joint_reply(msg, tick, t):
@@ -207,6 +219,7 @@ def robot_log(path: Path, ticks: int, channels=("can0", "can1"), devices: Device
         t_us = tick_us
         for msg in result.frames["can1"]:
             rows.append((t_us, "can1", msg))
+            d.command(msg)
             t_us += 1
         # frames that land while the controller is still sending: it reads them next tick
         received(t_us, "can1", d.wheels(t + 0.0002)[0])
