@@ -156,7 +156,7 @@ def figures() -> tuple:
                (0.5, 1.0, 1.5, 2.0), (1.0, 2.0), 2.0,
                note=f"capped by the controller's SPEED_LIMIT = {P.SPEED_LIMIT:g} m/s"),
         Figure("step-down", "step height driven down", "m", ground.step_down_scenario,
-               (0.05, 0.1, 0.15, 0.2, 0.3, 0.4), (0.1, 0.2, 0.3), 0.15),
+               (0.05, 0.1, 0.2, 0.4, 0.6, 0.8, 1.0, 1.2), (0.1, 0.4, 0.8, 1.2), 0.15),
     )
 
 

@@ -23,6 +23,7 @@ TORQUE_OFF_GRACE_S = 0.01  # s, the tick that saw the fall may still have sent i
 # m, "back near its spot": the controller returns to where it stood by wheel odometry,
 # which misses what the wheels skid under a sudden push (60 N > mu m g = 45 N)
 HOME_M = 0.5
+HOMING_S = 4.0  # s added after the last push: ~1 m back home at ~0.15 m/s (POSITION_ERROR_LIMIT), then at rest
 DIRECTIONS = {"front": (-1.0, 0.0, 0.0), "side": (0.0, -1.0, 0.0)}  # force directions: from the front / left
 
 
@@ -114,7 +115,7 @@ def push_scenario(impulse_ns: float = 5.0, kinds=("sudden", "steady"), sides=("f
             t += duration + RECOVER_S
     return Scenario(
         "push", f"{impulse_ns:g} N s pushes at body height: {', '.join(kinds)} from the {' and '.join(sides)}",
-        t, standing(), timeline=tuple(timeline),
+        t + HOMING_S, standing(), timeline=tuple(timeline),
         checks=(pushed_robot_moved(), falls_safely(), recovers(), ends_near_start(HOME_M), no_deadline_miss()))
 
 
