@@ -33,13 +33,15 @@ _CRC_TABLE = _crc15_table()
 
 
 def crc15(value: int, nbits: int) -> int:
-    """CAN's CRC-15 (polynomial 0x4599) of the ``nbits`` low bits of ``value``, MSB first."""
+    """CAN's CRC-15 (polynomial 0x4599) of the ``nbits`` low bits of ``value``, MSB first.
+
+    The register starts at 0 and zero bits shifted into a zero register leave
+    it 0, so the bits are padded with leading zeros to whole bytes and go
+    through the table a byte at a time.
+    """
     crc = 0
-    lead = nbits % 8
-    for i in range(nbits - 1, nbits - 1 - lead, -1):  # the bits before the first whole byte
-        crc = ((crc << 1) ^ 0x4599 if ((value >> i) & 1) ^ (crc >> 14) else crc << 1) & 0x7FFF
-    for shift in range(nbits - lead - 8, -1, -8):
-        crc = ((crc << 8) & 0x7FFF) ^ _CRC_TABLE[((crc >> 7) ^ (value >> shift)) & 0xFF]
+    for byte in value.to_bytes((nbits + 7) // 8, "big"):
+        crc = ((crc << 8) & 0x7FFF) ^ _CRC_TABLE[((crc >> 7) ^ byte) & 0xFF]
     return crc
 
 
@@ -51,38 +53,46 @@ def _stuff_step(last: int, run: int, bit: int) -> tuple[int, int, int]:
     return bit, run, 0
 
 
-def _stuff_table() -> dict:
-    """(last bit, run length, byte) -> (last bit, run length, stuff bits): eight bits at once."""
-    table = {}
-    for last in (-1, 0, 1):
-        for run in range(5):
-            for byte in range(256):
-                state, added = (last, run), 0
-                for i in range(7, -1, -1):
-                    *state, n = _stuff_step(state[0], state[1], (byte >> i) & 1)
-                    added += n
-                table[(last, run, byte)] = (state[0], state[1], added)
-    return table
+# The stuffing state between bits, (last bit -1/0/1, run length 0..4), as one
+# small int so that the tables below are flat lists indexed by arithmetic.
+_START = 0  # no bit yet: (last -1, run 0)
 
 
-_STUFF = _stuff_table()
+def _state(last: int, run: int) -> int:
+    return (last + 1) * 5 + run
+
+
+def _stuff_chunk(state: int, bits: int, width: int) -> int:
+    """``width`` bits (MSB first) through the rule from ``state``: (new state << 4) | stuff bits added."""
+    last, run = state // 5 - 1, state % 5
+    added = 0
+    for i in range(width - 1, -1, -1):
+        last, run, n = _stuff_step(last, run, (bits >> i) & 1)
+        added += n
+    return (_state(last, run) << 4) | added
+
+
+# every state x every byte: index (state << 8) | byte
+_STUFF = [_stuff_chunk(state, byte, 8) for state in range(15) for byte in range(256)]
+# the 0..7 bits before the first whole byte, from the start state: _STUFF_LEAD[width][bits]
+_STUFF_LEAD = [[_stuff_chunk(_START, bits, width) for bits in range(1 << width)] for width in range(8)]
 
 
 def stuff_bits(value: int, nbits: int) -> int:
     """Stuff bits a transmitter inserts into the ``nbits`` low bits of ``value``, MSB first.
 
     After five equal bits comes a complement bit, which itself counts towards
-    the next run. The bits before the first whole byte go one by one, the
-    rest a byte at a time through a precomputed table.
+    the next run. The bits before the first whole byte go through one lookup,
+    the rest a byte at a time through a precomputed table.
     """
-    last, run, count = -1, 0, 0
     lead = nbits % 8
-    for i in range(nbits - 1, nbits - 1 - lead, -1):
-        last, run, added = _stuff_step(last, run, (value >> i) & 1)
-        count += added
-    for shift in range(nbits - lead - 8, -1, -8):
-        last, run, added = _STUFF[(last, run, (value >> shift) & 0xFF)]
-        count += added
+    body = nbits - lead
+    packed = _STUFF_LEAD[lead][value >> body]
+    state, count = packed >> 4, packed & 15
+    for byte in (value & ((1 << body) - 1)).to_bytes(body // 8, "big"):
+        packed = _STUFF[(state << 8) | byte]
+        state = packed >> 4
+        count += packed & 15
     return count
 
 
