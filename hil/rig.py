@@ -272,5 +272,6 @@ class Rig:
                 bus.shutdown()
         for bus in self._raw.values():
             bus.shutdown()
+        self.recorder.load.sample(self.recorder.now_ns, final=True)  # the run's last window
         self.trace.finish()
         self.log.close()

@@ -119,3 +119,13 @@ def test_a_wrong_mask_or_mode_fails_the_heartbeat_check():
     assert check(_synthetic(1.02)).passed
     assert not check(_synthetic(1.02, mask=0x02)).passed
     assert not check(_synthetic(1.02, mode=int(Mode.FALLEN))).passed
+
+
+def test_bus_load_windows_cover_the_whole_run(rig_run):
+    """Every 100 ms window of the run is in /bus/load, the last, shorter one included."""
+    run = rig_run("balance", duration=0.45)
+    for bus in ("can1", "can2"):
+        t, load = run.bus_load[bus]
+        assert len(t) == 5, t
+        assert t[-1] == pytest.approx(0.45, abs=0.002)
+        assert 0.5 < load[-1] < 0.75  # a partial window is judged over its own length
