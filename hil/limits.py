@@ -29,17 +29,17 @@ class Figure:
     name      short key for ``--only``
     label     what the figure is, in words
     unit      of the size ("N s", "deg", "m", "m/s")
-    factory   size -> Scenario, or None when the scenario does not exist yet
+    factory   size -> Scenario
     ladder    increasing sizes to walk up (the full search)
     coarse    a shorter ladder (``--coarse``)
     aim       the size the issue asks for
-    note      shown when the factory is missing or the ladder is capped
+    note      shown after the sizes tried (why a figure has no aim, what caps the ladder)
     """
 
     name: str
     label: str
     unit: str
-    factory: Callable | None
+    factory: Callable
     ladder: tuple
     coarse: tuple
     aim: float
@@ -122,23 +122,16 @@ def rig_passes(factory: Callable, out_dir: Path, seed: int = 0, log=print) -> Ca
 
 
 # -- the figures --------------------------------------------------------------------------------
-def _airborne(name: str):
-    """Part 1's factory from hil/scenarios/airborne.py, or None while it is not there."""
-    from hil.scenarios import airborne
-
-    return getattr(airborne, name, None)
-
-
 def figures() -> tuple:
     from controller import params as P
-    from hil.scenarios import collisions, ground
+    from hil.scenarios import airborne, collisions, ground
 
     return (
-        Figure("jump", "jump clearance (wheels above ground)", "m", _airborne("jump_scenario"),
+        Figure("jump", "jump clearance (wheels above ground)", "m", airborne.jump_scenario,
                (0.05, 0.1, 0.15, 0.2, 0.25, 0.3), (0.05, 0.1, 0.2, 0.3), 0.2),
-        Figure("jump-step", "step height climbed (jump onto it)", "m", _airborne("jump_step_scenario"),
+        Figure("jump-step", "step height climbed (jump onto it)", "m", airborne.jump_step_scenario,
                (0.05, 0.1, 0.15, 0.2, 0.25, 0.3), (0.05, 0.15, 0.25), 0.15),
-        Figure("drop", "drop height survived", "m", _airborne("drop_scenario"),
+        Figure("drop", "drop height survived", "m", airborne.drop_scenario,
                (0.1, 0.3, 0.5, 0.7, 1.0, 1.5), (0.1, 0.5, 1.0), 0.5),
         Figure("push", "push impulse at body height survived", "N s", collisions.push_scenario,
                (1.0, 3.0, 5.0, 7.0, 9.0, 12.0, 15.0), (3.0, 6.0, 9.0, 12.0), 5.0),
@@ -160,10 +153,8 @@ def figures() -> tuple:
     )
 
 
-def _row(fig: Figure, result: SearchResult | None) -> str:
+def _row(fig: Figure, result: SearchResult) -> str:
     aim = f"{fig.aim:g} {fig.unit}" if fig.aim else "-"
-    if result is None:
-        return f"| {fig.label} | not yet: no factory in the code | {aim} | |"
     best = "below the first size tried" if result.best is None else f"{result.best:g} {fig.unit}"
     if result.first_fail is None:
         best = f">= {best} (every size tried passed)"
@@ -193,9 +184,6 @@ def main(argv=None) -> int:
     out = args.out or Path(tempfile.mkdtemp(prefix="wheelleg-limits-"))
     rows = []
     for fig in chosen:
-        if fig.factory is None:
-            rows.append(_row(fig, None))
-            continue
         print(f"{fig.name}:", flush=True)
         passes = rig_passes(fig.factory, out / fig.name, args.seed, log=lambda s: print(s, flush=True))
         result = search_limit(passes, fig.coarse if args.coarse else fig.ladder,
