@@ -47,8 +47,8 @@ class Report:
 def check(last_seen_s: dict[str, float], now_s: float, faulted=frozenset()) -> Report:
     """Which devices are offline at ``now_s`` given when each was last heard (s).
 
-    A device named in ``faulted`` (a CyberGear reporting fault bits) counts
-    as offline: the seed's detect task flags a device whose data is in error
+    A device named in ``faulted`` (a CyberGear reporting fault bits, a C620
+    latched by ``EscWatch``) counts as offline: the seed's detect task flags a device whose data is in error
     the same way as one that went silent (``error_exist``).
     """
     mask = count = level = 0

@@ -35,10 +35,10 @@ class Phase(enum.IntEnum):
 
 @dataclass(frozen=True)
 class JumpView:
-    """What a phase's exit looks at (mean of both legs where it is a length)."""
+    """What a phase's exit (and THRUST's force) looks at this tick."""
 
     elapsed_s: float  # s in this phase
-    leg_length: float  # m, the shorter leg in SQUAT/RETRACT, the longer one in THRUST
+    leg_length: float  # m, the longer leg in THRUST, the shorter one in every other phase
     touching: bool  # either leg's Fn above P.FN_ON this tick
     steady: bool = True  # a forward jump's run-up: at its speed with the legs upright
 
@@ -63,13 +63,13 @@ def _thrust_force(view: JumpView) -> float:
 
 @dataclass(frozen=True)
 class PhaseSpec:
-    airborne: bool
-    leg_length: float | None
+    airborne: bool  # in-air control (chassis ``_air_step``)
+    leg_length: float | None  # m, leg-length set point; None: the operator's
     force: Callable | None  # fn(view) -> N, or None for the leg PID
-    hip_torque_limit: float
+    hip_torque_limit: float  # N m
     done: Callable  # fn(view) -> bool: the phase's goal reached
-    then: Phase
-    timeout_s: float
+    then: Phase  # next phase when done
+    timeout_s: float  # s in the phase before ``on_timeout``
     on_timeout: Phase
 
 
@@ -91,16 +91,23 @@ PHASES: dict = {
 }
 
 
-def next_phase(phase: Phase, view: JumpView) -> Phase:
-    """The phase after this tick: its goal reached, its timeout, or the same."""
-    if phase == Phase.DONE:
+def table_next_phase(phases: dict, phase, view):
+    """The phase after this tick in a phase table (this ``PHASES``, recovery's): its
+    ``done`` goal reached, its timeout, or the same. A phase the table does not
+    list (DONE) stays. ``view`` has ``elapsed_s`` and what the ``done`` tests read."""
+    spec = phases.get(phase)
+    if spec is None:
         return phase
-    spec = PHASES[phase]
     if spec.done(view):
         return spec.then
     if view.elapsed_s >= spec.timeout_s:
         return spec.on_timeout
     return phase
+
+
+def next_phase(phase: Phase, view: JumpView) -> Phase:
+    """The jump's phase after this tick (``table_next_phase`` on ``PHASES``)."""
+    return table_next_phase(PHASES, phase, view)
 
 
 class JumpSequencer:

@@ -21,6 +21,7 @@ from dataclasses import dataclass
 from typing import Callable
 
 from controller import params as P
+from controller.jump import table_next_phase
 
 
 class Phase(enum.IntEnum):
@@ -40,9 +41,9 @@ class RecoveryView:
 class PhaseSpec:
     airborne: bool  # in-air control: wheels unpowered, leg-angle torque off (legs swing free)
     leg_length: float | None  # m, None: the operator's
-    done: Callable
-    then: Phase
-    timeout_s: float
+    done: Callable  # fn(RecoveryView) -> bool: the phase's goal reached
+    then: Phase  # next phase when done
+    timeout_s: float  # s in the phase before ``on_timeout``
     on_timeout: Phase
 
 
@@ -56,12 +57,8 @@ PHASES: dict = {
 
 
 def next_phase(phase: Phase, view: RecoveryView) -> Phase:
-    if phase == Phase.DONE:
-        return phase
-    spec = PHASES[phase]
-    if spec.done(view):
-        return spec.then
-    return spec.on_timeout if view.elapsed_s >= spec.timeout_s else phase
+    """The recovery's phase after this tick (jump.table_next_phase on ``PHASES``)."""
+    return table_next_phase(PHASES, phase, view)
 
 
 @dataclass(frozen=True)
