@@ -35,8 +35,9 @@ import numpy as np
 from controller import constants as C
 from dbc import cybergear as cg
 from hil.busload import DEFAULT_BITRATE
-from hil.frame_faults import (BOTH, BUSES, LOCKSTEP_IDS, TO_CONTROLLER, TO_DEVICES, Arbitration, Babble,  # noqa: F401
-                              BusFaults, BusOff, Corrupt, Delay, Drop, ErrorFrames, FrameFault, Garbage, Select,
+# BOTH, TO_DEVICES and priority are re-exported: scenarios and tests name them faults.*
+from hil.frame_faults import (BOTH, BUSES, TO_CONTROLLER, TO_DEVICES, Arbitration, Babble,  # noqa: F401
+                              BusFaults, BusOff, Corrupt, Delay, Drop, ErrorFrames, Garbage, Select,
                               make_select, priority)
 from hil.scenario import Action
 

@@ -16,7 +16,7 @@ def test_scenario_passes_its_checks(name, rig_run):
 def test_jump_reaches_the_issue_aim_and_lands_with_the_wheels_powered_again(rig_run):
     run = rig_run("jump")
     assert A.peak_clearance(run) >= 0.2
-    t, mode = run.heartbeat["t"], run.heartbeat["Mode"]
+    mode = run.heartbeat["Mode"]
     assert mode[-1] == A.BALANCE and A.first_mode(run, A.JUMP) is not None
 
 

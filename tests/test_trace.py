@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import json
-import math
 import os
 import signal
 import subprocess
@@ -123,9 +122,9 @@ def test_decoded_channels_match_cantools(trace_path):
                 and len(f.data) == message.length and not f.is_error]
         decoded = reader.decoded("can1", name)
         np.testing.assert_array_equal(decoded["t"], [f.t_ns / 1e9 for f in mine])
-        for signal in message.signals:
-            expected = [message.decode(f.data, decode_choices=False)[signal.name] for f in mine]
-            np.testing.assert_array_equal(decoded[signal.name], expected)
+        for sig in message.signals:
+            expected = [message.decode(f.data, decode_choices=False)[sig.name] for f in mine]
+            np.testing.assert_array_equal(decoded[sig.name], expected)
     assert "/decoded/can1/C620_Feedback_1" in reader.topics
     # the short 0x201 frame and the unknown 0x555 are raw only
     assert reader.topics["/decoded/can1/C620_Feedback_1"] == 20
