@@ -19,6 +19,7 @@ and a frame addressed to the host (a reply) is never the host's.
 from __future__ import annotations
 
 import heapq
+import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -265,6 +266,8 @@ def _open_candump(path: Path) -> TraceSource:
                          f"{exc.line[:80]!r}") from exc
     except UnicodeDecodeError as exc:
         raise TraceError(f"{path}: neither an MCAP trace nor a text candump log ({exc})") from exc
+    except (EOFError, OSError, zlib.error) as exc:  # gzip.BadGzipFile is an OSError
+        raise TraceError(f"{path}: a damaged gzip-compressed log ({exc})") from exc
     if not frames and not reader.drops:
         raise TraceError(f"{path}: no CAN frames (is it a `candump -L` log or an MCAP trace?)")
     return TraceSource(path, "candump", frames, {}, drops=list(reader.drops), comments=reader.comments)

@@ -1,6 +1,7 @@
 """``wheelleg replay``: identical replays, the first diverging frame, broken logs, --update."""
 from __future__ import annotations
 
+import gzip
 import json
 from pathlib import Path
 
@@ -356,7 +357,10 @@ def test_unreadable_files_exit_2(tmp_path, capsys):
     assert main(["replay", str(tmp_path / "empty.log")]) == 2
     (tmp_path / "cut.mcap").write_bytes(b"\x89MCAP0\r\n" + b"\x00" * 5)
     assert main(["replay", str(tmp_path / "cut.mcap")]) == 2
-    assert capsys.readouterr().err.count("cannot replay") == 3
+    (tmp_path / "cut.log.gz").write_bytes(gzip.compress(b"(0.000001) vcan0 123#00\n" * 50)[:40])
+    assert main(["replay", str(tmp_path / "cut.log.gz")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("cannot replay") == 4 and "damaged gzip" in err
 
 
 # -- a real rig trace ----------------------------------------------------------------------------------
