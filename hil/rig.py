@@ -98,13 +98,14 @@ class Rig:
         self.rng = np.random.default_rng(config.seed)
         self.physics = Physics(terrain=scenario.terrain, timestep_s=config.physics_dt_s)
         scenario.start(self.physics)
+        # the buses first: a missing vcan fails before any file is written
+        self._raw = {k: _open_bus(config, ch) for k, ch in self.names.items()}
         self.trace = TraceWriter(self.trace_path, metadata=self._metadata(),
                                  attachments=self._attachments(),
                                  dbs={self.names[CAN1]: load_bus(CAN1), self.names[CAN2]: load_bus(CAN2)},
                                  decode=config.decode)
         self.log = CandumpWriter(self.log_path)
         self.recorder = Recorder(self.trace, self.log)
-        self._raw = {k: _open_bus(config, ch) for k, ch in self.names.items()}
         # Real transports deliver each socket's frames at their own pace: hold them
         # until both heartbeats are in, then serve them in the virtual bus's order.
         lockstep_real = config.interface != "virtual" and not config.realtime

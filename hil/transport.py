@@ -63,8 +63,12 @@ class LockstepVirtualBus(VirtualBus):
             raise can.CanOperationError("Could not send message to one or more recipients")
 
 
+class BusOpenError(RuntimeError):
+    """A bus that cannot be opened (no such vcan, no driver); the message says which and why."""
+
+
 def open_bus(interface: str, channel: str, **kwargs) -> can.BusABC:
-    """A bus on ``interface``/``channel``; a clear error when it cannot be had."""
+    """A bus on ``interface``/``channel``; ``BusOpenError`` when it cannot be had."""
     kwargs.setdefault("receive_own_messages", False)
     try:
         if interface == "virtual":
@@ -74,4 +78,4 @@ def open_bus(interface: str, channel: str, **kwargs) -> can.BusABC:
         hint = ""
         if interface == "socketcan":
             hint = " (no such interface? `wheelleg vcan up`, or run inside `bash ci/uml-vcan.sh ...`)"
-        raise RuntimeError(f"cannot open {interface} channel {channel!r}: {exc}{hint}") from exc
+        raise BusOpenError(f"cannot open {interface} channel {channel!r}: {exc}{hint}") from exc

@@ -94,6 +94,17 @@ def test_missing_channel_is_unavailable_with_hint():
     assert name in reason and "ci/uml-vcan.sh" in reason
 
 
+def test_run_on_a_missing_channel_exits_with_the_reason_and_writes_nothing(tmp_path):
+    from hil.cli import main
+
+    out = tmp_path / "out"
+    with pytest.raises(SystemExit) as exc:
+        main(["run", "balance", "--interface", "socketcan", "--channels", "wlnone8,wlnone9",
+              "--out", str(out), "--no-plot"])
+    assert "cannot open socketcan channel 'wlnone8'" in str(exc.value.code)
+    assert not out.exists() or not any(out.iterdir())
+
+
 def test_status_command_fails_for_a_missing_channel(capsys):
     assert _run_command(["status", "--channels", "wlnone9"]) == 1
     assert "wlnone9 does not exist" in capsys.readouterr().out

@@ -9,6 +9,7 @@ from hil.loop_timing import describe, describe_plant
 from hil.plot import plot_run
 from hil.rig import Rig, RigConfig
 from hil.rundata import load_run
+from hil.transport import BusOpenError
 
 NAME = "run"
 HELP = "run a scenario in the rig; writes DIR/SCENARIO.mcap, .log and .png and checks the run"
@@ -46,7 +47,11 @@ def execute(args: argparse.Namespace):
     config = RigConfig(interface=args.interface, channels=channels, seed=args.seed,
                        realtime=args.realtime, in_process_controller=not args.external_controller,
                        decode=not getattr(args, "no_decode", False))
-    outcome = Rig(scenario, config, args.out).run()
+    try:
+        rig = Rig(scenario, config, args.out)
+    except BusOpenError as exc:
+        raise SystemExit(f"run: {exc}") from exc
+    outcome = rig.run()
     run = load_run(outcome.trace_path)
     results = [check(run) for check in scenario.checks]
     if not args.no_plot:
