@@ -251,6 +251,8 @@ class CandumpReader:
     ``strict`` (default): a malformed line raises ``LogFormatError`` naming
     file:line. ``strict=False``: it is skipped and listed in ``skipped``.
     ``drops`` lists the DROPCOUNT notices, ``comments`` counts '#' lines.
+    A malformed last line without its newline is what a writer killed
+    mid-line leaves: it is left out either way and ``cut_off`` says so.
     """
 
     path: str | Path
@@ -259,6 +261,7 @@ class CandumpReader:
     skipped: list[tuple[int, str]] = field(default_factory=list)  # (line number, reason)
     comments: int = 0
     frames: int = 0
+    cut_off: bool = False  # the log ends in a partly written line (left out)
 
     @property
     def dropped_frames(self) -> int:
@@ -281,6 +284,9 @@ class CandumpReader:
                 try:
                     frame = _parse_line(text, line_no)
                 except ValueError as exc:
+                    if not line.endswith("\n"):  # only the file's last line can lack it
+                        self.cut_off = True
+                        continue
                     self._malformed(line_no, text, str(exc))
                     continue
                 last_t = frame.t_ns

@@ -276,7 +276,8 @@ def _notes(source: TraceSource) -> list[str]:
     if source.comments:
         notes.append(f"{source.comments} comment line(s)")
     if source.truncated:
-        notes.append("the trace was not closed (writer killed): it ends at its last complete chunk")
+        notes.append("the trace was not closed (writer killed): it ends at its last complete "
+                     + ("line" if source.kind == "candump" else "chunk"))
     unknown = sorted({f.channel for f in source.frames} - set(source.channels.values()))
     if unknown:
         notes.append(f"interfaces of unknown role (not decoded): {', '.join(unknown)}")

@@ -270,4 +270,5 @@ def _open_candump(path: Path) -> TraceSource:
         raise TraceError(f"{path}: a damaged gzip-compressed log ({exc})") from exc
     if not frames and not reader.drops:
         raise TraceError(f"{path}: no CAN frames (is it a `candump -L` log or an MCAP trace?)")
-    return TraceSource(path, "candump", frames, {}, drops=list(reader.drops), comments=reader.comments)
+    return TraceSource(path, "candump", frames, {}, drops=list(reader.drops), comments=reader.comments,
+                       truncated=reader.cut_off)

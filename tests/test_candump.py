@@ -231,6 +231,16 @@ def test_non_strict_mode_counts_and_skips(tmp_path):
     assert [line for line, _ in reader.skipped] == [2, 3]
 
 
+def test_a_last_line_cut_off_by_a_killed_writer_is_left_out(tmp_path):
+    path = tmp_path / "cut.log"
+    path.write_text("(1.000000) can0 123#00\n(2.000000) can0 124#0")  # writer killed mid-line
+    reader = read_candump(path)
+    assert [f.arbitration_id for f in reader] == [0x123] and reader.cut_off
+    path.write_text("(1.000000) can0 123#00\n(2.000000) can0 124#0\n")  # a whole bad line: an error
+    with pytest.raises(LogFormatError):
+        list(read_candump(path))
+
+
 @pytest.mark.parametrize("args, error", [
     (("can0", 0, 0x800, False, b""), "0x7FF"),
     (("can0", 0, 0x20000000, True, b""), "0x1FFFFFFF"),
