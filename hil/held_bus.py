@@ -46,8 +46,5 @@ class HeldBus:
     def send(self, msg: can.Message, timeout: float | None = None) -> None:
         self.bus.send(msg, timeout)
 
-    def fileno(self) -> int:
-        return self.bus.fileno()
-
     def shutdown(self) -> None:
         self.bus.shutdown()

@@ -14,12 +14,6 @@ from __future__ import annotations
 
 import numpy as np
 
-TIMING_FIELDS = {  # summary key -> unit, the order of the printed line and the trace record
-    "ticks": "", "period_s": "s", "mean_period_s": "s", "min_period_s": "s", "max_period_s": "s",
-    "p99_jitter_s": "s", "max_jitter_s": "s", "missed_deadlines": "",
-}
-
-
 def loop_timing(ticks, starts_s, period_s: float) -> dict:
     """Statistics of one loop run; ``ticks`` (n,) int tick numbers, ``starts_s`` (n,) s.
 
@@ -50,7 +44,8 @@ def loop_timing(ticks, starts_s, period_s: float) -> dict:
 
 
 def per_tick(ticks, starts_s, period_s: float) -> list[dict]:
-    """One record per tick after the first: its period, jitter and the ticks skipped before it."""
+    """One record per tick after the first (``ticks`` (n,) int, ``starts_s`` (n,) s): its
+    start since the first tick, period and jitter (s) and the ticks skipped before it."""
     out = []
     for k in range(1, len(ticks)):
         period = float(starts_s[k] - starts_s[k - 1])
@@ -93,6 +88,7 @@ STRETCH_TOLERANCE_S = 0.01  # s of wall time the plant may end behind before the
 
 
 def describe_plant(plant: dict) -> str:
+    """The run summary's plant lines (``plant_timing``'s dict), in ms; says when it was not real time."""
     text = (f"plant: {plant['steps']} physics steps, {plant['overruns']} overruns "
             f"({plant['steps_caught_up']} steps caught up in batches, largest {plant['max_batch']}), "
             f"lag p99 {1e3 * plant['p99_lag_s']:.3f} ms, max {1e3 * plant['max_lag_s']:.3f} ms, "
