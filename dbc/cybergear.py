@@ -123,6 +123,11 @@ def reply_id(ctype: int, motor: int, host: int, mode: int = 0, faults=()) -> int
     return word
 
 
+def reply_motor(can_id: int) -> int:
+    """The sending motor's id in a motor->host identifier (bits 15..8)."""
+    return _REP["MotorId"].get(can_id)
+
+
 def parse_reply_id(can_id: int) -> ReplyId:
     ctype = _REP["Type"].get(can_id)
     faults = frozenset(name for name, field in _FAULT_FIELDS if field.get(can_id))

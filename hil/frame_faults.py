@@ -40,7 +40,7 @@ class Select:
             return True
         if msg.is_extended_id:
             # a reply carries the motor in bits 15..8, a request its target in bits 7..0
-            motor = (msg.arbitration_id >> 8) & 0xFF if towards_controller else cg.target(msg.arbitration_id)
+            motor = cg.reply_motor(msg.arbitration_id) if towards_controller else cg.target(msg.arbitration_id)
             return self.motors is not None and motor in self.motors
         return self.ids is not None and msg.arbitration_id in self.ids
 

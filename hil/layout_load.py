@@ -28,7 +28,7 @@ _LOOP_STD_IDS = {_DB1.get_message_by_name(n).frame_id for n in ("SYNC", "Heartbe
 def frame_kind(arbitration_id: int, is_extended: bool) -> str:
     """A name for one kind of frame: the CyberGear type and motor, or the standard id."""
     if is_extended:
-        motor = (arbitration_id >> 8) & 0xFF if cg.comm_type(arbitration_id) == cg.T_FEEDBACK \
+        motor = cg.reply_motor(arbitration_id) if cg.comm_type(arbitration_id) == cg.T_FEEDBACK \
             else cg.target(arbitration_id)
         return f"cybergear type {cg.comm_type(arbitration_id)} motor {motor}"
     return f"0x{arbitration_id:03X}"

@@ -181,6 +181,7 @@ def test_type2_feedback_id_carries_mode_and_faults():
     parsed = cg.parse_reply_id(0x02BF7FFD)
     assert (parsed.ctype, parsed.mode, parsed.motor_id, parsed.host) == (2, 2, 0x7F, 0xFD)
     assert parsed.faults == set(cg.FAULT_NAMES)
+    assert cg.reply_motor(0x02BF7FFD) == 0x7F
     bit_of = {name: 16 + i for i, name in enumerate(cg.FAULT_NAMES)}  # §1.6: bit 16 under-voltage .. 21
     assert bit_of == {"FaultUnderVoltage": 16, "FaultOverCurrent": 17, "FaultOverTemp": 18,
                       "FaultMagEncoder": 19, "FaultHallEncoder": 20, "FaultNotCalibrated": 21}
