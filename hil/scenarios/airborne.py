@@ -13,20 +13,22 @@ import math
 
 import numpy as np
 
+from controller import params as P
+from controller.modes import Mode
 from emulators.physics import TerrainFeature
 from hil.scenario import Check, RunData, Scenario
 from hil.scenarios.common import DEG, no_deadline_miss, push, remote, stand
 
-# rig.dbc Heartbeat.Mode
-ESTOP, STAND_UP, BALANCE, MOVE, JUMP, AIRBORNE, FALLEN = 0, 2, 3, 4, 5, 6, 7
-MODE_NAMES = {0: "ESTOP", 1: "IDLE", 2: "STAND_UP", 3: "BALANCE", 4: "MOVE", 5: "JUMP", 6: "AIRBORNE",
-              7: "FALLEN", 8: "DISABLED"}
+# rig.dbc Heartbeat.Mode carries the controller's Mode values
+ESTOP, STAND_UP, BALANCE, MOVE, JUMP, AIRBORNE, FALLEN = (
+    int(m) for m in (Mode.ESTOP, Mode.STAND_UP, Mode.BALANCE, Mode.MOVE, Mode.JUMP, Mode.AIRBORNE, Mode.FALLEN))
+MODE_NAMES = {int(m): m.name for m in Mode}
 NOMINAL = 0.17  # m, standing leg length
 OFF_GROUND_N = 0.5  # N, a wheel normal force below this is "off the ground" (contact noise ~0)
 TORQUE_OFF_NM = 0.05  # N m, |hip torque| that counts as off (CyberGear 16-bit step 0.0004)
 CURRENT_OFF_A = 0.05  # A, |wheel current| that counts as off
 REMOTE_PERIOD_S = 0.02  # s, the remote's frame period: a switch reaches the bus within it
-CONTROL_PERIOD_S = 0.002  # s
+CONTROL_PERIOD_S = P.CONTROL_PERIOD  # s
 
 
 def standing(leg_length: float = NOMINAL, drop_height_m: float = 0.0, x_m: float = 0.0):
