@@ -12,6 +12,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from dbc import load_bus
 from hil import realtime, scenarios
 from hil.commands import run as run_command
 from hil.loop_timing import describe, describe_plant, loop_timing, per_tick, plant_timing
@@ -106,7 +107,8 @@ def test_realtime_run_keeps_wall_clock_pace_and_records_the_loop_timing(tmp_path
     if realtime.host_steal_s() is not None:  # Linux: the hypervisor's share is reported, >= 0
         assert 0.0 <= plant["host_steal_s"] < duration_s * 4
     # no SYNC in real time: the controller ticks on its own clock
-    assert not any(f.arbitration_id == 0x700 for f in reader.frames("vcan0"))
+    sync_id = load_bus("can1").get_message_by_name("SYNC").frame_id
+    assert not any(f.arbitration_id == sync_id and not f.is_extended for f in reader.frames("vcan0"))
     assert len(reader.sim_state()["t"]) == round(duration_s / PERIOD_S)
 
 
