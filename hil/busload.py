@@ -11,7 +11,7 @@ the end of its transmission, as a receiver sees it.
 from __future__ import annotations
 
 import functools
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 from hil import schemas
 
@@ -117,37 +117,21 @@ def frame_bits(arbitration_id: int, is_extended: bool, data: bytes, is_remote: b
 
 @dataclass
 class BusClock:
-    """One bus's wire time: serialises frames and accumulates load."""
+    """One bus's wire time: serialises frames and totals their wire time (``LoadMeter`` windows it)."""
 
-    bitrate: int = DEFAULT_BITRATE
+    bitrate: int = DEFAULT_BITRATE  # bit/s
     free_at_ns: int = 0  # when the bus is idle again
-    busy_ns_window: int = 0  # wire time used in the current 1 s window
-    window_start_ns: int = 0
-    history: list = field(default_factory=list)  # (window start ns, load fraction)
-    busy_ns_total: int = 0  # wire time of every frame so far (LoadMeter samples it)
+    busy_ns_total: int = 0  # wire time of every frame so far
     frames_total: int = 0
 
     def transmit(self, now_ns: int, arbitration_id: int, is_extended: bool, data: bytes) -> int:
         """Put one frame on the wire no earlier than ``now_ns``; returns its end time (ns)."""
-        self._roll_window(now_ns)
         duration = frame_bits(arbitration_id, is_extended, bytes(data)) * 1_000_000_000 // self.bitrate
         start = max(now_ns, self.free_at_ns)
         self.free_at_ns = start + duration
-        self.busy_ns_window += duration
         self.busy_ns_total += duration
         self.frames_total += 1
         return self.free_at_ns
-
-    def _roll_window(self, now_ns: int) -> None:
-        while now_ns >= self.window_start_ns + 1_000_000_000:
-            self.history.append((self.window_start_ns, self.busy_ns_window / 1e9))
-            self.window_start_ns += 1_000_000_000
-            self.busy_ns_window = 0
-
-    def load_so_far(self, now_ns: int) -> float:
-        """Fraction of wire time used in the current window up to ``now_ns``."""
-        span = max(now_ns - self.window_start_ns, 1)
-        return min(self.busy_ns_window / span, 10.0)
 
 
 LOAD_TOPIC = "/bus/load"
@@ -161,8 +145,7 @@ class LoadMeter:
     window (stuff bits included) over the window, i.e. busy seconds per
     second. Frames are charged when they are put on the bus, so a demand
     beyond the bus's capacity shows as a load above 1 (without an
-    arbitration model nothing is dropped). ``summary`` gives each bus's mean
-    and peak over the run.
+    arbitration model nothing is dropped).
     """
 
     def __init__(self, clocks: dict, trace=None, window_s: float = 0.1):
@@ -173,7 +156,6 @@ class LoadMeter:
         self._start_ns = 0
         self._busy = {}  # channel -> busy_ns_total at the window start
         self._frames = {}
-        self.loads: dict = {}  # channel -> [load fraction per window]
 
     def sample(self, now_ns: int, final: bool = False) -> None:
         """Close the window if ``now_ns`` reached its end (or ``final`` and it is not empty)."""
@@ -185,7 +167,6 @@ class LoadMeter:
             busy = clock.busy_ns_total - self._busy.get(channel, 0)
             frames = clock.frames_total - self._frames.get(channel, 0)
             load = busy / span
-            self.loads.setdefault(channel, []).append(load)
             if self.trace is not None:
                 self.trace.message(LOAD_TOPIC, now_ns, {
                     "channel": channel,
@@ -193,7 +174,3 @@ class LoadMeter:
                     "frames": frames, "frames_per_s": frames / (span / 1e9)}, "wheelleg.BusLoad", schemas.BUS_LOAD)
             self._busy[channel], self._frames[channel] = clock.busy_ns_total, clock.frames_total
         self._start_ns = now_ns
-
-    def summary(self) -> dict:
-        """channel -> (mean, peak) load fraction over the windows so far."""
-        return {ch: (sum(v) / len(v), max(v)) for ch, v in self.loads.items() if v}

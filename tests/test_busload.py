@@ -1,7 +1,6 @@
 """Bus-load model: frame lengths with exact bit stuffing, serialisation on one bus."""
 import random
 
-import pytest
 
 from hil.busload import BusClock, frame_bits
 
@@ -46,11 +45,11 @@ def test_known_lengths():
     assert frame_bits(0x01000001, True, bytes(8)) > frame_bits(0x001, False, bytes(8)) + 18
 
 
-def test_bus_clock_serialises_frames_and_measures_load():
+def test_bus_clock_serialises_frames_and_totals_their_wire_time():
     clock = BusClock(bitrate=1_000_000)
     bits = frame_bits(0x200, False, bytes(8))
     ends = [clock.transmit(0, 0x200, False, bytes(8)) for _ in range(3)]
     assert ends == [bits * 1000, 2 * bits * 1000, 3 * bits * 1000]  # ns at 1 Mbit/s
-    assert clock.load_so_far(ends[-1]) == pytest.approx(1.0)
-    clock.transmit(2_000_000_000, 0x200, False, bytes(8))  # a later second closes the window
-    assert clock.history[0] == (0, pytest.approx(3 * bits / 1e6))
+    assert (clock.busy_ns_total, clock.frames_total) == (3 * bits * 1000, 3)  # back to back: load 1
+    assert clock.transmit(2_000_000_000, 0x200, False, bytes(8)) == 2_000_000_000 + bits * 1000  # idle bus
+    assert (clock.busy_ns_total, clock.frames_total) == (4 * bits * 1000, 4)
