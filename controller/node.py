@@ -22,7 +22,7 @@ import can
 from controller import constants as C
 from controller import detect, messages, posture, support
 from controller import params as P
-from controller.chassis import ChassisController, Command, attitude
+from controller.chassis import Attitude, ChassisController, Command, attitude
 from controller.jump import JumpSequencer, Phase
 from controller.recovery import Phase as RecoveryPhase
 from controller.recovery import RecoverySequencer
@@ -44,7 +44,13 @@ class TickResult:
 
 
 class Controller:
-    """Seed 000's chassis and detect tasks over CAN frames, without I/O."""
+    """Seed 000's chassis and detect tasks over CAN frames, without I/O.
+
+    Around the mode machine (controller/modes.py): the jump and recovery phase
+    tables (jump.py, recovery.py), the support-force off-ground estimate
+    (support.py), the body-on-the-ground check (posture.py) and the C620 watch
+    (detect.EscWatch).
+    """
 
     def __init__(self, period_s: float = P.CONTROL_PERIOD):
         self.period_s = period_s
@@ -157,7 +163,7 @@ class Controller:
                       jump=jump_edge or forward_edge, fallen=fallen, stood_up=stood,
                       off_ground=self.contact.airborne, jump_done=self.jump.done, can_rise=not fallen)
 
-    def _body_down(self, att) -> bool:
+    def _body_down(self, att: Attitude) -> bool:
         """The body box rests on the floor (posture.body_clearance from last tick's legs)."""
         debug = self._last_debug
         if not all(f"{leg}_L0" in debug for leg in ("left", "right")):
