@@ -17,7 +17,8 @@ from controller import params as P
 from controller.modes import Mode
 from emulators.physics import TerrainFeature
 from hil.scenario import Check, RunData, Scenario
-from hil.scenarios.common import DEG, no_deadline_miss, push, remote, stand
+from hil.scenarios.common import (CURRENT_OFF_A, DEG, TORQUE_OFF_NM, no_deadline_miss, push, remote, stand,
+                                  torque_after)
 
 # rig.dbc Heartbeat.Mode carries the controller's Mode values
 ESTOP, STAND_UP, BALANCE, MOVE, JUMP, AIRBORNE, FALLEN = (
@@ -25,8 +26,6 @@ ESTOP, STAND_UP, BALANCE, MOVE, JUMP, AIRBORNE, FALLEN = (
 MODE_NAMES = {int(m): m.name for m in Mode}
 NOMINAL = 0.17  # m, standing leg length
 OFF_GROUND_N = 0.5  # N, a wheel normal force below this is "off the ground" (contact noise ~0)
-TORQUE_OFF_NM = 0.05  # N m, |hip torque| that counts as off (CyberGear 16-bit step 0.0004)
-CURRENT_OFF_A = 0.05  # A, |wheel current| that counts as off
 REMOTE_PERIOD_S = 0.02  # s, the remote's frame period: a switch reaches the bus within it
 CONTROL_PERIOD_S = P.CONTROL_PERIOD  # s
 
@@ -56,15 +55,6 @@ def peak_clearance(run: RunData, t0: float = 0.0) -> float:
     """Highest clearance (m) of the lower wheel's bottom above the ground below it, after t0."""
     low = np.minimum(run.window("left_wheel_clearance", t0), run.window("right_wheel_clearance", t0))
     return float(np.max(low)) if len(low) else float("nan")
-
-
-def torque_after(run: RunData, t0: float, t1: float = np.inf) -> tuple[float, float]:
-    """Largest |hip torque| (N m) and |wheel current| (A) commanded in [t0, t1)."""
-    hip = max((float(np.max(np.abs(tau[(t >= t0) & (t < t1)]), initial=0.0))
-               for t, tau in run.hip_torque.values()), default=0.0)
-    wheel = max((float(np.max(np.abs(i[(t >= t0) & (t < t1)]), initial=0.0))
-                 for t, i in run.wheel_current.values()), default=0.0)
-    return hip, wheel
 
 
 # -- checks --------------------------------------------------------------------------

@@ -9,26 +9,23 @@ from __future__ import annotations
 
 import numpy as np
 
+from controller.modes import Mode
 from emulators.physics import TerrainFeature
 from hil.scenario import Action, Check, RunData, Scenario
-from hil.scenarios.common import DEG, no_deadline_miss, push, remote, stand
+from hil.scenarios.basic import standing
+from hil.scenarios.common import (CURRENT_OFF_A, DEG, TORQUE_OFF_NM, no_deadline_miss, push, remote, stand,
+                                  torque_after)
 
-FALLEN = 7  # rig.dbc Heartbeat.Mode "FALLEN"
+FALLEN = int(Mode.FALLEN)  # rig.dbc Heartbeat.Mode carries the controller's Mode values
 SUDDEN_S = 0.1  # s, a sudden impulse: a kick or a shove
 STEADY_S = 1.0  # s, a steady push: a hand leaning on the body
 RECOVER_S = 3.0  # s between pushes: back to rest, most of the way home (it returns at ~0.15 m/s)
-TORQUE_OFF_NM = 0.05  # N m, |hip torque| that counts as "off" (CyberGear 16-bit scale is 0.0004)
-CURRENT_OFF_A = 0.05  # A, same for the wheel currents
 TORQUE_OFF_GRACE_S = 0.01  # s, the tick that saw the fall may still have sent its torques
 # m, "back near its spot": the controller returns to where it stood by wheel odometry,
 # which misses what the wheels skid under a sudden push (60 N > mu m g = 45 N)
 HOME_M = 0.5
 HOMING_S = 4.0  # s added after the last push: ~1 m back home at ~0.15 m/s (POSITION_ERROR_LIMIT), then at rest
 DIRECTIONS = {"front": (-1.0, 0.0, 0.0), "side": (0.0, -1.0, 0.0)}  # force directions: from the front / left
-
-
-def standing(leg_length: float = 0.17):
-    return lambda physics: physics.reset_standing(leg_length_m=leg_length)
 
 
 # -- checks ---------------------------------------------------------------------
@@ -46,11 +43,7 @@ def falls_safely() -> Check:
         t_fall = fall_time(run)
         if t_fall is None:
             return True, "did not fall"
-        after = t_fall + TORQUE_OFF_GRACE_S
-        worst_hip = max((float(np.max(np.abs(tau[t >= after]), initial=0.0))
-                         for t, tau in run.hip_torque.values()), default=0.0)
-        worst_wheel = max((float(np.max(np.abs(i[t >= after]), initial=0.0))
-                           for t, i in run.wheel_current.values()), default=0.0)
+        worst_hip, worst_wheel = torque_after(run, t_fall + TORQUE_OFF_GRACE_S)
         ok = worst_hip < TORQUE_OFF_NM and worst_wheel < CURRENT_OFF_A
         return ok, (f"fell at {t_fall:.2f} s; after it max |hip torque| {worst_hip:.3f} N m, "
                     f"max |wheel current| {worst_wheel:.3f} A (off below {TORQUE_OFF_NM:g}, {CURRENT_OFF_A:g})")

@@ -86,3 +86,16 @@ def mode_reached(mode: int, by_s: float, name: str) -> Check:
         return first <= by_s, f"first heartbeat in {name} at {first:.3f} s (by {by_s:g} s)"
 
     return Check(f"{name} by {by_s:g} s", fn)
+
+
+TORQUE_OFF_NM = 0.05  # N m, |hip torque| that counts as "off" (CyberGear 16-bit step 0.0004)
+CURRENT_OFF_A = 0.05  # A, |wheel current| that counts as "off"
+
+
+def torque_after(run: RunData, t0: float, t1: float = np.inf) -> tuple[float, float]:
+    """Largest |hip torque| (N m) and |wheel current| (A) commanded in [t0, t1) s."""
+    hip = max((float(np.max(np.abs(tau[(t >= t0) & (t < t1)]), initial=0.0))
+               for t, tau in run.hip_torque.values()), default=0.0)
+    wheel = max((float(np.max(np.abs(i[(t >= t0) & (t < t1)]), initial=0.0))
+                 for t, i in run.wheel_current.values()), default=0.0)
+    return hip, wheel
