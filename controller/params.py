@@ -80,7 +80,6 @@ REENABLE_WINDOW_S = 0.05  # s
 ESC_CURRENT_TOLERANCE_A = 1.0  # A
 ESC_MISMATCH_S = 0.010  # s
 ESC_BACK_EMF_FRACTION = 0.8  # above 0.8 x no-load speed, driving, the current may be capped
-STAND_UP_TIME = 1.0  # s, leg length ramps from where it is to the set point
 
 # --- support force and off-ground detection (controller/support.py) ------------------
 # control_notes §1.8: teams use 10-20 N on 10-15 kg robots; this one's static Fn is
