@@ -255,11 +255,6 @@ class FieldScale:
         return min(int((value - lo) * self.raw_hi / self._span), self.raw_hi)
 
 
-def saturating_raw(signal, value: float) -> int:
-    """``FieldScale(signal).rounded(value)`` for a one-off conversion."""
-    return FieldScale(signal).rounded(value)
-
-
 def frame(arbitration_id: int, data: bytes, extended: bool, now_s: float) -> can.Message:
     """A transmitted frame stamped with simulated time (is_rx False)."""
     return can.Message(arbitration_id=arbitration_id, data=data, is_extended_id=extended,

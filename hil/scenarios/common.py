@@ -78,16 +78,6 @@ def no_deadline_miss() -> Check:
     return Check("no controller deadline miss", fn)
 
 
-def mode_reached(mode: int, by_s: float, name: str) -> Check:
-    def fn(run: RunData):
-        t, m = run.heartbeat["t"], run.heartbeat["Mode"]
-        hits = t[m == mode]
-        first = float(hits[0]) if len(hits) else float("inf")
-        return first <= by_s, f"first heartbeat in {name} at {first:.3f} s (by {by_s:g} s)"
-
-    return Check(f"{name} by {by_s:g} s", fn)
-
-
 TORQUE_OFF_NM = 0.05  # N m, |hip torque| that counts as "off" (CyberGear 16-bit step 0.0004)
 CURRENT_OFF_A = 0.05  # A, |wheel current| that counts as "off"
 
