@@ -68,7 +68,7 @@ class RunData:
     bus_load: dict = field(default_factory=dict)  # "can1"/"can2" -> (window end t (n,) s, load (n,) s/s)
 
     def window(self, key: str, t0: float, t1: float = np.inf) -> np.ndarray:
-        """Values of a /sim/state field with t0 <= t < t1."""
+        """Values of a /sim/state field with t0 <= t < t1 (s), shape (n,)."""
         t = self.state["t"]
         return self.state[key][(t >= t0) & (t < t1)]
 

@@ -42,6 +42,7 @@ def push(t_s: float, force_n, duration_s: float, point=(0.0, 0.0, 0.0)) -> list:
 
 # -- checks --------------------------------------------------------------------
 def max_abs(values) -> float:
+    """Largest |value| of ``values`` (n,), NaN when empty."""
     return float(np.max(np.abs(values))) if len(values) else float("nan")
 
 
