@@ -74,10 +74,14 @@ def main(argv=None) -> int:
     parser.add_argument("--control-hz", type=float, default=500.0, help="control rate the trace ran at")
     parser.add_argument("--rates", type=float, nargs="+", default=[500.0, 1000.0], help="control rates to show")
     args = parser.parse_args(argv)
-    t1 = args.t1
-    if t1 is None:
+    try:
         reader = TraceReader(args.trace)
-        t1 = float(reader.sim_state()["t"][-1]) - 0.1
+        t_end = reader.sim_state().get("t", [])
+    except Exception as exc:  # noqa: BLE001 - any unreadable file: say so, no traceback
+        parser.error(f"cannot read {args.trace}: {exc}")
+    if not len(t_end):
+        parser.error(f"{args.trace}: no /sim/state (not a rig trace)")
+    t1 = float(t_end[-1]) - 0.1 if args.t1 is None else args.t1
     table = measure(args.trace, args.t0, t1)
     for bus in sorted(table):
         kinds = table[bus]

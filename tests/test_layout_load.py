@@ -21,3 +21,13 @@ def test_frame_kinds_name_the_cybergear_type_and_motor():
     assert frame_kind(cg.reply_id(cg.T_FEEDBACK, 4, 0xFD, 2), True) == "cybergear type 2 motor 4"
     assert frame_kind(cg.motion_id(-2.0, 1), True) == "cybergear type 1 motor 1"
     assert frame_kind(0x201, False) == "0x201"
+
+
+def test_an_unreadable_trace_is_a_usage_error_not_a_traceback(tmp_path, capsys):
+    from hil.layout_load import main
+
+    (tmp_path / "junk.mcap").write_bytes(b"not a trace")
+    for path in (tmp_path / "missing.mcap", tmp_path / "junk.mcap"):
+        with pytest.raises(SystemExit) as exc:
+            main([str(path)])
+        assert exc.value.code == 2 and str(path) in capsys.readouterr().err
