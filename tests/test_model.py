@@ -109,6 +109,15 @@ def test_actuators_match_joints_and_limits(model):
     assert m.nu == 6
 
 
+
+def test_rotor_armature_matches_constants(model):
+    """Each driven joint carries its motor's rotor reflected through the gear (kg m^2)."""
+    m = model
+    for name in HIP_NAMES + tuple(w.name for w in C.WHEELS):
+        j = _id(m, mujoco.mjtObj.mjOBJ_JOINT, name)
+        expected = C.HIP_ARMATURE if name in HIP_NAMES else C.WHEEL_ARMATURE
+        assert m.dof_armature[m.jnt_dofadr[j]] == pytest.approx(expected, rel=1e-4), name
+
 def test_hip_ranges_model_stop_and_sweep(model):
     """0 on the folded side (thigh on its stop), HIP_SWEEP off it, in the joint's sign."""
     m = model
