@@ -52,26 +52,26 @@ class ControllerThread:
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name="controller", daemon=True)
         self.error: BaseException | None = None
+        self.error_at_s: float | None = None  # monotonic s when the loop died
         self.scheduler = "not started"
 
     def _run(self) -> None:
         self.scheduler = _realtime_priority()
         try:
             self.node.run(self._stop)
-        except BaseException as exc:  # re-raised in the rig's thread by stop()
-            self.error = exc
+        except BaseException as exc:  # the robot's program died: recorded by the run, never hidden
+            self.error, self.error_at_s = exc, time.monotonic()
 
     def start(self) -> None:
         self._thread.start()
 
     def stop(self) -> None:
-        """Stop the loop (it disables the motors on its way out) and close its buses."""
+        """Stop the loop (it disables the motors on its way out) and close its buses.
+        A loop that died earlier left ``error`` and ``error_at_s`` for the run to record."""
         self._stop.set()
         self._thread.join(5.0)
         for bus in self.node.buses.values():
             bus.shutdown()
-        if self.error is not None:
-            raise RuntimeError(f"the controller thread failed: {self.error!r}") from self.error
 
 
 def _realtime_priority(priority: int = FIFO_PRIORITY) -> str:
@@ -149,10 +149,11 @@ class RealtimeRun:
         stolen = None if steal0 is None or steal1 is None else steal1 - steal0
         timing = {"plant": dict(plant_timing(self.batches, self.lags, self.dt, sim_s, wall_s),
                                 scheduler=plant_scheduler, host_steal_s=stolen)}
+        ticks = total // self.steps_per_tick
         if controller is not None:
-            timing["controller"] = self._record_controller(controller.node, controller.scheduler)
+            timing["controller"] = self._record_controller(controller, wall0, ticks)
         self._record_plant(timing["plant"])
-        return total // self.steps_per_tick, sim_s, wall_s, timing
+        return ticks, sim_s, wall_s, timing
 
     # -- the plant's wall-clock loop ---------------------------------------------------------
     def _loop(self, total: int, wall0: float) -> None:
@@ -191,12 +192,12 @@ class RealtimeRun:
         rig._serve_plant(t1)  # feedback of the new state
 
     # -- the record ------------------------------------------------------------------------------
-    def _record_controller(self, node: ControllerNode, scheduler: str) -> dict:
-        log = node.tick_log or []
+    def _record_controller(self, controller: ControllerThread, wall0: float, ticks_run: int) -> dict:
+        log = controller.node.tick_log or []
         ticks = [tick for tick, _ in log]
         starts = [start for _, start in log]
         period = self.rig.config.period_s
-        timing = dict(loop_timing(ticks, starts, period), scheduler=scheduler)
+        timing = dict(loop_timing(ticks, starts, period), scheduler=controller.scheduler)
         trace = self.rig.trace
         for rec in per_tick(ticks, starts, period):
             t_ns = round(rec["tick"] * period * 1e9)
@@ -204,8 +205,27 @@ class RealtimeRun:
             for missed_tick in range(rec["tick"] - rec["missed"], rec["tick"]):  # one event per lost period
                 trace.event(round(missed_tick * period * 1e9), "deadline_miss", tick=missed_tick,
                             source="controller timer")
+        if controller.error is not None:
+            self._record_crash(controller, wall0, ticks_run, timing)
         trace.add_metadata("controller_timing", _strings(timing))
         return timing
+
+    def _record_crash(self, controller: ControllerThread, wall0: float, ticks_run: int, timing: dict) -> None:
+        """As in lockstep: the exception is a ``controller_exception`` event, and every
+        period from the last tick the dead loop ran to the end of the run is a deadline
+        miss (a dead loop logs no more ticks, so the period statistics cannot see them)."""
+        period = self.rig.config.period_s
+        trace = self.rig.trace
+        exc = controller.error
+        trace.event(round((controller.error_at_s - wall0) * 1e9), "controller_exception",
+                    error=f"{type(exc).__name__}: {exc}", source="controller thread")
+        log = controller.node.tick_log or []
+        last = log[-1][0] if log else -1
+        for missed_tick in range(last + 1, ticks_run):
+            trace.event(round(missed_tick * period * 1e9), "deadline_miss", tick=missed_tick,
+                        source="controller dead")
+        timing["missed_deadlines"] += max(0, ticks_run - 1 - last)
+        timing["crashed"] = f"{type(exc).__name__}: {exc}"
 
     def _record_plant(self, plant: dict) -> None:
         self.rig.trace.add_metadata("plant_timing", _strings(plant))

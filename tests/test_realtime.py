@@ -176,3 +176,30 @@ def test_a_stalled_controller_tick_shows_as_missed_deadlines(tmp_path, monkeypat
     missed = [e["tick"] for e in TraceReader(outcome.trace_path).events() if e["kind"] == "deadline_miss"]
     assert {stalled + 1, stalled + 2} <= set(missed)
     assert len(missed) == ctl["missed_deadlines"] == outcome.deadline_misses
+
+
+def test_a_controller_crash_is_an_event_and_the_rest_of_the_run_deadline_misses(tmp_path, monkeypatch):
+    """As in lockstep: the dead loop's exception is recorded, and every period after its
+    last tick counts as missed; the run itself completes so its checks can judge it."""
+    from controller.node import Controller
+
+    tick = Controller.tick
+    calls = []
+
+    def crashing_tick(self, k, now_s):
+        calls.append(k)
+        if len(calls) == 50:
+            raise ZeroDivisionError("boom")
+        return tick(self, k, now_s)
+    monkeypatch.setattr(Controller, "tick", crashing_tick)
+    duration_s = 0.4
+    outcome = _realtime_rig(tmp_path, duration_s).run()
+    events = TraceReader(outcome.trace_path).events()
+    crashes = [e for e in events if e["kind"] == "controller_exception"]
+    assert len(crashes) == 1 and "ZeroDivisionError: boom" in crashes[0]["error"]
+    ticks_run = round(duration_s / PERIOD_S)
+    last_tick = calls[49]  # the tick that raised: it started (the tick log has it), no tick after
+    missed = sorted(e["tick"] for e in events if e["kind"] == "deadline_miss")
+    assert set(range(last_tick + 1, ticks_run)) <= set(missed)
+    assert outcome.deadline_misses == len(missed) >= ticks_run - 1 - last_tick
+    assert outcome.timing["controller"]["crashed"] == "ZeroDivisionError: boom"
