@@ -81,19 +81,12 @@ class Output:
     legs: dict = field(default_factory=dict)  # leg name -> LegState this tick
 
 
-def _joints(leg: str) -> tuple[C.Joint, C.Joint]:
-    front = next(j for j in C.JOINTS if j.leg == leg and j.hip == "A")
-    rear = next(j for j in C.JOINTS if j.leg == leg and j.hip == "E")
-    return front, rear
-
-
-_LEG_JOINTS = {leg: _joints(leg) for leg in LEGS}
 _LEG_WHEEL = {w.leg: w for w in C.WHEELS}
 
 
 def leg_state(bus: BusState, leg: str, att: Attitude) -> LegState:
     """Virtual-leg state of ``leg`` from its joint feedback and the attitude."""
-    front, rear = _LEG_JOINTS[leg]
+    front, rear = C.LEG_JOINTS[leg]
     fa, fe = bus.joints[front.motor_id], bus.joints[rear.motor_id]
     phi1, phi4 = fivebar.phi_from_shaft(front, fa.position), fivebar.phi_from_shaft(rear, fe.position)
     dphi1, dphi4 = front.sign * fa.speed, rear.sign * fe.speed
@@ -302,7 +295,7 @@ class ChassisController:
 
     def _hips(self, out: Output, leg: str, state: LegState, force: float, tp: float) -> None:
         t1, t4 = fivebar.joint_torques(state.kin, force, tp)
-        front, rear = _LEG_JOINTS[leg]
+        front, rear = C.LEG_JOINTS[leg]
         out.hip_torque[front.motor_id] = front.sign * t1
         out.hip_torque[rear.motor_id] = rear.sign * t4
 

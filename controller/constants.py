@@ -136,6 +136,9 @@ JOINTS = (
     Joint("right_front_hip", 3, "right", "A", +1),
     Joint("right_rear_hip", 4, "right", "E", +1),
 )
+# leg -> (front hip A, rear hip E): each five-bar's two driven joints
+LEG_JOINTS = {leg: (next(j for j in JOINTS if j.leg == leg and j.hip == "A"),
+                    next(j for j in JOINTS if j.leg == leg and j.hip == "E")) for leg in ("left", "right")}
 
 
 @dataclass(frozen=True)

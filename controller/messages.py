@@ -52,12 +52,16 @@ def joint_run_mode(motor_id: int, run_mode: int, t_s: float = 0.0) -> can.Messag
     return _frame(cg.request_id(cg.T_PARAM_WRITE, C.CG_HOST_ID, motor_id), data, True, t_s)
 
 
+def esc_current(amps: float) -> float:
+    """The current (A) a C620 command carries for ``amps``: clamped to the ESC's range."""
+    return min(max(amps, -C.C620_CURRENT_LIMIT), C.C620_CURRENT_LIMIT)
+
+
 def wheel_currents(currents_a: dict[int, float], t_s: float = 0.0) -> can.Message:
     """C620 0x200 frame: ``currents_a`` maps ESC id 1..4 to amperes (others 0)."""
     values = {f"ESC{i}_Current": 0.0 for i in range(1, 5)}
     for esc_id, amps in currents_a.items():
-        limit = C.C620_CURRENT_LIMIT
-        values[f"ESC{esc_id}_Current"] = min(max(amps, -limit), limit)
+        values[f"ESC{esc_id}_Current"] = esc_current(amps)
     return _frame(_ESC_CMD.frame_id, _ESC_CMD.encode(values, strict=False), False, t_s)
 
 

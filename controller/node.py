@@ -127,8 +127,7 @@ class Controller:
 
     def _wheel_frame(self, currents_a: dict, now_s: float) -> can.Message:
         """The C620 current frame; remembers what it asked (clamped as sent) for the ESC watch."""
-        limit = C.C620_CURRENT_LIMIT
-        self._wheel_command_a = {esc: min(max(a, -limit), limit) for esc, a in currents_a.items()}
+        self._wheel_command_a = {esc: messages.esc_current(a) for esc, a in currents_a.items()}
         return messages.wheel_currents(currents_a, t_s=now_s)
 
     # -- mode inputs -----------------------------------------------------------
@@ -141,9 +140,9 @@ class Controller:
         if jump_edge or forward_edge:
             self._jump_forward = forward_edge
         att = attitude(self.bus.imu)
-        fallen = abs(att.pitch) > P.FALL_PITCH or abs(att.roll) > P.FALL_ROLL
-        if self.mode in (Mode.JUMP, Mode.AIRBORNE):  # tumbling in the air: wider limits
-            fallen = abs(att.pitch) > P.FALL_PITCH_AIR or abs(att.roll) > P.FALL_ROLL_AIR
+        in_air = self.mode in (Mode.JUMP, Mode.AIRBORNE)  # tumbling in the air: wider limits
+        pitch_limit, roll_limit = (P.FALL_PITCH_AIR, P.FALL_ROLL_AIR) if in_air else (P.FALL_PITCH, P.FALL_ROLL)
+        fallen = abs(att.pitch) > pitch_limit or abs(att.roll) > roll_limit
         fallen = fallen or (self.mode in ENABLED and self._body_down(att))
         stood = False
         if self.mode == Mode.STAND_UP:

@@ -151,13 +151,9 @@ class ContactDebounce:
         return self.airborne
 
 
-_LEG_JOINTS = {leg: (next(j for j in C.JOINTS if j.leg == leg and j.hip == "A"),
-                     next(j for j in C.JOINTS if j.leg == leg and j.hip == "E")) for leg in ("left", "right")}
-
-
 def leg_measurement(joints: dict, leg: str, state) -> LegMeasurement:
     """This tick's measurement of ``leg`` from the joints' feedback (motor id ->
     JointFeedback) and the chassis' LegState of it (kin, L0, dL0, theta, dtheta)."""
-    front, rear = _LEG_JOINTS[leg]
+    front, rear = C.LEG_JOINTS[leg]
     F, Tp = measured_leg_force(state.kin, front, rear, joints[front.motor_id].torque, joints[rear.motor_id].torque)
     return LegMeasurement(F, Tp, state.L0, state.dL0, state.theta, state.dtheta)
