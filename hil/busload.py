@@ -115,6 +115,11 @@ def frame_bits(arbitration_id: int, is_extended: bool, data: bytes, is_remote: b
     return nbits + stuff_bits(value, nbits) + TRAILER_BITS
 
 
+def wire_ns(arbitration_id: int, is_extended: bool, data: bytes, bitrate: int) -> int:
+    """Time (ns, floored) one classic frame holds a bus of ``bitrate`` bit/s."""
+    return frame_bits(arbitration_id, is_extended, data) * 1_000_000_000 // bitrate
+
+
 @dataclass
 class BusClock:
     """One bus's wire time: serialises frames and totals their wire time (``LoadMeter`` windows it)."""
@@ -126,7 +131,7 @@ class BusClock:
 
     def transmit(self, now_ns: int, arbitration_id: int, is_extended: bool, data: bytes) -> int:
         """Put one frame on the wire no earlier than ``now_ns``; returns its end time (ns)."""
-        duration = frame_bits(arbitration_id, is_extended, bytes(data)) * 1_000_000_000 // self.bitrate
+        duration = wire_ns(arbitration_id, is_extended, bytes(data), self.bitrate)
         start = max(now_ns, self.free_at_ns)
         self.free_at_ns = start + duration
         self.busy_ns_total += duration

@@ -18,7 +18,7 @@ import numpy as np
 from controller import constants as C
 from dbc import cybergear as cg
 from dbc import load_bus
-from hil.busload import frame_bits
+from hil.busload import frame_bits, wire_ns
 
 _RIG = load_bus("can1")
 LOCKSTEP_IDS = frozenset(_RIG.get_message_by_name(n).frame_id for n in ("SYNC", "Heartbeat"))
@@ -251,7 +251,7 @@ class Arbitration(FrameFault):
         self.free_at_ns = max(self.free_at_ns, now_ns) + self._wire_ns(msg)
 
     def _wire_ns(self, msg: can.Message) -> int:
-        return frame_bits(msg.arbitration_id, msg.is_extended_id, bytes(msg.data)) * 1_000_000_000 // self.bitrate
+        return wire_ns(msg.arbitration_id, msg.is_extended_id, bytes(msg.data), self.bitrate)
 
     def admit(self, frames: list, now_ns: int) -> list[can.Message]:
         """Queue ``frames`` (each at its time stamp, at the latest ``now_ns``); those that won the wire by now."""

@@ -39,9 +39,8 @@ def follows_the_loop(arbitration_id: int, is_extended: bool) -> bool:
     return is_extended or arbitration_id in _LOOP_STD_IDS
 
 
-def measure(path, t0_s: float, t1_s: float) -> dict:
+def measure(reader: TraceReader, t0_s: float, t1_s: float) -> dict:
     """channel -> kind -> (frames/s, mean wire bits, follows the loop) over [t0_s, t1_s)."""
-    reader = TraceReader(path)
     meta = reader.metadata.get("run", {})
     names = {meta.get("can1", "vcan0"): "can1", meta.get("can2", "vcan1"): "can2"}
     bits = defaultdict(lambda: defaultdict(list))
@@ -82,7 +81,7 @@ def main(argv=None) -> int:
     if not len(t_end):
         parser.error(f"{args.trace}: no /sim/state (not a rig trace)")
     t1 = float(t_end[-1]) - 0.1 if args.t1 is None else args.t1
-    table = measure(args.trace, args.t0, t1)
+    table = measure(reader, args.t0, t1)
     for bus in sorted(table):
         kinds = table[bus]
         print(f"{bus}:")

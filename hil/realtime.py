@@ -202,9 +202,7 @@ class RealtimeRun:
         for rec in per_tick(ticks, starts, period):
             t_ns = round(rec["tick"] * period * 1e9)
             trace.message("/controller/timing", t_ns, rec, "wheelleg.ControllerTiming", schemas.CONTROLLER_TIMING)
-            for missed_tick in range(rec["tick"] - rec["missed"], rec["tick"]):  # one event per lost period
-                trace.event(round(missed_tick * period * 1e9), "deadline_miss", tick=missed_tick,
-                            source="controller timer")
+            self._record_misses(range(rec["tick"] - rec["missed"], rec["tick"]), "controller timer")
         if controller.error is not None:
             self._record_crash(controller, wall0, ticks_run, timing)
         trace.add_metadata("controller_timing", _strings(timing))
@@ -214,18 +212,20 @@ class RealtimeRun:
         """As in lockstep: the exception is a ``controller_exception`` event, and every
         period from the last tick the dead loop ran to the end of the run is a deadline
         miss (a dead loop logs no more ticks, so the period statistics cannot see them)."""
-        period = self.rig.config.period_s
-        trace = self.rig.trace
-        exc = controller.error
-        trace.event(round((controller.error_at_s - wall0) * 1e9), "controller_exception",
-                    error=f"{type(exc).__name__}: {exc}", source="controller thread")
+        error = f"{type(controller.error).__name__}: {controller.error}"
+        self.rig.trace.event(round((controller.error_at_s - wall0) * 1e9), "controller_exception",
+                             error=error, source="controller thread")
         log = controller.node.tick_log or []
-        last = log[-1][0] if log else -1
-        for missed_tick in range(last + 1, ticks_run):
-            trace.event(round(missed_tick * period * 1e9), "deadline_miss", tick=missed_tick,
-                        source="controller dead")
-        timing["missed_deadlines"] += max(0, ticks_run - 1 - last)
-        timing["crashed"] = f"{type(exc).__name__}: {exc}"
+        lost = range(log[-1][0] + 1 if log else 0, ticks_run)
+        self._record_misses(lost, "controller dead")
+        timing["missed_deadlines"] += len(lost)
+        timing["crashed"] = error
+
+    def _record_misses(self, ticks: range, source: str) -> None:
+        """One ``deadline_miss`` event per lost control period."""
+        period = self.rig.config.period_s
+        for tick in ticks:
+            self.rig.trace.event(round(tick * period * 1e9), "deadline_miss", tick=tick, source=source)
 
     def _record_plant(self, plant: dict) -> None:
         self.rig.trace.add_metadata("plant_timing", _strings(plant))
