@@ -17,8 +17,8 @@ import time
 
 import can
 
-from controller import params as P
-from controller.node import ControllerNode
+from wheelleg.controller import params as P
+from wheelleg.controller.node import ControllerNode
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -15,10 +15,11 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from controller import constants as C
-from controller import fivebar, lqr
-from controller import params as P
-from controller.state import BusState, ImuReading
+from wheelleg.controller import constants as C
+from wheelleg.controller import fivebar
+from wheelleg.controller import lqr
+from wheelleg.controller import params as P
+from wheelleg.controller.state import BusState, ImuReading
 
 LEGS = ("left", "right")
 

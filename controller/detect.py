@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from controller import constants as C
+from wheelleg.controller import constants as C
 
 
 @dataclass(frozen=True)

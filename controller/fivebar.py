@@ -38,7 +38,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from controller import constants as C
+from wheelleg.controller import constants as C
 
 _HALF_L5 = 0.5 * C.L5
 # A loop-closure discriminant below -_CLOSURE_TOL (relative) is not noise:

@@ -21,7 +21,7 @@ import enum
 from dataclasses import dataclass
 from typing import Callable
 
-from controller import params as P
+from wheelleg.controller import params as P
 
 
 class Phase(enum.IntEnum):

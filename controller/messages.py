@@ -7,9 +7,9 @@ from __future__ import annotations
 
 import can
 
-from controller import constants as C
-from dbc import cybergear as cg
-from dbc import load_bus, truncating_raw
+from wheelleg.controller import constants as C
+from wheelleg.dbc import cybergear as cg
+from wheelleg.dbc import load_bus, truncating_raw
 
 _CAN1 = load_bus("can1")
 _CAN2 = load_bus("can2")

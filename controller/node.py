@@ -19,15 +19,18 @@ from dataclasses import dataclass, field
 
 import can
 
-from controller import constants as C
-from controller import detect, messages, posture, support
-from controller import params as P
-from controller.chassis import Attitude, ChassisController, Command, attitude
-from controller.jump import JumpSequencer, Phase
-from controller.recovery import Phase as RecoveryPhase
-from controller.recovery import RecoverySequencer
-from controller.modes import ENABLED, Inputs, Mode, Switch, next_mode
-from controller.state import CAN1, CAN2, BusState
+from wheelleg.controller import constants as C
+from wheelleg.controller import detect
+from wheelleg.controller import messages
+from wheelleg.controller import posture
+from wheelleg.controller import support
+from wheelleg.controller import params as P
+from wheelleg.controller.chassis import Attitude, ChassisController, Command, attitude
+from wheelleg.controller.jump import JumpSequencer, Phase
+from wheelleg.controller.recovery import Phase as RecoveryPhase
+from wheelleg.controller.recovery import RecoverySequencer
+from wheelleg.controller.modes import ENABLED, Inputs, Mode, Switch, next_mode
+from wheelleg.controller.state import CAN1, CAN2, BusState
 
 _DEVICE_OF_JOINT = {j.motor_id: j.name for j in C.JOINTS}
 _DEVICE_OF_WHEEL = {w.esc_id: w.name for w in C.WHEELS}

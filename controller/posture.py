@@ -14,7 +14,7 @@ from __future__ import annotations
 import itertools
 import math
 
-from controller import constants as C
+from wheelleg.controller import constants as C
 
 _HALF = tuple(0.5 * v for v in C.BODY_SIZE)
 _CORNERS = tuple(itertools.product((-_HALF[0], _HALF[0]), (-_HALF[1], _HALF[1]), (-_HALF[2], _HALF[2])))

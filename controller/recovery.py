@@ -20,8 +20,8 @@ import enum
 from dataclasses import dataclass
 from typing import Callable
 
-from controller import params as P
-from controller.jump import table_next_phase
+from wheelleg.controller import params as P
+from wheelleg.controller.jump import table_next_phase
 
 
 class Phase(enum.IntEnum):

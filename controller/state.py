@@ -14,9 +14,9 @@ from dataclasses import dataclass, field
 
 import can
 
-from controller import constants as C
-from dbc import cybergear as cg
-from dbc import load_bus
+from wheelleg.controller import constants as C
+from wheelleg.dbc import cybergear as cg
+from wheelleg.dbc import load_bus
 
 CAN1, CAN2 = "can1", "can2"
 _DBS = {CAN1: load_bus(CAN1), CAN2: load_bus(CAN2)}

@@ -24,9 +24,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from controller import constants as C
-from controller import fivebar
-from controller import params as P
+from wheelleg.controller import constants as C
+from wheelleg.controller import fivebar
+from wheelleg.controller import params as P
 
 
 def vertical_accel(quat: tuple, specific_force: tuple) -> float:

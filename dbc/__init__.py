@@ -3,7 +3,7 @@
 Every byte layout on both buses lives in the ``*.dbc`` files beside this
 module; nothing else in the project hard-codes one. This package only loads
 them (through cantools) and adds what a DBC cannot say by itself: the
-CyberGear fields that live in the 29-bit identifier (``dbc.cybergear``) and
+CyberGear fields that live in the 29-bit identifier (``wheelleg.dbc.cybergear``) and
 the manual's truncating float-to-uint encoder.
 
 Buses (DESIGN.md): CAN1 carries the wheel ESCs, the IMU, the remote, SYNC and

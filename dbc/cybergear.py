@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from dbc import load_file, truncating_raw
+from wheelleg.dbc import load_file, truncating_raw
 
 TYPE_SHIFT = 24
 DEVICE_ID_TARGET = 0xFE  # replies to type 0/7/22 go to this address

@@ -29,9 +29,9 @@ import math
 
 import can
 
-from controller import constants as C
-from dbc import load_file
-from emulators.device import (EmulatedDevice, FieldScale, FrameCodec, PeriodicSchedule, Shaft, frame,
+from wheelleg.controller import constants as C
+from wheelleg.dbc import load_file
+from wheelleg.emulators.device import (EmulatedDevice, FieldScale, FrameCodec, PeriodicSchedule, Shaft, frame,
                               is_data_frame)
 
 FEEDBACK_PERIOD_S = 0.001  # 1 kHz default feedback rate (D1 p.17)

@@ -43,10 +43,10 @@ import math
 
 import can
 
-from controller import constants as C
-from dbc import CYBERGEAR_FILES, load_file
-from dbc import cybergear as cg
-from emulators.device import EmulatedDevice, FieldScale, FrameCodec, Shaft, frame, is_data_frame
+from wheelleg.controller import constants as C
+from wheelleg.dbc import CYBERGEAR_FILES, load_file
+from wheelleg.dbc import cybergear as cg
+from wheelleg.emulators.device import EmulatedDevice, FieldScale, FrameCodec, Shaft, frame, is_data_frame
 
 MODE_RESET, MODE_CALI, MODE_RUN = 0, 1, 2
 RUN_MODES = (0, 1, 2, 3)  # operation (motion), position, speed, current
@@ -169,7 +169,7 @@ class CyberGear(EmulatedDevice):
     # -- state -----------------------------------------------------------------
     @property
     def faults(self) -> frozenset:
-        """Latched faults, names from ``dbc.cybergear.FAULT_NAMES``."""
+        """Latched faults, names from ``wheelleg.dbc.cybergear.FAULT_NAMES``."""
         return self._faults
 
     @property

@@ -76,7 +76,7 @@ class EmulatedDevice(abc.ABC):
     the emulator, counted in ``internal_errors`` (the fuzz test asserts it
     stays 0) and answered with silence.
 
-    Fault policy (hil/faults.py sets it; one place for every device):
+    Fault policy (hil/run/faults.py sets it; one place for every device):
     ``silent`` sends nothing (unplugged, dead); ``frozen`` repeats the last
     frame of each kind (``_frame_key``) with a fresh time stamp instead of new
     data (a hung firmware whose CAN peripheral still transmits); ``deaf``

@@ -17,9 +17,9 @@ from dataclasses import dataclass
 import can
 import numpy as np
 
-from controller import constants as C
-from dbc import load_bus
-from emulators.device import EmulatedDevice, FieldScale, FrameCodec, PeriodicSchedule, frame
+from wheelleg.controller import constants as C
+from wheelleg.dbc import load_bus
+from wheelleg.emulators.device import EmulatedDevice, FieldScale, FrameCodec, PeriodicSchedule, frame
 
 FRAMES = {  # frame -> its signals in the order measure() returns the values
     "IMU_Orientation": ("QuatW", "QuatX", "QuatY", "QuatZ"),

@@ -15,7 +15,7 @@ from collections.abc import Sequence
 
 import can
 
-from emulators.device import EmulatedDevice
+from wheelleg.emulators.device import EmulatedDevice
 
 log = logging.getLogger(__name__)
 

@@ -29,9 +29,9 @@ from typing import Sequence
 import mujoco
 import numpy as np
 
-from controller import constants as C
-from controller import fivebar
-from emulators.terrain import GROUND_GROUP, TerrainFeature, add_to_spec
+from wheelleg.controller import constants as C
+from wheelleg.controller import fivebar
+from wheelleg.emulators.terrain import GROUND_GROUP, TerrainFeature, add_to_spec
 
 __all__ = ["Physics", "TerrainFeature", "SCENE_PATH", "ROBOT_PATH"]
 

@@ -13,13 +13,13 @@ from dataclasses import dataclass, field
 import can
 import numpy as np
 
-from controller import constants as C
-from emulators.c620 import C620
-from emulators.cybergear import CyberGear
-from emulators.imu import Imu, ImuNoise
-from emulators.node import DeviceNode
-from emulators.physics import Physics
-from emulators.remote import Remote
+from wheelleg.controller import constants as C
+from wheelleg.emulators.c620 import C620
+from wheelleg.emulators.cybergear import CyberGear
+from wheelleg.emulators.imu import Imu, ImuNoise
+from wheelleg.emulators.node import DeviceNode
+from wheelleg.emulators.physics import Physics
+from wheelleg.emulators.remote import Remote
 
 CAN1, CAN2 = "can1", "can2"
 

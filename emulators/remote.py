@@ -8,8 +8,8 @@ from __future__ import annotations
 
 import can
 
-from dbc import load_bus
-from emulators.device import EmulatedDevice, PeriodicSchedule
+from wheelleg.dbc import load_bus
+from wheelleg.emulators.device import EmulatedDevice, PeriodicSchedule
 
 _OPERATOR = load_bus("can1").get_message_by_name("Operator")
 

@@ -17,9 +17,9 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True)
     for name in SUBCOMMANDS:
         try:
-            module = importlib.import_module(f"hil.commands.{name.replace('-', '_')}")
+            module = importlib.import_module(f"wheelleg.hil.commands.{name.replace('-', '_')}")
         except ModuleNotFoundError as exc:
-            if exc.name != f"hil.commands.{name}":
+            if exc.name != f"wheelleg.hil.commands.{name}":
                 raise
             continue  # subcommand not built yet
         p = sub.add_parser(module.NAME, help=module.HELP, description=module.HELP)

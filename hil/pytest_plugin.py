@@ -29,7 +29,7 @@ from pathlib import Path
 
 import pytest
 
-from hil.scenario import RunData
+from wheelleg.hil.run.scenario import RunData
 
 _RUNS_OF_ITEM = pytest.StashKey[list]()
 _SOCKETCAN_HELP = "needs real SocketCAN vcan0/vcan1 (skipped with the reason when they are absent)"
@@ -60,7 +60,7 @@ def _channels(config) -> tuple[str, str]:
 def socketcan_missing(channels: tuple[str, ...]) -> str | None:
     """Why socketcan on ``channels`` cannot be used here, or None."""
     try:
-        from hil import vcan
+        from wheelleg.hil.bus import vcan
     except ImportError:
         vcan = None
     if vcan is not None and hasattr(vcan, "unavailable_reason"):
@@ -83,7 +83,7 @@ class RigRun(RunData):
 
     trace_path: Path = Path()
     log_path: Path = Path()
-    checks: list = field(default_factory=list)  # hil.scenario.CheckResult
+    checks: list = field(default_factory=list)  # wheelleg.hil.run.scenario.CheckResult
     scenario: str = ""
     ticks: int = 0
     deadline_misses: int = 0
@@ -131,8 +131,8 @@ class _RunCache:
             reason = socketcan_missing(self.channels)
             if reason:
                 pytest.skip(f"--can-interface socketcan: {reason}")
-        from hil.commands.run import execute  # the rig (MuJoCo, emulators) only when used
-        from hil.rundata import load_run
+        from wheelleg.hil.commands.run import execute  # the rig (MuJoCo, emulators) only when used
+        from wheelleg.hil.record.rundata import load_run
 
         label = re.sub(r"[^A-Za-z0-9_.-]", "_", f"{scenario}-seed{seed}-{duration or 'full'}s")
         args = argparse.Namespace(scenario=scenario, out=self.out_dir / label, interface=self.interface,

@@ -1,12 +1,12 @@
 """A Controller fed the frames of an upright, standing robot, tick by tick (no rig, no physics)."""
 import can
 
-from controller import constants as C
-from controller import params as P
-from controller.node import Controller
-from controller.state import CAN1, CAN2
-from dbc import cybergear as cg
-from dbc import load_bus, truncating_raw
+from wheelleg.controller import constants as C
+from wheelleg.controller import params as P
+from wheelleg.controller.node import Controller
+from wheelleg.controller.state import CAN1, CAN2
+from wheelleg.dbc import cybergear as cg
+from wheelleg.dbc import load_bus, truncating_raw
 
 DB1, DB2 = load_bus("can1"), load_bus("can2")
 HEARTBEAT = DB1.get_message_by_name("Heartbeat")

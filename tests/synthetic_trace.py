@@ -2,7 +2,7 @@
 
 ``SyntheticRig`` plays the plant's part with scripted device frames around a
 real ``ControllerNode`` in sync mode and records both buses the way the rig
-does (``hil.recorder.Recorder``: bus time, MCAP + candump log). ``robot_log``
+does (``wheelleg.hil.bus.recorder.Recorder``: bus time, MCAP + candump log). ``robot_log``
 writes what a candump on the robot would show: a free-running ``Controller``
 (no SYNC), ticks on a jittered clock, the log's timestamps as its clock (ns
 since the first frame, microsecond resolution) -- the convention replay uses.
@@ -20,18 +20,18 @@ from pathlib import Path
 
 import can
 
-import dbc
-from controller import constants as C
-from controller import messages
-from controller import params as P
-from controller.node import Controller, ControllerNode
-from dbc import cybergear as cg
-from dbc import truncating_raw
-from hil.candump import CandumpWriter
-from hil.recorder import Recorder
-from hil.bug_report import git_revision
-from hil.replay import MemoryBus
-from hil.trace import TraceWriter
+from wheelleg import dbc
+from wheelleg.controller import constants as C
+from wheelleg.controller import messages
+from wheelleg.controller import params as P
+from wheelleg.controller.node import Controller, ControllerNode
+from wheelleg.dbc import cybergear as cg
+from wheelleg.dbc import truncating_raw
+from wheelleg.hil.record.candump import CandumpWriter
+from wheelleg.hil.bus.recorder import Recorder
+from wheelleg.hil.analyze.bug_report import git_revision
+from wheelleg.hil.analyze.replay import MemoryBus
+from wheelleg.hil.record.trace import TraceWriter
 
 DB1, DB2 = dbc.load_bus("can1"), dbc.load_bus("can2")
 PERIOD = P.CONTROL_PERIOD
@@ -180,7 +180,7 @@ class SyntheticRig:
 
 
 def _truth(pitch: float) -> dict:
-    from hil import schemas
+    from wheelleg.hil.record import schemas
     state = {k: 0.0 for k in schemas.SIM_STATE_FIELDS if k != "t"}
     state["pitch"] = pitch
     return state

@@ -2,7 +2,7 @@
 import random
 
 
-from hil.busload import BusClock, frame_bits
+from wheelleg.hil.bus.busload import BusClock, frame_bits
 
 
 def _reference_bits(arbitration_id, extended, data):

@@ -9,12 +9,12 @@ import uuid
 import can
 import pytest
 
-from controller import constants as C
-from dbc import load_file
-from emulators.c620 import C620
-from emulators.node import DeviceNode
-from hil.cli import build_parser
-from hil.commands import emulate
+from wheelleg.controller import constants as C
+from wheelleg.dbc import load_file
+from wheelleg.emulators.c620 import C620
+from wheelleg.emulators.node import DeviceNode
+from wheelleg.hil.cli import build_parser
+from wheelleg.hil.commands import emulate
 
 DB = load_file("c620.dbc")
 CMD_1_4, CMD_5_8 = DB.get_message_by_name("C620_Cmd_1_4"), DB.get_message_by_name("C620_Cmd_5_8")

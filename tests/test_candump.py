@@ -1,4 +1,4 @@
-"""candump -L logs: writer, reader, and the players that must accept them (hil.candump)."""
+"""candump -L logs: writer, reader, and the players that must accept them (wheelleg.hil.record.candump)."""
 from __future__ import annotations
 
 import gzip
@@ -11,7 +11,7 @@ import can.player
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from hil.candump import (CAN_ERR_BUSERROR, CAN_ERR_FLAG, CandumpWriter, LogFormatError, LogFrame,
+from wheelleg.hil.record.candump import (CAN_ERR_BUSERROR, CAN_ERR_FLAG, CandumpWriter, LogFormatError, LogFrame,
                          format_timestamp, read_candump)
 
 # (channel, t_ns, id, extended, data, kwargs)

@@ -5,12 +5,12 @@ import random
 import can
 import pytest
 
-from controller import constants as C
-from controller import messages
-from controller.node import Controller
-from controller.state import CAN1, CAN2, BusState
-from dbc import cybergear as cg
-from dbc import load_bus, truncating_raw
+from wheelleg.controller import constants as C
+from wheelleg.controller import messages
+from wheelleg.controller.node import Controller
+from wheelleg.controller.state import CAN1, CAN2, BusState
+from wheelleg.dbc import cybergear as cg
+from wheelleg.dbc import load_bus, truncating_raw
 
 DB1, DB2 = load_bus("can1"), load_bus("can2")
 

@@ -2,7 +2,7 @@
 
 Two levels: the bare ``Controller`` fed an upright robot's frames plus a
 stream of garbage for a few seconds of controller time (fast, many seeds),
-and the rig, where a faulty node on each bus (``hil.faults.garbage``) sends
+and the rig, where a faulty node on each bus (``wheelleg.hil.run.faults.garbage``) sends
 malformed frames while the robot balances on the physics.
 """
 import math
@@ -13,17 +13,17 @@ import numpy as np
 import pytest
 from controller_feed import Robot
 
-from controller import constants as C
-from controller import params as P
-from controller.modes import ENABLED, Mode
-from controller.state import CAN1, CAN2
-from dbc import cybergear as cg
-from dbc import load_bus
-from hil import faults
-from hil.scenario import Scenario
-from hil.scenarios.basic import standing
-from hil.scenarios.common import DEG, pitch_below, stand
-from hil.scenarios.faults import controller_alive, fault_affected_frames, mode_never
+from wheelleg.controller import constants as C
+from wheelleg.controller import params as P
+from wheelleg.controller.modes import ENABLED, Mode
+from wheelleg.controller.state import CAN1, CAN2
+from wheelleg.dbc import cybergear as cg
+from wheelleg.dbc import load_bus
+from wheelleg.hil.run import faults
+from wheelleg.hil.run.scenario import Scenario
+from wheelleg.hil.scenarios.basic import standing
+from wheelleg.hil.scenarios.common import DEG, pitch_below, stand
+from wheelleg.hil.scenarios.faults import controller_alive, fault_affected_frames, mode_never
 
 SECONDS = 3.0
 _DB1 = load_bus(CAN1)
@@ -116,8 +116,8 @@ def test_random_frames_leave_the_motors_disabled_or_balancing(seed):
 
 def test_the_rig_balances_through_a_faulty_node_on_each_bus(tmp_path):
     """Physics in the loop: 2000 garbage frames/s on each bus for 1.5 s, the robot never notices."""
-    from hil.rig import Rig, RigConfig
-    from hil.rundata import load_run
+    from wheelleg.hil.run.rig import Rig, RigConfig
+    from wheelleg.hil.record.rundata import load_run
 
     junk = [a for bus in faults.BUSES for a in faults.garbage(bus, 0.5, 1.5, 2000.0)]
     scenario = Scenario("fuzz", "garbage on both buses", 2.2, standing(), timeline=(stand(), *junk),

@@ -13,11 +13,11 @@ from pathlib import Path
 import can
 import pytest
 
-import controller.__main__ as standalone
-from controller import constants as C
-from controller import messages
-from controller.node import ControllerNode
-from dbc import load_bus
+from wheelleg.controller import __main__ as standalone
+from wheelleg.controller import constants as C
+from wheelleg.controller import messages
+from wheelleg.controller.node import ControllerNode
+from wheelleg.dbc import load_bus
 
 REPO = Path(__file__).resolve().parents[1]
 _RIG = load_bus("can1")
@@ -135,7 +135,8 @@ def test_signal_disables_the_motors_before_exit(tmp_path, sig):
 @pytest.mark.socketcan
 def test_sigterm_stops_the_motors_on_vcan():
     """Over real SocketCAN: other sockets on vcan0/vcan1 see the stop frames go out."""
-    from hil import vcan
+    from wheelleg.hil.bus import vcan
+    import vcan_helpers
 
     reason = vcan.unavailable_reason()
     if reason is not None:
@@ -148,7 +149,7 @@ def test_sigterm_stops_the_motors_on_vcan():
             msg = bus.recv(0.1)
             if msg is not None:
                 frames.append(msg)
-    with vcan.open_bus("vcan0") as wheels, vcan.open_bus("vcan1") as joints:
+    with vcan_helpers.open_bus("vcan0") as wheels, vcan_helpers.open_bus("vcan1") as joints:
         readers = [threading.Thread(target=read, args=(bus, seen[name]))
                    for name, bus in (("can1", wheels), ("can2", joints))]
         for reader in readers:

@@ -17,13 +17,14 @@ import uuid
 import can
 import pytest
 
-from controller import constants as C
-from dbc import CYBERGEAR_FILES, cybergear as cg, load_file, truncating_raw
-from emulators import cybergear as emu
-from emulators.cybergear import CyberGear
-from emulators.node import DeviceNode
-from hil.cli import build_parser, main
-from hil.commands import emulate
+from wheelleg.controller import constants as C
+from wheelleg.dbc import CYBERGEAR_FILES, load_file, truncating_raw
+from wheelleg.dbc import cybergear as cg
+from wheelleg.emulators import cybergear as emu
+from wheelleg.emulators.cybergear import CyberGear
+from wheelleg.emulators.node import DeviceNode
+from wheelleg.hil.cli import build_parser, main
+from wheelleg.hil.commands import emulate
 
 HOST = 0xFD
 
@@ -514,7 +515,7 @@ def test_wheelleg_emulate_cybergear_answers_a_driver_and_stops_cleanly():
 
 @pytest.mark.parametrize("signame", ["SIGINT", "SIGTERM"])
 def test_wheelleg_emulate_process_exits_0_on_signal(signame):
-    proc = subprocess.Popen([sys.executable, "-m", "hil.cli", "emulate", "cybergear", "-i", "virtual",
+    proc = subprocess.Popen([sys.executable, "-m", "wheelleg.hil.cli", "emulate", "cybergear", "-i", "virtual",
                              "-c", "emulate-signal"], stderr=subprocess.PIPE, text=True)
     try:
         assert "Ctrl-C stops" in proc.stderr.readline()  # started and serving

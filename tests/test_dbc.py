@@ -15,8 +15,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from dbc import all_dbc_files, cybergear as cg, load_bus, load_file, truncating_raw
-from emulators.device import FieldScale, FrameCodec
+from wheelleg.dbc import all_dbc_files, load_bus, load_file, truncating_raw
+from wheelleg.dbc import cybergear as cg
+from wheelleg.emulators.device import FieldScale, FrameCodec
 
 FILES = all_dbc_files()
 

@@ -5,12 +5,12 @@ import can
 import pytest
 from controller_feed import Robot
 
-from controller import constants as C
-from controller import detect
-from controller import params as P
-from controller.modes import ENABLED, Mode
-from controller.state import CAN1, CAN2
-from dbc import cybergear as cg
+from wheelleg.controller import constants as C
+from wheelleg.controller import detect
+from wheelleg.controller import params as P
+from wheelleg.controller.modes import ENABLED, Mode
+from wheelleg.controller.state import CAN1, CAN2
+from wheelleg.dbc import cybergear as cg
 
 ALL_ONLINE = {rule.name: 0.0 for rule in detect.RULES}
 

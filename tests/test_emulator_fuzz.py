@@ -18,11 +18,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from dbc import cybergear as cg
-from dbc import load_bus, load_file
-from emulators.c620 import C620
-from emulators.cybergear import CyberGear
-from emulators.imu import Imu
+from wheelleg.dbc import cybergear as cg
+from wheelleg.dbc import load_bus, load_file
+from wheelleg.emulators.c620 import C620
+from wheelleg.emulators.cybergear import CyberGear
+from wheelleg.emulators.imu import Imu
 
 REPLY_TYPE = {0: 0, 1: 2, 2: 2, 3: 2, 4: 2, 6: 2, 7: 0, 17: 17, 18: 2, 21: 21, 22: 0}  # §1.11
 REPLY_MESSAGE = {0: "CG_DeviceId", 2: "CG_Feedback", 17: "CG_ParamRead", 21: "CG_FaultWarn"}

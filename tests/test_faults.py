@@ -1,4 +1,4 @@
-"""Each fault injector of hil/faults.py on its own, without the physics (fast)."""
+"""Each fault injector of hil/run/faults.py on its own, without the physics (fast)."""
 from __future__ import annotations
 
 from types import SimpleNamespace
@@ -7,15 +7,15 @@ import can
 import numpy as np
 import pytest
 
-from controller import constants as C
-from dbc import cybergear as cg
-from dbc import load_bus
-from emulators.c620 import C620
-from emulators.cybergear import CyberGear
-from emulators.imu import Imu, ImuNoise
-from emulators.remote import Remote
-from hil import faults
-from hil.busload import frame_bits
+from wheelleg.controller import constants as C
+from wheelleg.dbc import cybergear as cg
+from wheelleg.dbc import load_bus
+from wheelleg.emulators.c620 import C620
+from wheelleg.emulators.cybergear import CyberGear
+from wheelleg.emulators.imu import Imu, ImuNoise
+from wheelleg.emulators.remote import Remote
+from wheelleg.hil.run import faults
+from wheelleg.hil.bus.busload import frame_bits
 
 DB1 = load_bus("can1")
 SYNC = DB1.get_message_by_name("SYNC")

@@ -1,6 +1,6 @@
 """Five-bar kinematics and VMC against independent constructions.
 
-The references here do not reuse controller.fivebar: seed 001's construction
+The references here do not reuse wheelleg.controller.fivebar: seed 001's construction
 by perpendicular bisector, central finite differences of the leg geometry,
 and statics by virtual work on point coordinates.
 """
@@ -9,8 +9,8 @@ import math
 import numpy as np
 import pytest
 
-from controller import constants as C
-from controller import fivebar as fb
+from wheelleg.controller import constants as C
+from wheelleg.controller import fivebar as fb
 
 RNG_SEED = 20240611
 

@@ -9,11 +9,11 @@ import can
 import numpy as np
 import pytest
 
-from dbc import load_bus
-from emulators.imu import Imu, ImuNoise
-from emulators.node import DeviceNode
-from hil.cli import build_parser
-from hil.commands import emulate
+from wheelleg.dbc import load_bus
+from wheelleg.emulators.imu import Imu, ImuNoise
+from wheelleg.emulators.node import DeviceNode
+from wheelleg.hil.cli import build_parser
+from wheelleg.hil.commands import emulate
 
 DB = load_bus("can1")
 ORIENT, GYRO, ACCEL = (DB.get_message_by_name(n) for n in ("IMU_Orientation", "IMU_Gyro", "IMU_Accel"))

@@ -5,11 +5,11 @@ import math
 
 import pytest
 
-from hil.candump import CandumpWriter
-from hil.cli import main
-from hil.inspect_trace import summarize
-from hil.replay import build_schedule
-from hil.trace_source import open_trace
+from wheelleg.hil.record.candump import CandumpWriter
+from wheelleg.hil.cli import main
+from wheelleg.hil.analyze.inspect_trace import summarize
+from wheelleg.hil.analyze.replay import build_schedule
+from wheelleg.hil.record.sources import open_trace
 from synthetic_trace import PERIOD, POSE, REMOTE_EVERY, Devices, SyntheticRig, robot_log
 
 TICKS = 200
@@ -81,7 +81,7 @@ def test_faults_warnings_and_deadline_misses(rig):
     assert cyber[0].t_s == pytest.approx(FAULT_TICK * PERIOD, abs=PERIOD)
     offline = [f for f in s.faults if f.kind == "heartbeat" and "offline remote" in f.text]
     assert offline, [f.text for f in s.faults]
-    remote_timeout = 0.100  # controller.detect: remote offline after 100 ms without a frame
+    remote_timeout = 0.100  # wheelleg.controller.detect: remote offline after 100 ms without a frame
     assert offline[0].t_s == pytest.approx(SILENT_AFTER * PERIOD + remote_timeout, abs=2 * PERIOD)
     assert [f.text for f in s.faults if f.kind == "event"] == ["event fault_bus_off (bus=can2, duration_s=0.01)"]
     assert [f.text for f in s.deadline_misses] == ["deadline miss (tick 90)"]

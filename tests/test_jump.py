@@ -1,9 +1,9 @@
 """The jump phase table (controller/jump.py) and the modes it adds."""
 from dataclasses import replace
 
-from controller import params as P
-from controller.jump import PHASES, JumpSequencer, JumpView, Phase, next_phase
-from controller.modes import Inputs, Mode, Switch, next_mode
+from wheelleg.controller import params as P
+from wheelleg.controller.jump import PHASES, JumpSequencer, JumpView, Phase, next_phase
+from wheelleg.controller.modes import Inputs, Mode, Switch, next_mode
 
 DT = P.CONTROL_PERIOD
 

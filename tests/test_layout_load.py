@@ -1,8 +1,8 @@
-"""hil/layout_load.py: scaling the seed's layout to other control rates."""
+"""tools/layout_load.py: scaling the seed's layout to other control rates."""
 import pytest
 
-from dbc import cybergear as cg
-from hil.layout_load import follows_the_loop, frame_kind, load_at
+from wheelleg.dbc import cybergear as cg
+from tools.layout_load import follows_the_loop, frame_kind, load_at
 
 
 def test_loop_frames_scale_with_the_control_rate_device_clocks_do_not():
@@ -24,7 +24,7 @@ def test_frame_kinds_name_the_cybergear_type_and_motor():
 
 
 def test_an_unreadable_trace_is_a_usage_error_not_a_traceback(tmp_path, capsys):
-    from hil.layout_load import main
+    from tools.layout_load import main
 
     (tmp_path / "junk.mcap").write_bytes(b"not a trace")
     for path in (tmp_path / "missing.mcap", tmp_path / "junk.mcap"):

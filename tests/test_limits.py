@@ -1,8 +1,8 @@
-"""hil/limits.py's search, with a fake scenario runner (no rig)."""
+"""tools/limits.py's search, with a fake scenario runner (no rig)."""
 import pytest
 
-from hil import limits
-from hil.limits import search_limit
+from tools import limits
+from tools.limits import search_limit
 
 
 def threshold(limit):

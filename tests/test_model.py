@@ -11,9 +11,9 @@ import mujoco
 import numpy as np
 import pytest
 
-from controller import constants as C
-from controller import fivebar
-from emulators.physics import HIP_NAMES, SCENE_PATH, Physics, TerrainFeature
+from wheelleg.controller import constants as C
+from wheelleg.controller import fivebar
+from wheelleg.emulators.physics import HIP_NAMES, SCENE_PATH, Physics, TerrainFeature
 
 LEGS = ("left", "right")
 SIDE = {"left": +1.0, "right": -1.0}

@@ -1,7 +1,7 @@
 """The operating-mode machine: E-stop wins, re-enable only on command."""
 from dataclasses import replace
 
-from controller.modes import ENABLED, Inputs, Mode, Switch, next_mode
+from wheelleg.controller.modes import ENABLED, Inputs, Mode, Switch, next_mode
 
 CALM = Inputs(switch=Switch.STAND, devices_ok=True, reenable=False, jump=False, fallen=False,
               stood_up=False, off_ground=False, jump_done=False, can_rise=True)

@@ -7,9 +7,9 @@ import mujoco
 import numpy as np
 import pytest
 
-from controller import constants as C
-from controller import fivebar
-from emulators.physics import HIP_NAMES, Physics, TerrainFeature, euler_zyx, leg_joint_angles
+from wheelleg.controller import constants as C
+from wheelleg.controller import fivebar
+from wheelleg.emulators.physics import HIP_NAMES, Physics, TerrainFeature, euler_zyx, leg_joint_angles
 
 WEIGHT_PER_WHEEL_N = C.MASS_TOTAL * C.GRAVITY / 2
 TRUTH_KEYS = {"t", "x", "y", "z", "roll", "pitch", "yaw", "vx", "vy", "vz", "wx", "wy", "wz",

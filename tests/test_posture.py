@@ -3,8 +3,8 @@ import math
 
 import pytest
 
-from controller import constants as C
-from controller.posture import body_clearance
+from wheelleg.controller import constants as C
+from wheelleg.controller.posture import body_clearance
 
 UPRIGHT = math.pi / 2  # phi0 of a leg straight down the body
 

@@ -5,13 +5,13 @@ import re
 
 import pytest
 
-from hil.cli import main
+from wheelleg.hil.cli import main
 
 pytest_plugins = ["pytester"]
 
 SCENARIO_TESTS = '''
 import numpy as np
-from hil.scenario import RunData
+from wheelleg.hil.run.scenario import RunData
 
 SEEN = []
 
@@ -87,11 +87,11 @@ def test_bad_channels_option_is_a_usage_error(pytester):
     assert "need two names" in result.stdout.str() + result.stderr.str()
 
 
-@pytest.mark.parametrize("name", ["hil.pytest_plugin"])
+@pytest.mark.parametrize("name", ["wheelleg.hil.pytest_plugin"])
 def test_loading_the_plugin_does_not_import_the_rig(name):
     import subprocess
     import sys
-    code = (f"import sys, {name}; bad = [m for m in ('mujoco', 'hil.rig', 'emulators') if m in sys.modules];"
+    code = (f"import sys, {name}; bad = [m for m in ('mujoco', 'wheelleg.hil.run.rig', 'wheelleg.emulators') if m in sys.modules];"
             "print(bad); sys.exit(1 if bad else 0)")
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert done.returncode == 0, done.stdout + done.stderr

@@ -12,13 +12,14 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from dbc import load_bus
-from hil import realtime, scenarios
-from hil.commands import run as run_command
-from hil.loop_timing import describe, describe_plant, loop_timing, per_tick, plant_timing
-from hil.rig import Rig, RigConfig
-from hil.rundata import load_run
-from hil.trace import TraceReader
+from wheelleg.dbc import load_bus
+from wheelleg.hil.run import realtime
+from wheelleg.hil import scenarios
+from wheelleg.hil.commands import run as run_command
+from wheelleg.hil.run.loop_timing import describe, describe_plant, loop_timing, per_tick, plant_timing
+from wheelleg.hil.run.rig import Rig, RigConfig
+from wheelleg.hil.record.rundata import load_run
+from wheelleg.hil.record.trace import TraceReader
 
 PERIOD_S = 0.002
 
@@ -158,7 +159,7 @@ def test_run_command_prints_the_loop_statistics(tmp_path, capsys):
 
 def test_a_stalled_controller_tick_shows_as_missed_deadlines(tmp_path, monkeypatch):
     """One tick that takes 7 ms: the periods it overran are deadline misses, one event each."""
-    from controller.node import Controller
+    from wheelleg.controller.node import Controller
 
     tick = Controller.tick
     calls = []
@@ -181,7 +182,7 @@ def test_a_stalled_controller_tick_shows_as_missed_deadlines(tmp_path, monkeypat
 def test_a_controller_crash_is_an_event_and_the_rest_of_the_run_deadline_misses(tmp_path, monkeypatch):
     """As in lockstep: the dead loop's exception is recorded, and every period after its
     last tick counts as missed; the run itself completes so its checks can judge it."""
-    from controller.node import Controller
+    from wheelleg.controller.node import Controller
 
     tick = Controller.tick
     calls = []

@@ -1,8 +1,8 @@
 """The recovery stand table (controller/recovery.py)."""
 import pytest
 
-from controller import params as P
-from controller.recovery import PHASES, Phase, RecoverySequencer, RecoveryView, next_phase
+from wheelleg.controller import params as P
+from wheelleg.controller.recovery import PHASES, Phase, RecoverySequencer, RecoveryView, next_phase
 
 DT = P.CONTROL_PERIOD
 

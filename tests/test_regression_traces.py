@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from hil.cli import main
+from wheelleg.hil.cli import main
 
 TRACES = Path(__file__).parent / "traces"
 FILES = sorted(p for p in TRACES.iterdir() if p.suffix in (".mcap", ".log", ".gz"))

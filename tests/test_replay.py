@@ -8,19 +8,19 @@ from pathlib import Path
 import can
 import pytest
 
-import dbc
-from controller import lqr
-from controller import params as P
-from controller.modes import ENABLED
-from controller.node import ControllerNode
-from dbc import cybergear as cg
-from hil.candump import CandumpWriter
-from hil.cli import main
-from hil.bug_report import bug_report_gaps, environment_warnings
-from hil.replay import MemoryBus, default_tolerances, parse_tolerance, replay
-from hil.replay_update import write_reference
-from hil.trace import TraceReader, TraceWriter
-from hil.trace_source import open_trace, sent_by_controller
+from wheelleg import dbc
+from wheelleg.controller import lqr
+from wheelleg.controller import params as P
+from wheelleg.controller.modes import ENABLED
+from wheelleg.controller.node import ControllerNode
+from wheelleg.dbc import cybergear as cg
+from wheelleg.hil.record.candump import CandumpWriter
+from wheelleg.hil.cli import main
+from wheelleg.hil.analyze.bug_report import bug_report_gaps, environment_warnings
+from wheelleg.hil.analyze.replay import MemoryBus, default_tolerances, parse_tolerance, replay
+from wheelleg.hil.analyze.update import write_reference
+from wheelleg.hil.record.trace import TraceReader, TraceWriter
+from wheelleg.hil.record.sources import open_trace, sent_by_controller
 from synthetic_trace import SyntheticRig, attachments, robot_log, run_metadata
 
 TICKS = 150
@@ -367,7 +367,7 @@ def test_unreadable_files_exit_2(tmp_path, capsys):
 @pytest.fixture(scope="module")
 def rig_trace(tmp_path_factory):
     import argparse
-    from hil.commands.run import execute
+    from wheelleg.hil.commands.run import execute
     out = tmp_path_factory.mktemp("rig")
     args = argparse.Namespace(scenario="balance", out=out, interface="virtual", channels="vcan0,vcan1",
                               seed=3, duration=0.3, realtime=False, external_controller=False, no_plot=True)

@@ -2,8 +2,8 @@
 import numpy as np
 import pytest
 
-from hil.scenario import RunData
-from hil.scenarios import airborne as A
+from wheelleg.hil.run.scenario import RunData
+from wheelleg.hil.scenarios import airborne as A
 
 PASSING = ("jump", "jump-step", "drop", "fall", "estop", "pose")
 
@@ -99,7 +99,7 @@ def test_factories_size_their_scenarios_and_refuse_nonsense():
 
 
 def test_sim_state_schema_gives_the_airborne_fields_their_units(rig_run):
-    from hil import schemas
+    from wheelleg.hil.record import schemas
     run = rig_run("jump")
     extra = [k for k in run.state if k not in schemas.SIM_STATE_FIELDS]
     assert {"left_wheel_clearance", "right_wheel_clearance", "body_on_ground"} <= set(extra)

@@ -4,7 +4,7 @@ from pathlib import Path
 
 import pytest
 
-from hil.commands.run import execute
+from wheelleg.hil.commands.run import execute
 
 BASIC = ("balance", "stand-up", "drive", "turn", "height")
 

@@ -2,10 +2,10 @@
 import numpy as np
 import pytest
 
-from hil.limits import run_checks
-from hil.scenario import RunData
-from hil.scenarios import collisions
-from hil.scenarios.collisions import FALLEN, falls_safely, recovers
+from tools.limits import run_checks
+from wheelleg.hil.run.scenario import RunData
+from wheelleg.hil.scenarios import collisions
+from wheelleg.hil.scenarios.collisions import FALLEN, falls_safely, recovers
 
 COLLISIONS = ("push", "impact", "wall")
 

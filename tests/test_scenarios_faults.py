@@ -4,11 +4,11 @@ import argparse
 import numpy as np
 import pytest
 
-from controller import detect
-from controller.modes import Mode
-from hil.commands.run import execute
-from hil.scenario import RunData
-from hil.scenarios import faults as fs
+from wheelleg.controller import detect
+from wheelleg.controller.modes import Mode
+from wheelleg.hil.commands.run import execute
+from wheelleg.hil.run.scenario import RunData
+from wheelleg.hil.scenarios import faults as fs
 
 FAULTS = ("offline-wheel", "offline-joint", "offline-imu", "frozen-imu", "offline-remote", "motor-fault", "esc-hold",
           "frame-loss", "bus-off", "overload")
@@ -64,8 +64,8 @@ def test_the_same_seed_gives_the_same_lost_frames(tmp_path):
 
 
 def test_a_controller_exception_is_an_event_and_fails_the_alive_check(tmp_path, monkeypatch):
-    from controller.node import Controller
-    from hil.rundata import load_run
+    from wheelleg.controller.node import Controller
+    from wheelleg.hil.record.rundata import load_run
 
     real_tick = Controller.tick
 

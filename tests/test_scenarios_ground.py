@@ -4,10 +4,10 @@ import math
 import numpy as np
 import pytest
 
-from controller import constants as C
-from controller import params as P
-from controller.chassis import leg_targets, roll_leg_difference, turn_lean
-from hil.scenarios import ground
+from wheelleg.controller import constants as C
+from wheelleg.controller import params as P
+from wheelleg.controller.chassis import leg_targets, roll_leg_difference, turn_lean
+from wheelleg.hil.scenarios import ground
 
 GROUND = ("slope", "bump", "step-down", "turn-fast", "sprint")
 

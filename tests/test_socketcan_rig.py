@@ -8,8 +8,8 @@ import random
 
 import pytest
 
-from hil import vcan
-from hil.commands.run import execute
+from wheelleg.hil.bus import vcan
+from wheelleg.hil.commands.run import execute
 
 DURATION_S = 2.0  # balance's pitch check starts at 1 s: 2 s gives it a window
 
@@ -46,7 +46,7 @@ class _InFlightBus:
     delivered. Frames stay in order per bus; across buses they arrive in any order."""
 
     def __init__(self, channel: str, seed: int):
-        from hil.transport import LockstepVirtualBus
+        from wheelleg.hil.bus.transport import LockstepVirtualBus
 
         self.bus = LockstepVirtualBus(channel=channel, preserve_timestamps=True, receive_own_messages=False)
         self.rng = random.Random(seed)
@@ -62,10 +62,11 @@ class _InFlightBus:
 
 
 def test_late_delivery_on_either_bus_still_logs_the_virtual_bus_bytes(tmp_path, monkeypatch):
-    """The rig's hold (hil/held_bus.py) on a transport that delivers late: same bytes."""
+    """The rig's hold (hil/bus/held_bus.py) on a transport that delivers late: same bytes."""
     from dataclasses import replace
 
-    from hil import rig as rig_module, scenarios
+    from wheelleg.hil.run import rig as rig_module
+    from wheelleg.hil import scenarios
 
     scenario = replace(scenarios.get("balance"), duration_s=0.4)
     expected = rig_module.Rig(scenario, rig_module.RigConfig(), tmp_path / "virtual").run()

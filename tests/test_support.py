@@ -3,10 +3,10 @@ import math
 
 import pytest
 
-from controller import constants as C
-from controller import fivebar
-from controller import params as P
-from controller.support import (ContactDebounce, Derivative, LegMeasurement, LowPass, SupportEstimator,
+from wheelleg.controller import constants as C
+from wheelleg.controller import fivebar
+from wheelleg.controller import params as P
+from wheelleg.controller.support import (ContactDebounce, Derivative, LegMeasurement, LowPass, SupportEstimator,
                                 measured_leg_force, vertical_accel)
 
 DT = P.CONTROL_PERIOD
@@ -93,7 +93,7 @@ def test_touchdown_needs_a_leg_above_the_on_threshold_and_hysteresis_holds():
 
 
 def test_an_untrusted_estimate_never_makes_it_airborne_but_touchdown_still_counts():
-    from controller.support import estimate_trusted
+    from wheelleg.controller.support import estimate_trusted
     assert estimate_trusted((0.1, -0.2)) and not estimate_trusted((0.1, -0.5))
     c = ContactDebounce(DT)
     for _ in range(200):

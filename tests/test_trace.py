@@ -1,4 +1,4 @@
-"""The MCAP trace: round trip, decoding, schemas, crash recovery (hil.trace)."""
+"""The MCAP trace: round trip, decoding, schemas, crash recovery (wheelleg.hil.record.trace)."""
 from __future__ import annotations
 
 import json
@@ -15,11 +15,11 @@ import pytest
 from hypothesis import given, settings, strategies as st
 from mcap.reader import make_reader
 
-import dbc
-from dbc import cybergear as cg
-from hil import schemas
-from hil.trace import Frame, TraceReader, TraceWriter
-from hil.trace_decode import CompiledLayout, FrameDecoder
+from wheelleg import dbc
+from wheelleg.dbc import cybergear as cg
+from wheelleg.hil.record import schemas
+from wheelleg.hil.record.trace import Frame, TraceReader, TraceWriter
+from wheelleg.hil.record.decode import CompiledLayout, FrameDecoder
 
 REPO = Path(__file__).resolve().parents[1]
 DBS = {"can1": dbc.load_bus("can1"), "can2": dbc.load_bus("can2")}
@@ -288,7 +288,7 @@ def test_bad_input_gets_clear_errors(tmp_path):
 
 _KILLED_WRITER = textwrap.dedent("""
     import sys, time
-    from hil.trace import TraceWriter
+    from wheelleg.hil.record.trace import TraceWriter
     mode, path = sys.argv[1], sys.argv[2]
     if mode == "bus-time":  # bus time runs at about real time: chunks close on their span
         trace = TraceWriter(path, metadata={"run": {"scenario": "killed"}},
@@ -398,11 +398,11 @@ def test_stdlib_json_fallback_writes_the_same_values(tmp_path, trace_path):
     """Without orjson the json module encodes (NaN -> null too); the values read back are equal."""
     script = textwrap.dedent(f"""
         import sys
-        sys.modules["orjson"] = None  # import fails: hil.trace falls back to json
+        sys.modules["orjson"] = None  # import fails: wheelleg.hil.record.trace falls back to json
         sys.path.insert(0, {str(REPO)!r})
         import tests.test_trace as t
-        import hil.trace
-        assert hil.trace.orjson is None
+        import wheelleg.hil.record.trace
+        assert wheelleg.hil.record.trace.orjson is None
         t._write(__import__("pathlib").Path(sys.argv[1]), t._frames())
     """)
     path = tmp_path / "stdlib.mcap"

@@ -20,8 +20,10 @@ from pathlib import Path
 import can
 import pytest
 
-from hil import vcan
-from hil.commands import vcan as vcan_command
+from wheelleg.hil.bus import vcan
+
+import vcan_helpers
+from wheelleg.hil.commands import vcan as vcan_command
 
 REPO = Path(__file__).resolve().parents[1]
 UML_SCRIPT = REPO / "ci" / "uml-vcan.sh"
@@ -95,7 +97,7 @@ def test_missing_channel_is_unavailable_with_hint():
 
 
 def test_run_on_a_missing_channel_exits_with_the_reason_and_writes_nothing(tmp_path):
-    from hil.cli import main
+    from wheelleg.hil.cli import main
 
     out = tmp_path / "out"
     with pytest.raises(SystemExit) as exc:
@@ -140,7 +142,7 @@ def test_uml_script_fails_clearly_without_linux_uml():
 @pytest.mark.skipif(shutil.which("linux.uml") is None, reason="user-mode-linux not installed")
 def test_uml_script_streams_output_and_returns_the_command_status(tmp_path):
     """One boot: vcan links inside, quoting and env kept, CMD's status is the script's."""
-    probe = ("import os, sys; from hil import vcan; "
+    probe = ("import os, sys; from wheelleg.hil.bus import vcan; "
              "print('ENV', os.environ['WL_PROBE'], vcan.txqueuelen('vcan0'), vcan.txqueuelen('vcan1'),"
              " os.getcwd(), sys.executable); sys.exit(7)")
     env = dict(os.environ, WL_PROBE="a b'c", UML_VCAN_ENV="WL_PROBE", UML_VCAN_TIMEOUT="240")
@@ -176,11 +178,11 @@ def _key(msg) -> tuple:
 @pytest.mark.socketcan
 @pytest.mark.parametrize("channel", vcan.CHANNELS)
 def test_python_can_send_receive(real_vcan, channel):
-    with vcan.open_bus(channel) as rx, vcan.open_bus(channel) as tx:
+    with vcan_helpers.open_bus(channel) as rx, vcan_helpers.open_bus(channel) as tx:
         sent = _frames()
         for msg in sent:
             tx.send(msg)
-        got = vcan.drain(rx, len(sent))
+        got = vcan_helpers.drain(rx, len(sent))
         assert [_key(m) for m in got] == [_key(m) for m in sent]
         assert all(m.channel == channel and m.dlc == len(m.data) for m in got)
         assert rx.recv(0.2) is None  # nothing more, in particular no echo of our own frames
@@ -188,7 +190,7 @@ def test_python_can_send_receive(real_vcan, channel):
 
 @pytest.mark.socketcan
 def test_channels_are_separate_buses(real_vcan):
-    with vcan.open_bus("vcan0") as rx0, vcan.open_bus("vcan1") as tx1, vcan.open_bus("vcan1") as rx1:
+    with vcan_helpers.open_bus("vcan0") as rx0, vcan_helpers.open_bus("vcan1") as tx1, vcan_helpers.open_bus("vcan1") as rx1:
         tx1.send(can.Message(arbitration_id=0x123, is_extended_id=False, data=b"\x01"))
         assert _key(rx1.recv(5.0)) == (0x123, False, b"\x01")
         assert rx0.recv(0.2) is None
@@ -205,9 +207,9 @@ def test_burst_of_500_frames_arrives_whole(real_vcan):
     """500 back-to-back sends: none fails (ENOBUFS), all arrive in order."""
     sent = [can.Message(arbitration_id=0x100 + i % 0x100, is_extended_id=False,
                         data=i.to_bytes(2, "little") * 4) for i in range(BURST_FRAMES)]
-    with vcan.open_bus("vcan0") as rx, vcan.open_bus("vcan0") as tx:
+    with vcan_helpers.open_bus("vcan0") as rx, vcan_helpers.open_bus("vcan0") as tx:
         got: list[can.Message] = []
-        reader = threading.Thread(target=lambda: got.extend(vcan.drain(rx, BURST_FRAMES)))
+        reader = threading.Thread(target=lambda: got.extend(vcan_helpers.drain(rx, BURST_FRAMES)))
         reader.start()
         for msg in sent:
             tx.send(msg, timeout=1.0)
@@ -216,22 +218,22 @@ def test_burst_of_500_frames_arrives_whole(real_vcan):
 
 
 def _candump_module():
-    from hil import candump
+    from wheelleg.hil.record import candump
     return candump
 
 
 @pytest.mark.socketcan
 def test_candump_capture_reads_back_as_our_own_log(real_vcan, tmp_path):
-    """can-utils candump records what python-can sent; hil.candump reads that capture
+    """can-utils candump records what python-can sent; wheelleg.hil.record.candump reads that capture
     exactly as it reads the rig's own log of the same frames."""
     candump = _candump_module()
     sent = _frames()
-    capture = vcan.CandumpCapture("vcan0", tmp_path / "capture.log")
-    with capture, vcan.open_bus("vcan0") as tx:
+    capture = vcan_helpers.CandumpCapture("vcan0", tmp_path / "capture.log")
+    with capture, vcan_helpers.open_bus("vcan0") as tx:
         for msg in sent:
             tx.send(msg)
     assert len(capture.frame_lines()) == len(sent)
-    captured = [f for f in candump.CandumpReader(capture.path) if f.arbitration_id != vcan.MARK_ID]
+    captured = [f for f in candump.CandumpReader(capture.path) if f.arbitration_id != vcan_helpers.MARK_ID]
 
     own_log = tmp_path / "own.log"
     with candump.CandumpWriter(own_log) as writer:
@@ -250,7 +252,7 @@ def test_candump_capture_reads_back_as_our_own_log(real_vcan, tmp_path):
 @pytest.mark.socketcan
 @pytest.mark.parametrize("log_channel, target", [("vcan0", "vcan0"), ("can1", "vcan1")])
 def test_canplayer_replays_a_rig_log(real_vcan, tmp_path, log_channel, target):
-    """canplayer puts a log written by hil.candump onto the bus; python-can reads the same frames."""
+    """canplayer puts a log written by wheelleg.hil.record.candump onto the bus; python-can reads the same frames."""
     if shutil.which("canplayer") is None:
         pytest.fail("canplayer not found (apt-get install can-utils)")
     candump = _candump_module()
@@ -260,11 +262,11 @@ def test_canplayer_replays_a_rig_log(real_vcan, tmp_path, log_channel, target):
         for i, msg in enumerate(sent):  # 1 ms apart: canplayer keeps the log's timing
             writer.write(log_channel, 1_700_000_000_000_000_000 + i * 1_000_000,
                          msg.arbitration_id, msg.is_extended_id, bytes(msg.data))
-    with vcan.open_bus(target) as rx:
+    with vcan_helpers.open_bus(target) as rx:
         done = subprocess.run(["canplayer", "-I", str(log), f"{target}={log_channel}"],
                               capture_output=True, text=True, timeout=60)
         assert done.returncode == 0, done.stderr
-        got = vcan.drain(rx, len(sent))
+        got = vcan_helpers.drain(rx, len(sent))
         assert rx.recv(0.2) is None
     assert [_key(m) for m in got] == [_key(m) for m in sent]
 
@@ -273,8 +275,8 @@ def test_canplayer_replays_a_rig_log(real_vcan, tmp_path, log_channel, target):
 def _controller_exchange(rig_buses: dict, ctl_buses: dict, ticks: int) -> dict:
     """Lockstep without a plant: SYNC k on both buses, the ControllerNode ticks, and the
     rig collects what it sends up to its heartbeat. Returns {bus: [(id, ext, data), ...]}."""
-    from controller.node import ControllerNode
-    from dbc import load_bus
+    from wheelleg.controller.node import ControllerNode
+    from wheelleg.dbc import load_bus
 
     rig_db = load_bus("can1")
     sync, heartbeat = rig_db.get_message_by_name("SYNC"), rig_db.get_message_by_name("Heartbeat")
@@ -314,8 +316,8 @@ def test_controller_over_socketcan_sends_what_it_sends_over_virtual(real_vcan):
             for bus in pair:
                 bus.shutdown()
     channel_of = {"can1": "vcan0", "can2": "vcan1"}
-    rig = {n: vcan.open_bus(ch) for n, ch in channel_of.items()}
-    ctl = {n: vcan.open_bus(ch) for n, ch in channel_of.items()}
+    rig = {n: vcan_helpers.open_bus(ch) for n, ch in channel_of.items()}
+    ctl = {n: vcan_helpers.open_bus(ch) for n, ch in channel_of.items()}
     try:
         got = _controller_exchange(rig, ctl, ticks)
     finally:
@@ -329,7 +331,7 @@ def test_controller_over_socketcan_sends_what_it_sends_over_virtual(real_vcan):
 def _bus_pair(transport: str, channel: str) -> tuple[can.BusABC, can.BusABC]:
     """(host side, device side) on one bus of the given transport."""
     if transport == "socketcan":
-        return vcan.open_bus(channel), vcan.open_bus(channel)
+        return vcan_helpers.open_bus(channel), vcan_helpers.open_bus(channel)
     return (can.Bus(interface="virtual", channel=f"wl-{channel}"),
             can.Bus(interface="virtual", channel=f"wl-{channel}"))
 
@@ -348,7 +350,7 @@ def _serve(transport: str, channel: str, device, requests: list[can.Message],
            feedback_times_s: tuple[float, ...] = ()) -> list[can.Message]:
     """Each request from a host bus to a DeviceNode serving ``device`` (at t = 0 s), then
     the node's periodic frames at ``feedback_times_s``; returns what the host received."""
-    from emulators import node as node_module
+    from wheelleg.emulators import node as node_module
     host, device_bus = _bus_pair(transport, channel)
     try:
         node = node_module.DeviceNode(device_bus, [device])
@@ -358,7 +360,7 @@ def _serve(transport: str, channel: str, device, requests: list[can.Message],
             assert node.service(0.0) == 1
         for t_s in feedback_times_s:
             node.service(t_s)
-        return vcan.drain(host, 10_000, timeout_s=0.3)
+        return vcan_helpers.drain(host, 10_000, timeout_s=0.3)
     finally:
         host.shutdown()
         device_bus.shutdown()
@@ -375,10 +377,10 @@ def _same_on_both_transports(channel, make_device, requests, feedback_times_s=()
 @pytest.mark.socketcan
 def test_cybergear_emulator_answers_over_vcan1(real_vcan):
     """Enable, a type-1 torque command, stop: one type-2 reply each, run mode then reset."""
-    from emulators import cybergear as emulator
-    from controller import constants as C
-    from controller import messages
-    from dbc import cybergear as cg
+    from wheelleg.emulators import cybergear as emulator
+    from wheelleg.controller import constants as C
+    from wheelleg.controller import messages
+    from wheelleg.dbc import cybergear as cg
 
     motor = C.JOINTS[0].motor_id
     enable = messages.joint_enable(motor)
@@ -394,10 +396,10 @@ def test_cybergear_emulator_answers_over_vcan1(real_vcan):
 @pytest.mark.socketcan
 def test_c620_emulator_answers_over_vcan0(real_vcan):
     """A current command, then 1 kHz feedback frames that report that current."""
-    from emulators import c620 as emulator
-    from controller import constants as C
-    from controller import messages
-    from dbc import load_file
+    from wheelleg.emulators import c620 as emulator
+    from wheelleg.controller import constants as C
+    from wheelleg.controller import messages
+    from wheelleg.dbc import load_file
 
     esc = C.WHEELS[0].esc_id
     current_a = 2.0

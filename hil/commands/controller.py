@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import argparse
 
-import controller.__main__ as standalone
+from wheelleg.controller import __main__ as standalone
 
 NAME = "controller"
 HELP = "run the controller as on the robot (socketcan can0/can1 by default); SIGINT disables the motors"

@@ -20,11 +20,11 @@ import can
 import can.cli
 import numpy as np
 
-from emulators.c620 import C620
-from emulators.cybergear import CyberGear
-from emulators.device import EmulatedDevice
-from emulators.imu import Imu, ImuNoise
-from emulators.node import DeviceNode
+from wheelleg.emulators.c620 import C620
+from wheelleg.emulators.cybergear import CyberGear
+from wheelleg.emulators.device import EmulatedDevice
+from wheelleg.emulators.imu import Imu, ImuNoise
+from wheelleg.emulators.node import DeviceNode
 
 NAME = "emulate"
 HELP = "emulate one CyberGear, C620 or IMU alone on a CAN bus until interrupted"

@@ -21,9 +21,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from controller.params import CONTROL_PERIOD
-    from hil.inspect_trace import format_summary, plot_summary, summarize
-    from hil.trace_source import TraceError, parse_channels
+    from wheelleg.controller.params import CONTROL_PERIOD
+    from wheelleg.hil.analyze.inspect_trace import format_summary, plot_summary, summarize
+    from wheelleg.hil.record.sources import TraceError, parse_channels
 
     try:
         summary = summarize(args.trace, bitrate=args.bitrate, channels=parse_channels(args.channels),

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import argparse
 
-from hil import scenarios
+from wheelleg.hil import scenarios
 
 NAME = "list"
 HELP = "list the scenarios"

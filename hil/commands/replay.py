@@ -33,9 +33,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from hil.replay import parse_tolerance, replay
-    from hil.replay_update import write_reference
-    from hil.trace_source import TraceError, parse_channels
+    from wheelleg.hil.analyze.replay import parse_tolerance, replay
+    from wheelleg.hil.analyze.update import write_reference
+    from wheelleg.hil.record.sources import TraceError, parse_channels
 
     try:
         tolerances = dict(parse_tolerance(t) for t in args.tolerance)

@@ -4,12 +4,12 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from hil import scenarios
-from hil.loop_timing import describe, describe_plant
-from hil.plot import plot_run
-from hil.rig import Rig, RigConfig
-from hil.rundata import load_run
-from hil.transport import BusOpenError
+from wheelleg.hil import scenarios
+from wheelleg.hil.run.loop_timing import describe, describe_plant
+from wheelleg.hil.analyze.plot import plot_run
+from wheelleg.hil.run.rig import Rig, RigConfig
+from wheelleg.hil.record.rundata import load_run
+from wheelleg.hil.bus.transport import BusOpenError
 
 NAME = "run"
 HELP = "run a scenario in the rig; writes DIR/SCENARIO.mcap, .log and .png and checks the run"

@@ -4,7 +4,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from hil import vcan
+from wheelleg.hil.bus import vcan
 
 NAME = "vcan"
 HELP = ("create (up) or remove (down) the vcan0/vcan1 SocketCAN links, txqueuelen 1000; "

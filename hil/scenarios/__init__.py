@@ -1,8 +1,12 @@
 """Every scenario the rig knows, by name (``wheelleg list``)."""
 from __future__ import annotations
 
-from hil.scenario import Scenario
-from hil.scenarios import airborne, basic, collisions, faults, ground
+from wheelleg.hil.run.scenario import Scenario
+from wheelleg.hil.scenarios import airborne
+from wheelleg.hil.scenarios import basic
+from wheelleg.hil.scenarios import collisions
+from wheelleg.hil.scenarios import faults
+from wheelleg.hil.scenarios import ground
 
 _MODULES = (basic, airborne, collisions, ground, faults)
 

@@ -13,11 +13,11 @@ import math
 
 import numpy as np
 
-from controller import params as P
-from controller.modes import Mode
-from emulators.physics import TerrainFeature
-from hil.scenario import Check, RunData, Scenario
-from hil.scenarios.common import (CURRENT_OFF_A, DEG, TORQUE_OFF_NM, no_deadline_miss, push, remote, stand,
+from wheelleg.controller import params as P
+from wheelleg.controller.modes import Mode
+from wheelleg.emulators.physics import TerrainFeature
+from wheelleg.hil.run.scenario import Check, RunData, Scenario
+from wheelleg.hil.scenarios.common import (CURRENT_OFF_A, DEG, TORQUE_OFF_NM, no_deadline_miss, push, remote, stand,
                                   torque_after)
 
 # rig.dbc Heartbeat.Mode carries the controller's Mode values

@@ -5,9 +5,9 @@ import math
 
 import numpy as np
 
-from emulators.physics import TerrainFeature
-from hil.scenario import Check, RunData, Scenario
-from hil.scenarios.common import (DEG, drift_below, never_tips, no_deadline_miss, pitch_below,
+from wheelleg.emulators.physics import TerrainFeature
+from wheelleg.hil.run.scenario import Check, RunData, Scenario
+from wheelleg.hil.scenarios.common import (DEG, drift_below, never_tips, no_deadline_miss, pitch_below,
                                   remote, stand)
 
 NOMINAL = 0.17  # m

@@ -9,11 +9,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from controller.modes import Mode
-from emulators.physics import TerrainFeature
-from hil.scenario import Action, Check, RunData, Scenario
-from hil.scenarios.basic import standing
-from hil.scenarios.common import (CURRENT_OFF_A, DEG, TORQUE_OFF_NM, no_deadline_miss, push, remote, stand,
+from wheelleg.controller.modes import Mode
+from wheelleg.emulators.physics import TerrainFeature
+from wheelleg.hil.run.scenario import Action, Check, RunData, Scenario
+from wheelleg.hil.scenarios.basic import standing
+from wheelleg.hil.scenarios.common import (CURRENT_OFF_A, DEG, TORQUE_OFF_NM, no_deadline_miss, push, remote, stand,
                                   torque_after)
 
 FALLEN = int(Mode.FALLEN)  # rig.dbc Heartbeat.Mode carries the controller's Mode values

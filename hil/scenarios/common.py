@@ -5,7 +5,7 @@ import math
 
 import numpy as np
 
-from hil.scenario import Action, Check, RunData
+from wheelleg.hil.run.scenario import Action, Check, RunData
 
 DEG = math.pi / 180
 

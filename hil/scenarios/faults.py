@@ -11,13 +11,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from controller import detect
-from controller import params as P
-from controller.modes import Mode
-from hil import faults
-from hil.scenario import Check, RunData, Scenario
-from hil.scenarios.basic import standing
-from hil.scenarios.common import DEG, pitch_below, push, remote, stand
+from wheelleg.controller import detect
+from wheelleg.controller import params as P
+from wheelleg.controller.modes import Mode
+from wheelleg.hil.run import faults
+from wheelleg.hil.run.scenario import Check, RunData, Scenario
+from wheelleg.hil.scenarios.basic import standing
+from wheelleg.hil.scenarios.common import DEG, pitch_below, push, remote, stand
 
 FAULT_AT = 1.0  # s: the robot balances by then
 PERIOD = P.CONTROL_PERIOD

@@ -2,7 +2,7 @@
 
 Each scenario comes from a factory with its size (slope deg, bump height m,
 step height m, speed m/s); the default instance is registered. ``sprint`` (a
-straight run at a speed) is the top-speed figure of ``python -m hil.limits``.
+straight run at a speed) is the top-speed figure of ``python -m tools.limits``.
 """
 from __future__ import annotations
 
@@ -10,13 +10,13 @@ import math
 
 import numpy as np
 
-from controller import constants as C
-from controller import params as P
-from emulators.physics import TerrainFeature
-from hil.scenario import Check, RunData, Scenario
-from hil.scenarios.basic import forward_position, speed_tracks
-from hil.scenarios.collisions import falls_safely, fall_time, recovers
-from hil.scenarios.common import DEG, never_tips, no_deadline_miss, pitch_below, remote, stand
+from wheelleg.controller import constants as C
+from wheelleg.controller import params as P
+from wheelleg.emulators.physics import TerrainFeature
+from wheelleg.hil.run.scenario import Check, RunData, Scenario
+from wheelleg.hil.scenarios.basic import forward_position, speed_tracks
+from wheelleg.hil.scenarios.collisions import falls_safely, fall_time, recovers
+from wheelleg.hil.scenarios.common import DEG, never_tips, no_deadline_miss, pitch_below, remote, stand
 
 LEVEL = 3 * DEG  # rad, "held level": |roll| below this once levelled
 

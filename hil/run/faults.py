@@ -7,7 +7,7 @@ the end of the run); the end is a ``fault_end`` event naming the fault.
 
 Device faults set the emulated device's fault policy (emulators/device.py:
 ``silent``, ``frozen``, ``deaf``) or its model (IMU noise, CyberGear fault
-bits). Frame faults act on one bus through ``BusFaults`` (hil/frame_faults.py,
+bits). Frame faults act on one bus through ``BusFaults`` (hil/bus/frame_faults.py,
 re-exported here), installed on the plant's ``RecordingBus`` the first time a
 fault needs it:
 
@@ -32,14 +32,14 @@ from typing import Callable
 
 import numpy as np
 
-from controller import constants as C
-from dbc import cybergear as cg
-from hil.busload import DEFAULT_BITRATE
+from wheelleg.controller import constants as C
+from wheelleg.dbc import cybergear as cg
+from wheelleg.hil.bus.busload import DEFAULT_BITRATE
 # BOTH, TO_DEVICES and priority are re-exported: scenarios and tests name them faults.*
-from hil.frame_faults import (BOTH, BUSES, TO_CONTROLLER, TO_DEVICES, Arbitration, Babble,  # noqa: F401
+from wheelleg.hil.bus.frame_faults import (BOTH, BUSES, TO_CONTROLLER, TO_DEVICES, Arbitration, Babble,  # noqa: F401
                               BusFaults, BusOff, Corrupt, Delay, Drop, ErrorFrames, Garbage, Select,
                               make_select, priority)
-from hil.scenario import Action
+from wheelleg.hil.run.scenario import Action
 
 
 # -- scheduling ---------------------------------------------------------------------
@@ -102,7 +102,7 @@ def esc_hold(wheel: str, t_s: float, duration_s: float | None = None) -> list[Ac
 
 
 def cybergear_fault(joint: str, fault: str, t_s: float) -> list[Action]:
-    """A CyberGear latches ``fault`` (dbc.cybergear.FAULT_NAMES); only a clear-fault stop clears it."""
+    """A CyberGear latches ``fault`` (wheelleg.dbc.cybergear.FAULT_NAMES); only a clear-fault stop clears it."""
     if fault not in cg.FAULT_NAMES:
         raise ValueError(f"unknown CyberGear fault {fault!r}; expected one of {cg.FAULT_NAMES}")
     _known(joint, tuple(j.name for j in C.JOINTS))

@@ -1,6 +1,6 @@
 """Benchmark (not a test): microseconds per recorded frame, trace and candump log.
 
-    python -m hil.bench_trace [--frames N]
+    python -m tools.bench_trace [--frames N]
 
 The frame mix is one control period of the rig, repeated: on CAN1 SYNC, the
 C620 current command, four C620 feedbacks, IMU and heartbeat; on CAN2 SYNC,
@@ -16,11 +16,12 @@ import tempfile
 import time
 from pathlib import Path
 
-import dbc
-from dbc import cybergear as cg
-from hil import schemas, trace as trace_module
-from hil.candump import CandumpWriter
-from hil.trace import TraceWriter
+from wheelleg import dbc
+from wheelleg.dbc import cybergear as cg
+from wheelleg.hil.record import schemas
+from wheelleg.hil.record import trace as trace_module
+from wheelleg.hil.record.candump import CandumpWriter
+from wheelleg.hil.record.trace import TraceWriter
 
 PERIOD_NS = 2_000_000  # one tick of the mix below, ns
 

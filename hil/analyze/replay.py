@@ -33,12 +33,12 @@ from dataclasses import dataclass, field
 
 import can
 
-from controller import params as P
-from controller.modes import Mode
-from controller.node import Controller, ControllerNode
-from hil.bug_report import environment_warnings
-from hil.trace_decode import FrameDecoder
-from hil.trace_source import (CAN1, CAN2, CONTROLLER_NODES, DBS, HEARTBEAT, ROLES, BusFrame,
+from wheelleg.controller import params as P
+from wheelleg.controller.modes import Mode
+from wheelleg.controller.node import Controller, ControllerNode
+from wheelleg.hil.analyze.bug_report import environment_warnings
+from wheelleg.hil.record.decode import FrameDecoder
+from wheelleg.hil.record.sources import (CAN1, CAN2, CONTROLLER_NODES, DBS, HEARTBEAT, ROLES, BusFrame,
                               TraceError, TraceSource, heartbeat_tick, is_heartbeat, is_sync,
                               open_trace, sent_by_controller)
 

@@ -1,24 +1,24 @@
-"""What the seed's frame layout costs each bus at a control rate: ``python -m hil.layout_load TRACE``.
+"""What the seed's frame layout costs each bus at a control rate: ``python -m tools.layout_load TRACE``.
 
 Reads a steady stretch of a rig trace (a balance run), measures each frame
-kind's wire bits exactly (``hil.busload.frame_bits``: the recorded payloads,
+kind's wire bits exactly (``wheelleg.hil.bus.busload.frame_bits``: the recorded payloads,
 stuff bits included) and its rate, and scales the frames that go with the
 control loop (commands, CyberGear replies, SYNC, heartbeat) to other control
 rates. Frames a device sends on its own clock (C620 feedback at 1 kHz, IMU at
 500 Hz, remote at 50 Hz) keep their rate.
 
     wheelleg run balance --duration 2 --out /tmp/bl --no-plot
-    python -m hil.layout_load /tmp/bl/balance.mcap --rates 500 1000
+    python -m tools.layout_load /tmp/bl/balance.mcap --rates 500 1000
 """
 from __future__ import annotations
 
 import argparse
 from collections import defaultdict
 
-from dbc import cybergear as cg
-from dbc import load_bus
-from hil.busload import DEFAULT_BITRATE, frame_bits
-from hil.trace import TraceReader
+from wheelleg.dbc import cybergear as cg
+from wheelleg.dbc import load_bus
+from wheelleg.hil.bus.busload import DEFAULT_BITRATE, frame_bits
+from wheelleg.hil.record.trace import TraceReader
 
 _DB1 = load_bus("can1")
 _SYNC_KIND = f"0x{_DB1.get_message_by_name('SYNC').frame_id:03X}"
@@ -66,7 +66,7 @@ def load_at(kinds: dict, measured_hz: float, control_hz: float, bitrate: int = D
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m hil.layout_load", description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="python -m tools.layout_load", description=__doc__.splitlines()[0])
     parser.add_argument("trace", help="MCAP trace of a steady run (balance)")
     parser.add_argument("--from", dest="t0", type=float, default=0.5, help="start of the steady stretch (s)")
     parser.add_argument("--to", dest="t1", type=float, default=None, help="end (s; default: the trace's end - 0.1)")

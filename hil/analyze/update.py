@@ -16,11 +16,11 @@ from pathlib import Path
 
 import can
 
-import dbc
-from hil.candump import CandumpWriter
-from hil.bug_report import current_params, git_revision
-from hil.replay import ReplayResult
-from hil.trace_source import DBS, ROLES, BusFrame
+from wheelleg import dbc
+from wheelleg.hil.record.candump import CandumpWriter
+from wheelleg.hil.analyze.bug_report import current_params, git_revision
+from wheelleg.hil.analyze.replay import ReplayResult
+from wheelleg.hil.record.sources import DBS, ROLES, BusFrame
 
 DEBUG_TOPIC = "/controller/debug"
 
@@ -97,7 +97,7 @@ def _attachments(result: ReplayResult) -> list:
 
 
 def _write_mcap(result: ReplayResult, frames: list[BusFrame], out: Path) -> None:
-    from hil.trace import DECODED_PREFIX, CAN_PREFIX, EVENTS_TOPIC, SIM_STATE_TOPIC, TraceReader, TraceWriter
+    from wheelleg.hil.record.trace import DECODED_PREFIX, CAN_PREFIX, EVENTS_TOPIC, SIM_STATE_TOPIC, TraceReader, TraceWriter
 
     reader = TraceReader(result.source.path)
     records = [(f.t_ns, 0, "frame", f) for f in frames]

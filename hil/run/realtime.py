@@ -29,11 +29,11 @@ import threading
 import time
 from contextlib import contextmanager
 
-from controller.node import ControllerNode
-from emulators.plant import CAN1, CAN2
-from hil import schemas
-from hil.loop_timing import loop_timing, per_tick, plant_timing
-from hil.transport import open_bus
+from wheelleg.controller.node import ControllerNode
+from wheelleg.emulators.plant import CAN1, CAN2
+from wheelleg.hil.record import schemas
+from wheelleg.hil.run.loop_timing import loop_timing, per_tick, plant_timing
+from wheelleg.hil.bus.transport import open_bus
 
 MAX_BATCH_S = 0.05  # s of physics the plant takes in one batch when behind (then it stretches time)
 SWITCH_INTERVAL_S = 0.0002  # Python's GIL hand-over bound while two loops share the process

@@ -9,7 +9,7 @@ matplotlib.use("Agg")  # files only, no screen
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from hil.scenario import RunData  # noqa: E402
+from wheelleg.hil.run.scenario import RunData  # noqa: E402
 
 
 def plot_run(run: RunData, path: Path | str, title: str = "") -> Path:

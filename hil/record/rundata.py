@@ -6,12 +6,12 @@ from pathlib import Path
 
 import numpy as np
 
-from dbc import cybergear as cg
-from dbc import load_bus
-from emulators.plant import CAN1, CAN2
-from hil.busload import LOAD_TOPIC
-from hil.scenario import RunData
-from hil.trace import DECODED_PREFIX, TraceReader
+from wheelleg.dbc import cybergear as cg
+from wheelleg.dbc import load_bus
+from wheelleg.emulators.plant import CAN1, CAN2
+from wheelleg.hil.bus.busload import LOAD_TOPIC
+from wheelleg.hil.run.scenario import RunData
+from wheelleg.hil.record.trace import DECODED_PREFIX, TraceReader
 
 
 def _commands(reader: TraceReader, joints_channel: str) -> dict:

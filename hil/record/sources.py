@@ -13,7 +13,7 @@ from what it carries (CyberGear extended ids -> can2; C620, IMU or remote ids
 Which frames are the controller's: the DBC says it. A frame is the
 controller's when its DBC message lists a controller node among its senders
 (``HOST`` in cybergear.dbc and c620.dbc, ``CONTROLLER`` in rig.dbc); CyberGear
-frames are looked up at their canonical id (``dbc.cybergear.canonical_id``)
+frames are looked up at their canonical id (``wheelleg.dbc.cybergear.canonical_id``)
 and a frame addressed to the host (a reply) is never the host's.
 """
 from __future__ import annotations
@@ -25,10 +25,10 @@ from pathlib import Path
 
 import can
 
-import dbc
-from controller.constants import CG_HOST_ID
-from dbc import cybergear as cg
-from hil.candump import CandumpReader, DropNotice, LogFormatError
+from wheelleg import dbc
+from wheelleg.controller.constants import CG_HOST_ID
+from wheelleg.dbc import cybergear as cg
+from wheelleg.hil.record.candump import CandumpReader, DropNotice, LogFormatError
 
 CAN1, CAN2 = "can1", "can2"
 ROLES = (CAN1, CAN2)
@@ -242,7 +242,7 @@ def open_trace(path, channels: dict | None = None, *, strict: bool = True) -> Tr
 
 
 def _open_mcap(path: Path) -> TraceSource:
-    from hil.trace import CAN_PREFIX, TraceReader  # noqa: PLC0415 (mcap only when needed)
+    from wheelleg.hil.record.trace import CAN_PREFIX, TraceReader  # noqa: PLC0415 (mcap only when needed
 
     try:
         reader = TraceReader(path)

@@ -11,15 +11,15 @@ from __future__ import annotations
 
 import can
 
-from hil.busload import BusClock, LoadMeter
+from wheelleg.hil.bus.busload import BusClock, LoadMeter
 
 
 class Recorder:
     """Fans each observed frame out to the trace and the candump log."""
 
     def __init__(self, trace=None, log=None, bitrate: int = 1_000_000):
-        self.trace = trace  # hil.trace.TraceWriter or None
-        self.log = log  # hil.candump.CandumpWriter or None
+        self.trace = trace  # wheelleg.hil.record.trace.TraceWriter or None
+        self.log = log  # wheelleg.hil.record.candump.CandumpWriter or None
         self.clocks: dict[str, BusClock] = {}
         self.bitrate = bitrate
         self.now_ns = 0  # simulated time, set by the rig before each batch of frames

@@ -1,7 +1,7 @@
 """The rig's trace: one MCAP file per run, written as the run goes.
 
 Channels (all JSON with a JSON Schema, so Foxglove lists and plots them; see
-``hil.schemas`` for the field lists and units):
+``wheelleg.hil.record.schemas`` for the field lists and units):
 
 - ``/can/<channel>``      one message per frame: {"id", "extended", "dlc", "data" (hex), "error"};
                           log time = publish time = bus time (ns).
@@ -22,7 +22,7 @@ Usage::
     reader = TraceReader(path)
     reader.sim_state()["pitch"]   # (n,) rad
 
-Cost (hil/bench_trace.py, this 2-core machine, with orjson): ~3 us per raw
+Cost (tools/bench_trace.py, this 2-core machine, with orjson): ~3 us per raw
 frame, ~6 us more per frame with ``/decoded/`` channels. Without orjson the
 stdlib json module is used and decoding costs ~11 us more per frame.
 """
@@ -40,9 +40,9 @@ from typing import Iterator, Sequence
 import numpy as np
 from mcap.records import Channel, Message, Metadata, Attachment, Schema
 
-from hil import schemas
-from hil.mcap_chunks import ChunkedMcapWriter, RecordScan, read_records
-from hil.trace_decode import FrameDecoder
+from wheelleg.hil.record import schemas
+from wheelleg.hil.record.mcap_chunks import ChunkedMcapWriter, RecordScan, read_records
+from wheelleg.hil.record.decode import FrameDecoder
 
 try:  # optional: 10x faster float formatting than the json module
     import orjson

@@ -74,7 +74,7 @@ EVENT: dict = {
 
 BUS_LOAD: dict = {
     "title": "wheelleg.BusLoad",
-    "description": "Load of one CAN bus over one window of simulated time (hil.busload.LoadMeter).",
+    "description": "Load of one CAN bus over one window of simulated time (wheelleg.hil.bus.busload.LoadMeter).",
     "type": "object",
     "properties": {
         "channel": {"type": "string", "description": "interface name (vcan0 ...)"},
@@ -169,7 +169,7 @@ def schema_bytes(schema: dict) -> bytes:
 CONTROLLER_TIMING: dict = {
     "title": "wheelleg.ControllerTiming",
     "description": "Real-time mode: one free-running controller tick, timed on the wall clock "
-                   "(hil/loop_timing.py); log time = tick x control period.",
+                   "(hil/run/loop_timing.py); log time = tick x control period.",
     "type": "object",
     "properties": {
         "tick": {"type": "integer", "minimum": 0, "description": "tick number (floor of controller time / period)"},

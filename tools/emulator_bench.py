@@ -1,6 +1,6 @@
 """Micro-benchmark of the emulators' hot paths (not a test: timings here are noisy).
 
-``python -m emulators.bench`` prints microseconds per CyberGear motion
+``python -m tools.emulator_bench`` prints microseconds per CyberGear motion
 request handled + reply built, per C620 feedback frame and per IMU period
 (3 frames), device only (no bus, best of 5 runs), then the same through a DeviceNode on a
 python-can virtual bus (send, service, receive).
@@ -11,12 +11,12 @@ import time
 
 import can
 
-from dbc import cybergear as cg
-from dbc import load_file, truncating_raw
-from emulators.c620 import C620
-from emulators.cybergear import CyberGear
-from emulators.imu import Imu
-from emulators.node import DeviceNode
+from wheelleg.dbc import cybergear as cg
+from wheelleg.dbc import load_file, truncating_raw
+from wheelleg.emulators.c620 import C620
+from wheelleg.emulators.cybergear import CyberGear
+from wheelleg.emulators.imu import Imu
+from wheelleg.emulators.node import DeviceNode
 
 N = 20000
 

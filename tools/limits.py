@@ -1,6 +1,6 @@
 """What the robot reaches in the rig: the largest size of each feat that passes.
 
-    python -m hil.limits [--only NAME] [--coarse] [--out DIR] [--seed N]
+    python -m tools.limits [--only NAME] [--coarse] [--out DIR] [--seed N]
 
 For each figure a scenario factory (``size -> Scenario``) is run headless (no
 plot) at sizes from a ladder; a size passes when every check of its scenario
@@ -94,8 +94,8 @@ def search_limit(passes: Callable[[float], bool], ladder, bisect_steps: int = 2)
 # -- running a scenario in the rig --------------------------------------------------------------
 def run_checks(scenario, out_dir: Path, seed: int = 0) -> list:
     """Run ``scenario`` in the rig (virtual buses, no plot); its CheckResults."""
-    from hil.rig import Rig, RigConfig  # the rig (MuJoCo, emulators) only when used
-    from hil.rundata import load_run
+    from wheelleg.hil.run.rig import Rig, RigConfig  # the rig (MuJoCo, emulators) only when used
+    from wheelleg.hil.record.rundata import load_run
 
     outcome = Rig(scenario, RigConfig(seed=seed), out_dir).run()
     run = load_run(outcome.trace_path)
@@ -123,8 +123,10 @@ def rig_passes(factory: Callable, out_dir: Path, seed: int = 0, log=print) -> Ca
 
 # -- the figures --------------------------------------------------------------------------------
 def figures() -> tuple:
-    from controller import params as P
-    from hil.scenarios import airborne, collisions, ground
+    from wheelleg.controller import params as P
+    from wheelleg.hil.scenarios import airborne
+    from wheelleg.hil.scenarios import collisions
+    from wheelleg.hil.scenarios import ground
 
     return (
         Figure("jump", "jump clearance (wheels above ground)", "m", airborne.jump_scenario,
@@ -169,7 +171,7 @@ def table(rows: list) -> str:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m hil.limits", description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="python -m tools.limits", description=__doc__.splitlines()[0])
     parser.add_argument("--only", action="append", help="run only this figure (repeatable)")
     parser.add_argument("--coarse", action="store_true", help="short ladders, one bisection step")
     parser.add_argument("--out", type=Path, default=None, help="keep traces here (default: a temporary dir)")

@@ -13,7 +13,7 @@ from __future__ import annotations
 import functools
 from dataclasses import dataclass
 
-from hil import schemas
+from wheelleg.hil.record import schemas
 
 TRAILER_BITS = 1 + 2 + 7 + 3  # CRC delimiter, ACK slot + delimiter, EOF, intermission
 DEFAULT_BITRATE = 1_000_000  # bit/s
@@ -146,7 +146,7 @@ class LoadMeter:
     """Bus load per bus over fixed windows of simulated time, written to the trace.
 
     Every ``window_s`` it writes one ``/bus/load`` message per bus
-    (``hil.schemas.BUS_LOAD``): the wire time the bus's frames took in the
+    (``wheelleg.hil.record.schemas.BUS_LOAD``): the wire time the bus's frames took in the
     window (stuff bits included) over the window, i.e. busy seconds per
     second. Frames are charged when they are put on the bus, so a demand
     beyond the bus's capacity shows as a load above 1 (without an

@@ -1,6 +1,6 @@
 """Benchmark (not a test): real-time factor of a lockstep run and where the time goes.
 
-    python -m hil.bench [SCENARIO] [--duration S] [--no-decode]
+    python -m tools.bench [SCENARIO] [--duration S] [--no-decode]
 
 First a plain run gives the real-time factor (simulated s / wall s, one
 process, one core). Then the same run under cProfile attributes the time of
@@ -17,8 +17,8 @@ import time
 from dataclasses import replace
 from pathlib import Path
 
-from hil import scenarios
-from hil.rig import Rig, RigConfig
+from wheelleg.hil import scenarios
+from wheelleg.hil.run.rig import Rig, RigConfig
 
 PARTS = (  # (part, path fragments), first match wins
     ("physics (MuJoCo)", ("mujoco", "emulators/physics.py", "emulators/terrain.py")),

@@ -2,7 +2,7 @@
 
 Per interface: frames and rate per identifier (CyberGear frames grouped by
 communication type and motor, since type-1 ids carry the torque), bus load
-(``hil.busload.frame_bits`` on the wire at ``bitrate``: mean over the
+(``wheelleg.hil.bus.busload.frame_bits`` on the wire at ``bitrate``: mean over the
 recording, peak over ``window_s`` windows), decoded signal ranges (min/max),
 faults (CyberGear fault bits, the heartbeat's mode, warning level and offline
 devices, scenario events of kind ``fault*``) and deadline misses (the rig's
@@ -18,12 +18,12 @@ from pathlib import Path
 
 import numpy as np
 
-from controller.constants import CG_HOST_ID, DEVICES
-from controller.modes import Mode
-from dbc import cybergear as cg
-from hil.busload import DEFAULT_BITRATE, frame_bits
-from hil.trace_decode import FrameDecoder
-from hil.trace_source import (CAN1, DBS, HEARTBEAT, BusFrame, TraceSource, is_heartbeat, is_sync,
+from wheelleg.controller.constants import CG_HOST_ID, DEVICES
+from wheelleg.controller.modes import Mode
+from wheelleg.dbc import cybergear as cg
+from wheelleg.hil.bus.busload import DEFAULT_BITRATE, frame_bits
+from wheelleg.hil.record.decode import FrameDecoder
+from wheelleg.hil.record.sources import (CAN1, DBS, HEARTBEAT, BusFrame, TraceSource, is_heartbeat, is_sync,
                               open_trace, sync_tick)
 
 _FAULT_PREFIXES = ("Fault", "Warn")

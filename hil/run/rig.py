@@ -11,10 +11,10 @@ With the in-process controller (the default, on python-can's virtual bus)
 the rig hands the controller the turn itself instead of sleeping: the same
 frames in the same order, just no thread switches. Over a real transport
 (SocketCAN) the plant holds each bus's frames until both heartbeats are in
-and then takes them in the virtual bus's order (hil/held_bus.py): the same
+and then takes them in the virtual bus's order (hil/bus/held_bus.py): the same
 bytes in the recording on every transport.
 
-``RigConfig(realtime=True)`` is not lockstep: hil/realtime.py.
+``RigConfig(realtime=True)`` is not lockstep: hil/run/realtime.py.
 """
 from __future__ import annotations
 
@@ -27,17 +27,17 @@ from pathlib import Path
 import can
 import numpy as np
 
-from controller import params as P
-from controller.node import ControllerNode
-from dbc import all_dbc_files, load_bus
-from emulators.physics import Physics
-from emulators.plant import CAN1, CAN2, Plant, PlantConfig
-from hil.candump import CandumpWriter
-from hil.held_bus import HeldBus
-from hil.recorder import Recorder, RecordingBus
-from hil.scenario import Scenario
-from hil.trace import TraceWriter
-from hil.transport import open_bus
+from wheelleg.controller import params as P
+from wheelleg.controller.node import ControllerNode
+from wheelleg.dbc import all_dbc_files, load_bus
+from wheelleg.emulators.physics import Physics
+from wheelleg.emulators.plant import CAN1, CAN2, Plant, PlantConfig
+from wheelleg.hil.record.candump import CandumpWriter
+from wheelleg.hil.bus.held_bus import HeldBus
+from wheelleg.hil.bus.recorder import Recorder, RecordingBus
+from wheelleg.hil.run.scenario import Scenario
+from wheelleg.hil.record.trace import TraceWriter
+from wheelleg.hil.bus.transport import open_bus
 
 _RIG_DB = load_bus(CAN1)
 _SYNC = _RIG_DB.get_message_by_name("SYNC")
@@ -56,7 +56,7 @@ class RigConfig:
     physics_dt_s: float = 0.001
     in_process_controller: bool = True  # False: an external `wheelleg controller` answers
     deadline_s: float = 0.5  # wall-clock bound for the heartbeats of one tick
-    realtime: bool = False  # plant at wall-clock pace, controller on its own timer (hil/realtime.py)
+    realtime: bool = False  # plant at wall-clock pace, controller on its own timer (hil/run/realtime.py)
     record_debug: bool = True  # the in-process controller's internals on /controller/debug
     decode: bool = True  # also write /decoded/ channels (raw frames are always recorded)
     plant: PlantConfig = field(default_factory=PlantConfig)
@@ -70,7 +70,7 @@ class RunOutcome:
     deadline_misses: int
     wall_s: float
     sim_s: float
-    timing: dict | None = None  # real-time mode: {"controller": ..., "plant": ...} (hil/loop_timing.py)
+    timing: dict | None = None  # real-time mode: {"controller": ..., "plant": ...} (hil/run/loop_timing.py)
 
 
 def git_revision() -> str:
@@ -114,7 +114,7 @@ class Rig:
                             for k, b in self._raw.items()}
         self.plant = Plant(self.physics, self.plant_buses, self.rng, config.plant)
         self.controller = None
-        if config.in_process_controller and not config.realtime:  # real time: hil/realtime.py
+        if config.in_process_controller and not config.realtime:  # real time: hil/run/realtime.py
             self.controller = ControllerNode(_open_bus(config, self.names[CAN1]),
                                              _open_bus(config, self.names[CAN2]),
                                              sync=True, period_s=config.period_s)
@@ -258,7 +258,7 @@ class Rig:
                           time.perf_counter() - wall0, ticks * self.config.period_s)
 
     def _run_realtime(self) -> RunOutcome:
-        from hil.realtime import RealtimeRun
+        from wheelleg.hil.run.realtime import RealtimeRun
 
         try:
             ticks, sim_s, wall_s, timing = RealtimeRun(self).run()

@@ -51,7 +51,7 @@ class Scenario:
     start: Callable  # start(physics) -> None: the robot's initial pose
     timeline: tuple = ()  # Actions, any order
     checks: tuple = ()
-    terrain: tuple = ()  # emulators.physics.TerrainFeature
+    terrain: tuple = ()  # wheelleg.emulators.physics.TerrainFeature
     tags: tuple = ()
 
 

@@ -13,9 +13,9 @@ import json
 import subprocess
 from pathlib import Path
 
-import dbc
-from controller import params as P
-from hil.trace_source import TraceSource
+from wheelleg import dbc
+from wheelleg.controller import params as P
+from wheelleg.hil.record.sources import TraceSource
 
 RUN_KEYS = ("scenario", "seed", "control_period_s", "git_revision", "controller_params", "can1", "can2")
 

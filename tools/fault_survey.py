@@ -1,4 +1,4 @@
-"""What the controller does under the faults no scenario checks: ``python -m hil.fault_survey``.
+"""What the controller does under the faults no scenario checks: ``python -m tools.fault_survey``.
 
 Each entry balances on flat ground, injects one fault at 1 s for the rest of
 the run and reports, from the trace, the modes the controller went through,
@@ -14,13 +14,13 @@ from pathlib import Path
 
 import numpy as np
 
-from controller.modes import Mode
-from hil import faults as F
-from hil.rig import Rig, RigConfig
-from hil.rundata import load_run
-from hil.scenario import Scenario
-from hil.scenarios.basic import standing
-from hil.scenarios.common import stand
+from wheelleg.controller.modes import Mode
+from wheelleg.hil.run import faults as F
+from wheelleg.hil.run.rig import Rig, RigConfig
+from wheelleg.hil.record.rundata import load_run
+from wheelleg.hil.run.scenario import Scenario
+from wheelleg.hil.scenarios.basic import standing
+from wheelleg.hil.scenarios.common import stand
 
 AT = 1.0  # s
 
@@ -59,7 +59,7 @@ def survey(name: str, duration_s: float, out: Path, seed: int = 0) -> dict:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m hil.fault_survey", description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="python -m tools.fault_survey", description=__doc__.splitlines()[0])
     parser.add_argument("names", nargs="*", help=f"entries (default all: {', '.join(SURVEY)})")
     parser.add_argument("--duration", type=float, default=3.0, help="s per run (fault at 1 s)")
     parser.add_argument("--seed", type=int, default=0)

@@ -5,7 +5,7 @@ frames carry fields in their 29-bit identifier and their payload layout sits
 in cybergear.dbc at a canonical id (the communication type alone), so an
 extended frame whose canonical id names a CyberGear message is decoded at that
 id, and the id-resident fields (type, host, target or motor id, torque
-feed-forward, mode, fault bits) are added through ``dbc.cybergear``.
+feed-forward, mode, fault bits) are added through ``wheelleg.dbc.cybergear``.
 
 Values are numbers (choices stay numbers). A frame that cannot be decoded
 (unknown id, wrong length) yields ``None``: the raw frame is still recorded.
@@ -25,9 +25,9 @@ from typing import Callable
 from cantools.database.conversion import BaseConversion, IdentityConversion
 from cantools.database.errors import DecodeError
 
-import dbc
-from controller.constants import CG_HOST_ID
-from dbc import cybergear as cg
+from wheelleg import dbc
+from wheelleg.controller.constants import CG_HOST_ID
+from wheelleg.dbc import cybergear as cg
 
 _CACHE_LIMIT = 65536  # distinct (channel, id, extended) keys remembered
 _ID_CACHE_LIMIT = 4096  # CyberGear ids whose fields are remembered (type-1 ids vary with torque)

@@ -1,6 +1,6 @@
-"""Frame faults on one rig bus: the machinery behind hil/faults.py's frame injectors.
+"""Frame faults on one rig bus: the machinery behind hil/run/faults.py's frame injectors.
 
-``BusFaults`` sits on a plant-side ``hil.recorder.RecordingBus`` (its
+``BusFaults`` sits on a plant-side ``wheelleg.hil.bus.recorder.RecordingBus`` (its
 ``outbox_filter`` and ``hook``) and applies the active ``FrameFault``s: to
 frames the plant sends towards the controller (drop, delay, corrupt, error
 frames, a babbling or garbage node, CAN arbitration) and to frames the
@@ -15,10 +15,10 @@ from typing import Callable
 import can
 import numpy as np
 
-from controller import constants as C
-from dbc import cybergear as cg
-from dbc import load_bus
-from hil.busload import frame_bits, wire_ns
+from wheelleg.controller import constants as C
+from wheelleg.dbc import cybergear as cg
+from wheelleg.dbc import load_bus
+from wheelleg.hil.bus.busload import frame_bits, wire_ns
 
 _RIG = load_bus("can1")
 LOCKSTEP_IDS = frozenset(_RIG.get_message_by_name(n).frame_id for n in ("SYNC", "Heartbeat"))
@@ -301,7 +301,7 @@ def _rate(rate: float) -> float:
 
 
 class BusFaults:
-    """The frame faults active on one plant-side bus end (a ``hil.recorder.RecordingBus``).
+    """The frame faults active on one plant-side bus end (a ``wheelleg.hil.bus.recorder.RecordingBus``).
 
     It becomes the bus's ``outbox_filter`` and wraps its ``hook``; time is the
     recorder's simulated clock (``now_ns``). Faults act in the order they
