@@ -37,3 +37,14 @@ def test_a_different_seed_changes_the_log(tmp_path):
     first, _ = run_scenario("balance", tmp_path / "a", seed=1, duration=0.5)
     second, _ = run_scenario("balance", tmp_path / "b", seed=2, duration=0.5)
     assert first.log_path.read_bytes() != second.log_path.read_bytes()
+
+
+def test_a_run_trace_carries_its_model_and_dbc_files(tmp_path):
+    """The trace alone is the bug report: the MJCF and every DBC file ride along."""
+    from wheelleg.dbc import all_dbc_files
+    from wheelleg.hil.record.trace import TraceReader
+
+    outcome, _ = run_scenario("balance", tmp_path, duration=0.1)
+    names = set(TraceReader(outcome.trace_path).attachments)
+    assert {"robot.xml", "scene.xml"} <= names
+    assert {p.name for p in all_dbc_files()} <= names

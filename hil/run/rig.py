@@ -30,7 +30,7 @@ import numpy as np
 from wheelleg.controller import params as P
 from wheelleg.controller.node import ControllerNode
 from wheelleg.dbc import all_dbc_files, load_bus
-from wheelleg.emulators.physics import Physics
+from wheelleg.emulators.physics import MODEL_DIR, Physics
 from wheelleg.emulators.plant import CAN1, CAN2, Plant, PlantConfig
 from wheelleg.hil.record.candump import CandumpWriter
 from wheelleg.hil.bus.held_bus import HeldBus
@@ -42,8 +42,6 @@ from wheelleg.hil.bus.transport import open_bus
 _RIG_DB = load_bus(CAN1)
 _SYNC = _RIG_DB.get_message_by_name("SYNC")
 _HEARTBEAT = _RIG_DB.get_message_by_name("Heartbeat")
-MODEL_DIR = Path(__file__).resolve().parent.parent / "emulators" / "robot"
-
 
 @dataclass
 class RigConfig:
@@ -61,7 +59,6 @@ class RigConfig:
     decode: bool = True  # also write /decoded/ channels (raw frames are always recorded)
     plant: PlantConfig = field(default_factory=PlantConfig)
 
-
 @dataclass
 class RunOutcome:
     trace_path: Path
@@ -72,7 +69,6 @@ class RunOutcome:
     sim_s: float
     timing: dict | None = None  # real-time mode: {"controller": ..., "plant": ...} (hil/run/loop_timing.py)
 
-
 def git_revision() -> str:
     try:
         out = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True,
@@ -81,10 +77,8 @@ def git_revision() -> str:
     except (OSError, subprocess.SubprocessError):
         return "unknown"
 
-
 def _open_bus(config: RigConfig, channel: str) -> can.BusABC:
     return open_bus(config.interface, channel)
-
 
 class Rig:
     """One scenario run: build everything, step it, record it."""
