@@ -19,7 +19,8 @@ import numpy as np
 
 from wheelleg.controller import constants as C
 from wheelleg.dbc import load_bus
-from wheelleg.emulators.device import EmulatedDevice, FieldScale, FrameCodec, PeriodicSchedule, frame
+from wheelleg.dbc.codec import MessageCodec
+from wheelleg.emulators.device import EmulatedDevice, PeriodicSchedule, frame
 
 FRAMES = {  # frame -> its signals in the order measure() returns the values
     "IMU_Orientation": ("QuatW", "QuatX", "QuatY", "QuatZ"),
@@ -78,8 +79,8 @@ class Imu(EmulatedDevice):
         self.period_s = period_s
         self._schedule = PeriodicSchedule(period_s)
         db = load_bus("can1")
-        self._codecs = [FrameCodec(db.get_message_by_name(name)) for name in FRAMES]
-        self._fields = [tuple(FieldScale(codec.signals[name]) for name in names)
+        self._codecs = [MessageCodec.of(db.get_message_by_name(name)) for name in FRAMES]
+        self._fields = [tuple(codec.signals[name] for name in names)
                         for codec, names in zip(self._codecs, FRAMES.values())]
         self.set_truth((1.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, C.GRAVITY))
 
