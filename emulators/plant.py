@@ -14,14 +14,13 @@ import can
 import numpy as np
 
 from wheelleg.controller import constants as C
+from wheelleg.dbc import CAN1, CAN2
 from wheelleg.emulators.c620 import C620
 from wheelleg.emulators.cybergear import CyberGear
 from wheelleg.emulators.imu import Imu, ImuNoise
 from wheelleg.emulators.node import DeviceNode
 from wheelleg.emulators.physics import Physics
 from wheelleg.emulators.remote import Remote
-
-CAN1, CAN2 = "can1", "can2"
 
 
 @dataclass

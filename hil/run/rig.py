@@ -29,9 +29,9 @@ import numpy as np
 
 from wheelleg.controller import params as P
 from wheelleg.controller.node import ControllerNode
-from wheelleg.dbc import all_dbc_files, load_bus
+from wheelleg.dbc import CAN1, CAN2, all_dbc_files, load_bus
 from wheelleg.emulators.physics import MODEL_DIR, Physics
-from wheelleg.emulators.plant import CAN1, CAN2, Plant, PlantConfig
+from wheelleg.emulators.plant import Plant, PlantConfig
 from wheelleg.hil.record.candump import CandumpWriter
 from wheelleg.hil.bus.held_bus import HeldBus
 from wheelleg.hil.bus.recorder import Recorder, RecordingBus
