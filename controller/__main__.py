@@ -22,7 +22,7 @@ from wheelleg.controller.node import ControllerNode
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="python -m controller", description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="python -m wheelleg.controller", description=__doc__.splitlines()[0])
     add_arguments(parser)
     return parser
 
