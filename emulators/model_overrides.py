@@ -48,9 +48,16 @@ def override_model(spec: mujoco.MjSpec, overrides: Mapping[str, float]) -> None:
     for key, attr in (("hip_damping", "damping"), ("hip_frictionloss", "frictionloss")):
         if changed(key):
             for name in _HIPS:
-                setattr(spec.joint(name), attr, value(key))
+                _set_first(spec.joint(name), attr, value(key))
     if changed("imu_tilt_pitch_deg") or changed("imu_tilt_roll_deg"):
         spec.site("imu").quat = imu_mount_quat(value("imu_tilt_pitch_deg"), value("imu_tilt_roll_deg"))
+
+
+def _set_first(element, attr: str, number: float) -> None:
+    """Set ``element.attr`` to ``number``, or its first entry when it is an array (MuJoCo's
+    joint damping is one since 3.3: the linear coefficient first)."""
+    current = getattr(element, attr)
+    setattr(element, attr, [number, *current[1:]] if np.ndim(current) else number)
 
 
 def _set_friction(spec: mujoco.MjSpec, sliding: float) -> None:
