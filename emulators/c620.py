@@ -34,8 +34,8 @@ import math
 import can
 
 from wheelleg.dbc import load_file
-from wheelleg.emulators.device import (EmulatedDevice, FieldScale, FrameCodec, PeriodicSchedule, Shaft, frame,
-                              is_data_frame)
+from wheelleg.dbc.codec import MessageCodec
+from wheelleg.emulators.device import EmulatedDevice, PeriodicSchedule, Shaft, frame, is_data_frame
 from wheelleg.emulators.robot import description as D
 
 FEEDBACK_PERIOD_S = 0.001  # 1 kHz default feedback rate (DJI's C620 guide p. 17)
@@ -62,12 +62,12 @@ class C620(EmulatedDevice):
         cmd = db.get_message_by_name("C620_Cmd_1_4" if esc_id <= 4 else "C620_Cmd_5_8")
         self._slot = f"ESC{esc_id}_Current"
         slot_signal = cmd.get_signal_by_name(self._slot)
-        self._cmd = FrameCodec(cmd, [slot_signal])
+        self._cmd = MessageCodec(cmd, [slot_signal])
         self._raw_limit = round(slot_signal.maximum / slot_signal.scale)  # 16384
         self._amps_per_raw = slot_signal.scale
-        self._fb = FrameCodec(db.get_message_by_name(f"C620_Feedback_{esc_id}"))
+        self._fb = MessageCodec.of(db.get_message_by_name(f"C620_Feedback_{esc_id}"))
         self._speed_field, self._current_field, self._temp_field = (
-            FieldScale(self._fb.signals[name]) for name in ("RotorSpeed", "TorqueCurrent", "MotorTemp"))
+            self._fb.signals[name] for name in ("RotorSpeed", "TorqueCurrent", "MotorTemp"))
         self._angle_counts = round(360.0 / self._fb.signals["RotorAngle"].scale)  # 8192 per rotor turn
         self._schedule = PeriodicSchedule(FEEDBACK_PERIOD_S)
         if not (supply_v > 0.0 and kt_scale > 0.0):

@@ -49,7 +49,8 @@ import can
 
 from wheelleg.dbc import CYBERGEAR_FILES, load_file
 from wheelleg.dbc import cybergear as cg
-from wheelleg.emulators.device import EmulatedDevice, FieldScale, FrameCodec, Shaft, frame, is_data_frame
+from wheelleg.dbc.codec import MessageCodec
+from wheelleg.emulators.device import EmulatedDevice, Shaft, frame, is_data_frame
 from wheelleg.emulators.robot import description as D
 
 MODE_RESET, MODE_CALI, MODE_RUN = 0, 1, 2
@@ -106,25 +107,23 @@ class _Layouts:
     def __init__(self, position_range: str):
         db = load_file(CYBERGEAR_FILES[position_range])
         msg = db.get_message_by_name
-        self.motion = FrameCodec(msg("CG_MotionCmd"))
-        self.motion_fields = tuple(FieldScale(self.motion.signals[name])
-                                   for name in ("PosRef", "VelRef", "Kp", "Kd"))
-        self.feedback = FrameCodec(msg("CG_Feedback"))
-        self.fb_fields = tuple(FieldScale(self.feedback.signals[name])
-                               for name in ("Pos", "Vel", "Torque", "Temp"))
-        self.device_id = FrameCodec(msg("CG_DeviceId"))
-        self.stop = FrameCodec(msg("CG_Stop"))
-        self.set_zero = FrameCodec(msg("CG_SetZero"))
-        self.set_baud = FrameCodec(msg("CG_SetBaud"))
-        self.fault_warn = FrameCodec(msg("CG_FaultWarn"))
+        self.motion = MessageCodec.of(msg("CG_MotionCmd"))
+        self.motion_fields = tuple(self.motion.signals[name] for name in ("PosRef", "VelRef", "Kp", "Kd"))
+        self.feedback = MessageCodec.of(msg("CG_Feedback"))
+        self.fb_fields = tuple(self.feedback.signals[name] for name in ("Pos", "Vel", "Torque", "Temp"))
+        self.device_id = MessageCodec.of(msg("CG_DeviceId"))
+        self.stop = MessageCodec.of(msg("CG_Stop"))
+        self.set_zero = MessageCodec.of(msg("CG_SetZero"))
+        self.set_baud = MessageCodec.of(msg("CG_SetBaud"))
+        self.fault_warn = MessageCodec.of(msg("CG_FaultWarn"))
         write, read = msg("CG_ParamWrite"), msg("CG_ParamRead")
-        self.index = FrameCodec(write, [write.get_signal_by_name("Index")])
+        self.index = MessageCodec(write, [write.get_signal_by_name("Index")])
         self.params = {}  # index -> (name, index, write codec, read-reply codec)
         for sig in write.signals:
             for index in sig.multiplexer_ids or ():
                 self.params[index] = (
-                    sig.name, index, FrameCodec(write, [write.get_signal_by_name("Index"), sig]),
-                    FrameCodec(read, [read.get_signal_by_name("Index"), read.get_signal_by_name(sig.name)]))
+                    sig.name, index, MessageCodec(write, [write.get_signal_by_name("Index"), sig]),
+                    MessageCodec(read, [read.get_signal_by_name("Index"), read.get_signal_by_name(sig.name)]))
 
     @classmethod
     def get(cls, position_range: str) -> "_Layouts":
