@@ -16,6 +16,7 @@ import math
 import os
 import re
 import shutil
+import signal
 import time
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -135,12 +136,21 @@ class Engine:
 
         self.cluster = None
         if address is None:
-            self.cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1,
-                                        processes=processes, dashboard_address=None, memory_limit=0,
-                                        silence_logs=logging.ERROR)
+            # Ctrl-C is the driver's to handle (it journals and closes the cluster): the worker
+            # processes start with SIGINT ignored, which Python keeps across their start.
+            previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+            try:
+                self.cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1,
+                                            processes=processes, dashboard_address=None, memory_limit=0,
+                                            silence_logs=logging.ERROR)
+            finally:
+                signal.signal(signal.SIGINT, previous)
             self.client = Client(self.cluster)
         else:
-            self.client = Client(address, timeout="10s")
+            try:
+                self.client = Client(address, timeout="10s")
+            except OSError as exc:
+                raise OSError(f"cannot reach the Dask scheduler at {address}: {exc}") from None
 
     def map(self, runner: Runner, jobs: list[Job], settings: RunSettings) -> Iterator[dict]:
         """Each job's row, in the order they finish."""

@@ -81,7 +81,7 @@ def run(args: argparse.Namespace, runner: execution.Runner = execution.run_job, 
     log = journal.Journal(args.out)
     jobs = sampling.plan(args.scenarios, args.samples, args.seed, spec["ranges"])
     todo = [job for job in jobs if (job.scenario, job.sample) not in log]
-    settings = execution.RunSettings(args.out, args.duration, args.keep_passing)
+    settings = execution.RunSettings(args.out.resolve(), args.duration, args.keep_passing)  # workers may run elsewhere
     if len(todo) < len(jobs):
         print(f"campaign: resuming, {len(jobs) - len(todo)} of {len(jobs)} runs already in {log.path}")
     try:
