@@ -6,7 +6,7 @@ them (through cantools) and adds what a DBC cannot say by itself: the
 CyberGear fields that live in the 29-bit identifier (``wheelleg.dbc.cybergear``) and
 the manual's truncating float-to-uint encoder.
 
-Buses (DESIGN.md): CAN1 carries the wheel ESCs, the IMU, the remote, SYNC and
+Buses (docs/protocols.md): CAN1 carries the wheel ESCs, the IMU, the remote, SYNC and
 heartbeat; CAN2 carries the four CyberGear joint motors, SYNC and heartbeat.
 """
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""DJI RoboMaster C620 ESC driving an M3508 P19 (../shared/protocols.md §2).
+"""DJI RoboMaster C620 ESC driving an M3508 P19 (docs/protocols.md).
 
 The ESC takes its slot of the 0x200 (ESC 1-4) or 0x1FF (ESC 5-8) current
 frame, clamps it to +-16384 (+-20 A) and drives the motor; it never answers a
@@ -11,17 +11,17 @@ Choices where the sources are silent:
 * A command frame must be standard-id, data, DLC 8 (the manual's frame);
   anything else is ignored.
 * When commands stop, the last current is held forever unless
-  ``command_timeout_s`` is set (§2.5: undocumented; hold is the worst case).
+  ``command_timeout_s`` is set (undocumented; hold is the worst case).
 * Back-EMF: the drive torque available at output speed w is
   ``K_EMF * (W_NO_LOAD - |w|)``, capped by the current. K_EMF comes from the
-  M3508+C620 speed-torque data (§2.7): rated 3 N m at 469 rpm, no load at
+  M3508+C620 speed-torque data (DJI's M3508 manual): rated 3 N m at 469 rpm, no load at
   482 rpm, so 3 N m / 13 rpm = 2.2 N m s/rad; the torque falls to zero at the
   no-load speed. Braking is not limited.
 * Motor temperature: first order, ``THERMAL_TAU_S`` and ``HEAT_K_PER_A2``
   are assumptions (DJI publishes no thermal data): the rated 10 A settles at
   100 degC. The ESC's optional 125 degC cut-off is not modelled.
 * The feedback current is the current the ESC achieves (after the back-EMF
-  limit), on the command's scale (community convention, §2.10).
+  limit), on the command's scale (community convention).
 """
 from __future__ import annotations
 
@@ -34,10 +34,10 @@ from wheelleg.dbc import load_file
 from wheelleg.emulators.device import (EmulatedDevice, FieldScale, FrameCodec, PeriodicSchedule, Shaft, frame,
                               is_data_frame)
 
-FEEDBACK_PERIOD_S = 0.001  # 1 kHz default feedback rate (D1 p.17)
+FEEDBACK_PERIOD_S = 0.001  # 1 kHz default feedback rate (DJI's C620 guide p. 17)
 FULL_DLC = 8
-RATED_TORQUE_NM = 3.0  # output shaft, max continuous (§2.7)
-RATED_SPEED_RAD_S = 469 * 2 * math.pi / 60  # output, at rated torque with a C620 (§2.7)
+RATED_TORQUE_NM = 3.0  # output shaft, max continuous (M3508 manual)
+RATED_SPEED_RAD_S = 469 * 2 * math.pi / 60  # output, at rated torque with a C620 (M3508 manual)
 BACK_EMF_NM_S_PER_RAD = RATED_TORQUE_NM / (C.M3508_NO_LOAD_SPEED - RATED_SPEED_RAD_S)
 THERMAL_TAU_S = 600.0  # s, assumed
 HEAT_K_PER_A2 = 0.75  # K/A^2, assumed: 10 A continuous settles 75 K above ambient

@@ -1,6 +1,6 @@
-"""Xiaomi CyberGear micro-motor, frame for frame (../shared/protocols.md §1).
+"""Xiaomi CyberGear micro-motor, frame for frame (docs/protocols.md).
 
-Reply rules (§1.11): every accepted host->motor frame of types 0, 1, 2 (a
+Reply rules (docs/protocols.md, how the emulated CyberGear answers): every accepted host->motor frame of types 0, 1, 2 (a
 poll), 3, 4, 6, 7, 17, 18, 21 and 22 gets exactly one reply; the motor sends
 nothing on its own. Types 0/7/22 answer with a type-0 device-id frame to
 0xFE, 17 with a type-17 frame, 21 with a type-21 fault/warning frame and
@@ -8,11 +8,11 @@ everything else with a type-2 feedback frame. Replies go to the host id in
 bits 15..8 of the request; type 1 carries none and is answered to the last
 host seen (initially 0x00, CAN_MASTER's example value).
 
-Choices where the sources are silent (⚠ in protocols.md), made once here:
+Choices where the sources are silent (docs/protocols.md), made once here:
 
 * DLC: types whose payload the motor reads (1, 4, 6, 17, 18, 22) need DLC 8,
   otherwise silence; types whose payload it ignores (0, 2, 3, 7, 21) accept
-  any DLC (the debugger sends type 0 with DLC 1, §1.12).
+  any DLC (the debugger sends type 0 with DLC 1).
 * Undocumented types (5, 8-16, 19, 20, 23-31), remote/error/FD frames,
   standard ids and frames for other targets: silence.
 * Type 17 of an index outside 0x7005-0x7020's table: silence (the manual
@@ -50,21 +50,21 @@ from wheelleg.emulators.device import EmulatedDevice, FieldScale, FrameCodec, Sh
 
 MODE_RESET, MODE_CALI, MODE_RUN = 0, 1, 2
 RUN_MODES = (0, 1, 2, 3)  # operation (motion), position, speed, current
-MAX_MOTOR_ID = 127  # parameter CAN_ID 0x200A range (§1.3)
-CURRENT_LIMIT_A = 23.0  # peak phase current; iq_ref / limit_cur range (§1.2, §1.7)
+MAX_MOTOR_ID = 127  # parameter CAN_ID 0x200A range
+CURRENT_LIMIT_A = 23.0  # peak phase current; iq_ref / limit_cur range
 FULL_DLC = 8
 
 # Back-EMF: the drive torque available at speed v is K_EMF * (V_MAX - |v|),
 # capped at 12 N m. K_EMF = Kt * ke / R with Kt 0.87 N m/A, R 0.45 ohm and
 # ke = 0.055 Vrms/rpm (output rpm) * sqrt(2) * 60 / (2 pi) = 0.743 V s/rad
-# (§1.2): 1.44 N m s/rad. V_MAX is the protocol's 30 rad/s (no-load ~31): full
+# (the manual's data): 1.44 N m s/rad. V_MAX is the protocol's 30 rad/s (no-load ~31): full
 # torque up to ~21.7 rad/s, none beyond 30 rad/s, so the motor alone cannot
 # drive the shaft past the range of its velocity field. Braking is not limited.
 BACK_EMF_NM_S_PER_RAD = 1.44
 SPEED_LIMIT_RAD_S = C.CG_SPEED_LIMIT
 
 # Winding temperature, first order: dT/dt = (T_amb + HEAT * I^2 - T) / TAU.
-# Fitted to the overload table (§1.2, 25 degC ambient) so that the fault at
+# Fitted to the overload table (the manual's, 25 degC ambient) so that the fault at
 # 80 degC trips at the table's times: 12 N m for 28 s and 6 N m for 700 s give
 # two equations 55 K = a tau_i^2 (1 - exp(-t_i / TAU)) (a in K/(N m)^2);
 # solving: TAU = 97.4 s, a = 1.529 K/(N m)^2, i.e. HEAT = a Kt^2 = 1.157 K/A^2.
@@ -78,13 +78,13 @@ HEAT_K_PER_A2 = 1.157
 # loop tick at an assumed 1 kHz speed loop (the manual gives no unit).
 SPEED_LOOP_HZ = 1000.0
 
-DEFAULT_PARAMS = {  # runtime table defaults (§1.7; S1 config table); ⚠ limit_spd assumed 2 rad/s
+DEFAULT_PARAMS = {  # runtime table defaults (the manual's tables); ⚠ limit_spd assumed 2 rad/s
     "run_mode": 0, "iq_ref": 0.0, "spd_ref": 0.0, "limit_torque": 12.0, "cur_kp": 0.125,
     "cur_ki": 0.0158, "cur_filt_gain": 0.1, "loc_ref": 0.0, "limit_spd": 2.0,
     "limit_cur": CURRENT_LIMIT_A, "loc_kp": 30.0, "spd_kp": 1.0, "spd_ki": 0.002,
 }
 READ_ONLY = frozenset({"mechPos", "iqf", "mechVel", "VBUS"})  # 0x7019-0x701C
-# id fault bit -> type-21 fault word bit (§1.6, §1.8); the encoder faults have no word bit
+# id fault bit -> type-21 fault word bit (docs/protocols.md, types 2 and 21); the encoder faults have no word bit
 FAULT_WORD = {"FaultOverTemp": "FaultOverTemp", "FaultUnderVoltage": "FaultUnderVoltage",
               "FaultOverCurrent": "FaultPhaseAOverCurrent", "FaultNotCalibrated": "FaultNotCalibrated"}
 BAUD_CODES = (1, 2, 3, 4)  # type 22: 1M, 500k, 250k, 125k

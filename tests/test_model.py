@@ -1,4 +1,4 @@
-"""The MJCF robot agrees with controller/constants.py and the seed's five-bar.
+"""The MJCF robot agrees with controller/constants.py and the design document's five-bar.
 
 Everything is read from the compiled model (MjModel) or measured in
 simulation, never parsed from the XML text.
@@ -238,7 +238,7 @@ def _random_hip_angles(rng, n):
 
 def test_fivebar_geometry_matches_seed_forward_kinematics():
     """Hips driven to random angles in zero gravity; once the loop constraint has
-    settled, the simulated hip-midpoint -> axle vector is the seed's (L0, phi0)."""
+    settled, the simulated hip-midpoint -> axle vector is the design document's (L0, phi0)."""
     phys = Physics()
     m, d = phys.model, phys.data
     m.opt.gravity[:] = 0.0

@@ -134,7 +134,7 @@ def _check_pairing(source: TraceSource, groups: dict) -> list[str]:
 
 
 # A log written by the controller itself (python-can's CanutilsLogWriter via
-# ``python -m controller --log``) is in the order the controller handled the
+# ``python -m wheelleg.controller --log``) is in the order the controller handled the
 # frames, each received frame stamped when the bus delivered it: a frame read
 # after a tick's sends is stamped before them. Steps back up to this bound are
 # that reordering (file order is what replay uses); larger ones are a broken

@@ -1,6 +1,6 @@
 """The rig: plant, controller and recorder on two CAN buses, in lockstep.
 
-Lockstep (DESIGN.md): each control period the rig sends SYNC(T) on both
+Lockstep (docs/design.md): each control period the rig sends SYNC(T) on both
 buses after the period's feedback; the controller runs one tick per SYNC and
 ends it with a heartbeat on both buses; the plant handles the commands that
 came before the heartbeats (they are in bus order) and only then steps the
