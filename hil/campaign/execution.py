@@ -151,6 +151,11 @@ class Engine:
                 self.client = Client(address, timeout="10s")
             except OSError as exc:
                 raise OSError(f"cannot reach the Dask scheduler at {address}: {exc}") from None
+            threaded = [w for w in self.client.scheduler_info()["workers"].values() if w["nthreads"] != 1]
+            if threaded:
+                self.client.close()
+                raise OSError(f"{len(threaded)} worker(s) at {address} run several threads; two rigs must "
+                              "not share a process: start them with `dask worker ADDRESS --nthreads 1`")
 
     def map(self, runner: Runner, jobs: list[Job], settings: RunSettings) -> Iterator[dict]:
         """Each job's row, in the order they finish."""
