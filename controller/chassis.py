@@ -72,13 +72,39 @@ class Command:
     air_leg_hold: bool = True  # in the air, hold the legs vertical (False: Tp 0, legs swing free)
 
 
+@dataclass(frozen=True)
+class LegReport:
+    """One leg as the chassis saw and drove it in one tick."""
+
+    length_m: float  # L0 measured
+    length_ref_m: float  # L0 set point
+    theta_rad: float  # leg angle from vertical, wheel behind hip positive
+    wheel_torque_nm: float  # T: LQR plus yaw, before the wheel's limit and sign
+    leg_torque_nm: float  # Tp: virtual hip torque, LQR plus split
+
+
+@dataclass(frozen=True)
+class ChassisReport:
+    """What one chassis step saw and decided; the next tick's controller reads it."""
+
+    x_m: float  # wheel travel since reset
+    x_ref_m: float
+    speed_m_s: float  # mean axle speed along the ground
+    speed_ref_m_s: float
+    pitch_rad: float  # nose down positive
+    roll_rad: float
+    yaw_rad: float
+    yaw_ref_rad: float
+    legs: dict  # leg name ("left", "right") -> LegReport
+
+
 @dataclass
 class Output:
-    """Torques for the motors (N m) and what the controller saw (for traces)."""
+    """Torques for the motors (N m) and what the chassis saw and decided."""
 
     hip_torque: dict = field(default_factory=dict)  # motor id -> shaft torque
     wheel_torque: dict = field(default_factory=dict)  # esc id -> output torque
-    debug: dict = field(default_factory=dict)
+    report: ChassisReport | None = None
     legs: dict = field(default_factory=dict)  # leg name -> LegState this tick
 
 
@@ -198,7 +224,7 @@ class ChassisController:
             wheel = _LEG_WHEEL[leg]
             out.wheel_torque[wheel.esc_id] = wheel.forward_sign * _clamp(wheel_t[leg], P.WHEEL_TORQUE_LIMIT)
         self._limit_hips(out, cmd.hip_torque_limit)
-        out.debug = self._debug(legs, att, speed, wheel_t, tp)
+        out.report = self._report(legs, att, speed, wheel_t, tp)
         return out
 
     def _air_step(self, legs: dict, att: Attitude, speed: float, cmd: Command) -> Output:
@@ -219,7 +245,7 @@ class ChassisController:
             self._hips(out, leg, s, force, tp[leg])
             out.wheel_torque[_LEG_WHEEL[leg].esc_id] = 0.0
         self._limit_hips(out, cmd.hip_torque_limit)
-        out.debug = self._debug(legs, att, speed, wheel_t, tp)
+        out.report = self._report(legs, att, speed, wheel_t, tp)
         return out
 
     def follow_position(self) -> None:
@@ -309,11 +335,9 @@ class ChassisController:
             for key in out.hip_torque:
                 out.hip_torque[key] *= scale
 
-    def _debug(self, legs, att, speed, wheel_t, tp) -> dict:
-        d = {"x": self.x, "x_ref": self.x_ref, "speed": speed, "speed_ref": self.speed_ref,
-             "pitch": att.pitch, "roll": att.roll, "yaw": att.yaw, "yaw_ref": self.yaw_ref}
-        for leg in LEGS:
-            s = legs[leg]
-            d.update({f"{leg}_L0": s.L0, f"{leg}_L0_ref": self.leg_ref[leg], f"{leg}_theta": s.theta,
-                      f"{leg}_T": wheel_t[leg], f"{leg}_Tp": tp[leg]})
-        return d
+    def _report(self, legs: dict, att: Attitude, speed: float, wheel_t: dict, tp: dict) -> ChassisReport:
+        return ChassisReport(
+            x_m=self.x, x_ref_m=self.x_ref, speed_m_s=speed, speed_ref_m_s=self.speed_ref,
+            pitch_rad=att.pitch, roll_rad=att.roll, yaw_rad=att.yaw, yaw_ref_rad=self.yaw_ref,
+            legs={leg: LegReport(legs[leg].L0, self.leg_ref[leg], legs[leg].theta, wheel_t[leg], tp[leg])
+                  for leg in LEGS})

@@ -1,10 +1,11 @@
 """The robot's physical constants, in one place, each with its source.
 
 Everything here is a fact about the machine (geometry, masses, motor data,
-wiring), not a tuning choice; tuning lives in ``controller/params.py``.
-The MuJoCo model (``emulators/robot/robot.xml``), the LQR design script
-(``controller/design/lqr.py``) and the controller all read these numbers, and
-``tests/test_model.py`` checks that the MJCF agrees with them.
+wiring) as the controller believes it, not a tuning choice; tuning lives in
+``controller/params.py``. The LQR design script (``controller/design/lqr.py``)
+and the controller read these numbers. The rig's plant has its own (the truth,
+``emulators/robot/description.py``), so a run can make the two disagree;
+``tests/test_model.py`` checks that they agree at the nominal values.
 
 Sources:
   [seed]   the robot team's design document, mechanical and mass tables

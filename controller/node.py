@@ -31,6 +31,7 @@ from wheelleg.controller.recovery import Phase as RecoveryPhase
 from wheelleg.controller.recovery import RecoverySequencer
 from wheelleg.controller.modes import ENABLED, Inputs, Mode, Switch, next_mode
 from wheelleg.controller.state import CAN1, CAN2, BusState
+from wheelleg.controller.telemetry import LastOutput, debug_record
 
 _DEVICE_OF_JOINT = {j.motor_id: j.name for j in C.JOINTS}
 _DEVICE_OF_WHEEL = {w.esc_id: w.name for w in C.WHEELS}
@@ -38,7 +39,11 @@ _DEVICE_OF_WHEEL = {w.esc_id: w.name for w in C.WHEELS}
 
 @dataclass
 class TickResult:
-    """What one tick decided: frames per bus (heartbeat last) and a summary."""
+    """What one tick decided: frames per bus (heartbeat last) and a summary.
+
+    ``debug`` is ``telemetry.debug_record`` of a run tick's output (empty on
+    other ticks, or when the controller records no debug).
+    """
 
     frames: dict = field(default_factory=lambda: {CAN1: [], CAN2: []})
     mode: Mode = Mode.IDLE
@@ -53,15 +58,20 @@ class Controller:
     tables (jump.py, recovery.py), the support-force off-ground estimate
     (support.py), the body-on-the-ground check (posture.py) and the C620 watch
     (detect.EscWatch).
+
+    Between ticks it keeps its last run tick's output in ``last`` (typed,
+    kept through disabled ticks); ``record_debug`` only chooses whether a
+    tick's result carries the debug projection of it.
     """
 
-    def __init__(self, period_s: float = P.CONTROL_PERIOD):
+    def __init__(self, period_s: float = P.CONTROL_PERIOD, record_debug: bool = True):
         self.period_s = period_s
+        self.record_debug = record_debug
         self.bus = BusState()
         self.chassis = ChassisController(period_s)
         self.mode = Mode.IDLE
         self._last_buttons = (False, False, False)  # reenable, jump, jump forward
-        self._last_debug: dict = {}
+        self.last: LastOutput | None = None  # the last run tick's output, read by the next ticks
         self.support = {leg: support.SupportEstimator(period_s) for leg in ("left", "right")}
         self.fn = {"left": 0.0, "right": 0.0}  # N, this tick's support force estimates
         self.contact = support.ContactDebounce(period_s)
@@ -149,13 +159,7 @@ class Controller:
         fallen = fallen or (self.mode in ENABLED and self._body_down(att))
         stood = False
         if self.mode == Mode.STAND_UP:
-            debug = self._last_debug
-            # the mean leg length: on uneven ground roll levelling sets the legs apart
-            mean_l0 = 0.5 * (debug.get("left_L0", 0) + debug.get("right_L0", 0))
-            stood = abs(mean_l0 - op.leg_length) < 0.01 and abs(att.pitch) < 0.1
-            fallen = fallen or any(abs(debug.get(f"{leg}_theta", 0)) > P.FALL_THETA for leg in ("left", "right"))
-            if self.recovery.active:  # righting itself from lying: only a second tumble counts
-                stood, fallen = False, abs(att.pitch) > P.RECOVERY_FALL_PITCH or abs(att.roll) > P.FALL_ROLL
+            stood, fallen = self._stand_up_inputs(att, fallen)
         try:
             switch = Switch(op.mode)
         except ValueError:
@@ -165,13 +169,23 @@ class Controller:
                       jump=jump_edge or forward_edge, fallen=fallen, stood_up=stood,
                       off_ground=self.contact.airborne, jump_done=self.jump.done, can_rise=not fallen)
 
+    def _stand_up_inputs(self, att: Attitude, fallen: bool) -> tuple[bool, bool]:
+        """(stood up, fallen) while standing up, from the last run tick's legs."""
+        if self.recovery.active:  # righting itself from lying: only a second tumble counts
+            return False, abs(att.pitch) > P.RECOVERY_FALL_PITCH or abs(att.roll) > P.FALL_ROLL
+        if self.last is None:
+            return False, fallen
+        left, right = self.last.leg_lengths_m()
+        # the mean leg length: on uneven ground roll levelling sets the legs apart
+        stood = abs(0.5 * (left + right) - self.bus.operator.leg_length) < 0.01 and abs(att.pitch) < 0.1
+        return stood, fallen or any(abs(theta) > P.FALL_THETA for theta in self.last.leg_angles_rad())
+
     def _body_down(self, att: Attitude) -> bool:
         """The body box rests on the floor (posture.body_clearance from last tick's legs)."""
-        debug = self._last_debug
-        if not all(f"{leg}_L0" in debug for leg in ("left", "right")):
+        if self.last is None:
             return False
-        legs = [(side * C.LEG_PLANE_Y, debug[f"{leg}_L0"], math.pi / 2 - debug[f"{leg}_theta"] + att.pitch)
-                for leg, side in (("left", 1.0), ("right", -1.0))]
+        legs = [(side * C.LEG_PLANE_Y, length, math.pi / 2 - theta + att.pitch)
+                for side, length, theta in zip((1.0, -1.0), self.last.leg_lengths_m(), self.last.leg_angles_rad())]
         return posture.body_clearance(att.roll, att.pitch, legs) < P.BODY_GROUND_CLEARANCE
 
     # -- what each kind of tick sends --------------------------------------------
@@ -193,8 +207,9 @@ class Controller:
             result.frames[CAN2].append(messages.joint_torque(joint.motor_id, out.hip_torque[joint.motor_id], now_s))
         currents = {esc: t / C.M3508_TORQUE_CONSTANT for esc, t in out.wheel_torque.items()}
         result.frames[CAN1].append(self._wheel_frame(currents, now_s))
-        out.debug.update(Fn_left=self.fn["left"], Fn_right=self.fn["right"], jump_phase=int(self.jump.phase))
-        result.debug = self._last_debug = out.debug
+        self.last = LastOutput(out.report, dict(self.fn), self.jump.phase)
+        if self.record_debug:
+            result.debug = debug_record(self.last)
 
     def _command(self) -> Command:
         """What the chassis does this tick, by mode."""
@@ -217,8 +232,7 @@ class Controller:
 
     def _recovery_command(self, cmd: Command) -> None:
         """Fill ``cmd`` from the recovery table's phase (controller/recovery.py)."""
-        debug = self._last_debug
-        lengths = tuple(debug.get(f"{leg}_L0", P.LEG_LENGTH_MAX) for leg in ("left", "right"))
+        lengths = self._leg_lengths_m(P.LEG_LENGTH_MAX)
         rc = self.recovery.step(lengths, attitude(self.bus.imu).pitch, cmd.pitch)
         if self.recovery.entered == RecoveryPhase.TILT_UP:
             self.chassis.reset(self.bus)
@@ -229,14 +243,20 @@ class Controller:
             cmd.pitch = rc.pitch
             self.chassis.follow_position()
 
+    def _leg_lengths_m(self, before_first_run_m: float) -> tuple[float, float]:
+        """Last run tick's leg lengths (m, left and right); ``before_first_run_m`` each before one."""
+        if self.last is None:
+            return (before_first_run_m, before_first_run_m)
+        return self.last.leg_lengths_m()
+
     def _jump_command(self, cmd: Command) -> None:
         """Fill ``cmd`` from the jump table's phase (controller/jump.py)."""
-        lengths = tuple(self._last_debug.get(f"{leg}_L0", P.LEG_LENGTH_NOMINAL) for leg in ("left", "right"))
+        lengths = self._leg_lengths_m(P.LEG_LENGTH_NOMINAL)
         touching = max(self.fn.values()) > P.FN_ON
-        debug = self._last_debug
-        steady = not self._jump_forward or (
-            abs(debug.get("speed", 0.0) - P.JUMP_FORWARD_SPEED) < P.JUMP_RUN_UP_SPEED_TOL
-            and all(abs(debug.get(f"{leg}_theta", 1.0)) < P.JUMP_RUN_UP_THETA_TOL for leg in ("left", "right")))
+        last = self.last
+        steady = not self._jump_forward or (last is not None and (
+            abs(last.chassis.speed_m_s - P.JUMP_FORWARD_SPEED) < P.JUMP_RUN_UP_SPEED_TOL
+            and all(abs(theta) < P.JUMP_RUN_UP_THETA_TOL for theta in last.leg_angles_rad())))
         jc = self.jump.step(lengths, touching, steady)
         if self.jump.entered == Phase.LAND:
             self.chassis.touchdown(self.bus)

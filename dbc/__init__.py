@@ -18,6 +18,8 @@ from pathlib import Path
 
 import cantools
 
+from wheelleg.dbc.codec import truncate
+
 DBC_DIR = Path(__file__).resolve().parent
 BUS_FILES = {
     "can1": ("c620.dbc", "rig.dbc"),
@@ -66,18 +68,13 @@ def load_bus(bus: str, position_range: str = "12.5") -> cantools.database.Databa
 
 
 def truncating_raw(signal, value: float) -> int:
-    """Raw value of an unsigned, ranged signal the CyberGear way.
+    """Raw value of an unsigned, ranged cantools signal the CyberGear way (``codec.truncate``).
 
     The manual's ``float_to_uint`` clamps to [min, max] and truncates
     ``(x - min) * (2^bits - 1) / (max - min)``; cantools would round. NaN
     encodes as the minimum (the clamp of a comparison that is always false).
     """
-    lo, hi = signal.minimum, signal.maximum
-    full = (1 << signal.length) - 1
-    if value != value:  # NaN
-        return 0
-    value = min(max(value, lo), hi)
-    return min(int((value - lo) * full / (hi - lo)), full)
+    return truncate(signal.minimum, signal.maximum, (1 << signal.length) - 1, value)
 
 
 def is_finite_number(value) -> bool:

@@ -35,7 +35,11 @@ Model: the output torque per run mode (0 motion, 1 position, 2 speed,
 3 current) is limited to +-limit_torque, then +-12 N m, then by a back-EMF
 line so that the motor cannot push the shaft beyond 30 rad/s; the winding
 temperature follows a first-order model (``THERMAL_TAU_S``) and latches the
-over-temperature fault at 80 degC.
+over-temperature fault at 80 degC. The back-EMF line's speed scales with the
+supply (``vbus_v``, 24 V nominal). ``kt_scale`` is the shaft's true torque
+over the torque the firmware means to make (its torque constant wrong, a plant
+override): the shaft gets ``kt_scale`` times it, the feedback reports what
+the firmware believes it makes.
 """
 from __future__ import annotations
 
@@ -43,10 +47,11 @@ import math
 
 import can
 
-from wheelleg.controller import constants as C
 from wheelleg.dbc import CYBERGEAR_FILES, load_file
 from wheelleg.dbc import cybergear as cg
-from wheelleg.emulators.device import EmulatedDevice, FieldScale, FrameCodec, Shaft, frame, is_data_frame
+from wheelleg.dbc.codec import MessageCodec
+from wheelleg.emulators.device import EmulatedDevice, Shaft, frame, is_data_frame
+from wheelleg.emulators.robot import description as D
 
 MODE_RESET, MODE_CALI, MODE_RUN = 0, 1, 2
 RUN_MODES = (0, 1, 2, 3)  # operation (motion), position, speed, current
@@ -61,7 +66,7 @@ FULL_DLC = 8
 # torque up to ~21.7 rad/s, none beyond 30 rad/s, so the motor alone cannot
 # drive the shaft past the range of its velocity field. Braking is not limited.
 BACK_EMF_NM_S_PER_RAD = 1.44
-SPEED_LIMIT_RAD_S = C.CG_SPEED_LIMIT
+SPEED_LIMIT_RAD_S = D.CG_SPEED_LIMIT_RAD_S  # at the nominal supply
 
 # Winding temperature, first order: dT/dt = (T_amb + HEAT * I^2 - T) / TAU.
 # Fitted to the overload table (the manual's, 25 degC ambient) so that the fault at
@@ -102,25 +107,23 @@ class _Layouts:
     def __init__(self, position_range: str):
         db = load_file(CYBERGEAR_FILES[position_range])
         msg = db.get_message_by_name
-        self.motion = FrameCodec(msg("CG_MotionCmd"))
-        self.motion_fields = tuple(FieldScale(self.motion.signals[name])
-                                   for name in ("PosRef", "VelRef", "Kp", "Kd"))
-        self.feedback = FrameCodec(msg("CG_Feedback"))
-        self.fb_fields = tuple(FieldScale(self.feedback.signals[name])
-                               for name in ("Pos", "Vel", "Torque", "Temp"))
-        self.device_id = FrameCodec(msg("CG_DeviceId"))
-        self.stop = FrameCodec(msg("CG_Stop"))
-        self.set_zero = FrameCodec(msg("CG_SetZero"))
-        self.set_baud = FrameCodec(msg("CG_SetBaud"))
-        self.fault_warn = FrameCodec(msg("CG_FaultWarn"))
+        self.motion = MessageCodec.of(msg("CG_MotionCmd"))
+        self.motion_fields = tuple(self.motion.signals[name] for name in ("PosRef", "VelRef", "Kp", "Kd"))
+        self.feedback = MessageCodec.of(msg("CG_Feedback"))
+        self.fb_fields = tuple(self.feedback.signals[name] for name in ("Pos", "Vel", "Torque", "Temp"))
+        self.device_id = MessageCodec.of(msg("CG_DeviceId"))
+        self.stop = MessageCodec.of(msg("CG_Stop"))
+        self.set_zero = MessageCodec.of(msg("CG_SetZero"))
+        self.set_baud = MessageCodec.of(msg("CG_SetBaud"))
+        self.fault_warn = MessageCodec.of(msg("CG_FaultWarn"))
         write, read = msg("CG_ParamWrite"), msg("CG_ParamRead")
-        self.index = FrameCodec(write, [write.get_signal_by_name("Index")])
+        self.index = MessageCodec(write, [write.get_signal_by_name("Index")])
         self.params = {}  # index -> (name, index, write codec, read-reply codec)
         for sig in write.signals:
             for index in sig.multiplexer_ids or ():
                 self.params[index] = (
-                    sig.name, index, FrameCodec(write, [write.get_signal_by_name("Index"), sig]),
-                    FrameCodec(read, [read.get_signal_by_name("Index"), read.get_signal_by_name(sig.name)]))
+                    sig.name, index, MessageCodec(write, [write.get_signal_by_name("Index"), sig]),
+                    MessageCodec(read, [read.get_signal_by_name("Index"), read.get_signal_by_name(sig.name)]))
 
     @classmethod
     def get(cls, position_range: str) -> "_Layouts":
@@ -135,8 +138,8 @@ class CyberGear(EmulatedDevice):
     """One CyberGear on a CAN bus (29-bit ids); see the module docstring for the rules."""
 
     def __init__(self, motor_id: int = 0x7F, position_range: str = "12.5", uid: int | None = None,
-                 ambient_c: float = 25.0, host_id: int = 0x00, vbus_v: float = 24.0,
-                 shaft: Shaft | None = None):
+                 ambient_c: float = 25.0, host_id: int = 0x00, vbus_v: float = D.SUPPLY_NOMINAL_V,
+                 shaft: Shaft | None = None, kt_scale: float = 1.0):
         super().__init__(shaft)
         if not 0 <= motor_id <= MAX_MOTOR_ID:
             raise ValueError(f"CyberGear motor id must be 0..{MAX_MOTOR_ID}, got {motor_id}")
@@ -146,7 +149,11 @@ class CyberGear(EmulatedDevice):
         self.uid = (0x4347_0000_0000_0000 | motor_id) if uid is None else uid & 0xFFFF_FFFF_FFFF_FFFF
         self.ambient_c = ambient_c
         self.temperature_c = ambient_c
+        if not (vbus_v > 0.0 and kt_scale > 0.0):
+            raise ValueError(f"vbus_v and kt_scale must be > 0, got {vbus_v!r}, {kt_scale!r}")
         self.vbus_v = vbus_v
+        self.kt_scale = kt_scale
+        self.speed_limit_rad_s = SPEED_LIMIT_RAD_S * (vbus_v / D.SUPPLY_NOMINAL_V)  # back-EMF: no drive beyond
         self.last_host = host_id & 0xFF
         self.mode = MODE_RESET
         self.params = dict(DEFAULT_PARAMS)
@@ -183,7 +190,7 @@ class CyberGear(EmulatedDevice):
 
     @property
     def warn_over_temp(self) -> bool:
-        return self.temperature_c >= C.CG_WARN_TEMP
+        return self.temperature_c >= D.CG_WARN_TEMP_C
 
     def inject_fault(self, name: str) -> None:
         """Latch a fault as the firmware would: torque off, reset mode, bit in every type-2 id."""
@@ -198,13 +205,18 @@ class CyberGear(EmulatedDevice):
 
     # -- physics -----------------------------------------------------------------
     def output_torque(self, now_s: float) -> float:
+        """N m on the shaft: what the firmware makes times the true-torque scale."""
+        return self.firmware_torque() * self.kt_scale
+
+    def firmware_torque(self) -> float:
+        """N m the firmware means to make (and reports): the run mode's demand within its limits."""
         if self.mode != MODE_RUN or self._faults:
             return 0.0
-        limit = min(self.params["limit_torque"], C.CG_TORQUE_LIMIT)
+        limit = min(self.params["limit_torque"], D.CG_TORQUE_LIMIT_NM)
         tau = _clamp(self._demand_torque(), -limit, limit)
         speed = self.shaft.speed
         if tau * speed > 0.0:  # driving, not braking: back-EMF limit
-            available = max(0.0, BACK_EMF_NM_S_PER_RAD * (SPEED_LIMIT_RAD_S - abs(speed)))
+            available = max(0.0, BACK_EMF_NM_S_PER_RAD * (self.speed_limit_rad_s - abs(speed)))
             tau = _clamp(tau, -available, available)
         return tau
 
@@ -214,10 +226,10 @@ class CyberGear(EmulatedDevice):
             p_ref, v_ref, kp, kd, tau_ff = self._motion
             return kp * (p_ref - self.mech_pos) + kd * (v_ref - self.shaft.speed) + tau_ff
         if run_mode == 3:
-            return _clamp(p["iq_ref"], -CURRENT_LIMIT_A, CURRENT_LIMIT_A) * C.CG_TORQUE_CONSTANT
+            return _clamp(p["iq_ref"], -CURRENT_LIMIT_A, CURRENT_LIMIT_A) * D.CG_TORQUE_CONSTANT_NM_PER_A
         limit_cur = p["limit_cur"]
         iq = p["spd_kp"] * (self._speed_ref() - self.shaft.speed) + self._speed_integral_a
-        return _clamp(iq, -limit_cur, limit_cur) * C.CG_TORQUE_CONSTANT
+        return _clamp(iq, -limit_cur, limit_cur) * D.CG_TORQUE_CONSTANT_NM_PER_A
 
     def _speed_ref(self) -> float:
         p = self.params
@@ -233,10 +245,10 @@ class CyberGear(EmulatedDevice):
             err = self._speed_ref() - self.shaft.speed
             self._speed_integral_a = _clamp(
                 self._speed_integral_a + self.params["spd_ki"] * SPEED_LOOP_HZ * err * dt_s, -limit, limit)
-        current = self.output_torque(now_s) / C.CG_TORQUE_CONSTANT
+        current = self.firmware_torque() / D.CG_TORQUE_CONSTANT_NM_PER_A
         settle = self.ambient_c + HEAT_K_PER_A2 * current * current
         self.temperature_c += (settle - self.temperature_c) * (1.0 - math.exp(-dt_s / THERMAL_TAU_S))
-        if self.temperature_c >= C.CG_OVER_TEMP and "FaultOverTemp" not in self._faults:
+        if self.temperature_c >= D.CG_OVER_TEMP_C and "FaultOverTemp" not in self._faults:
             self.inject_fault("FaultOverTemp")
 
     # -- frames in ---------------------------------------------------------------
@@ -331,7 +343,7 @@ class CyberGear(EmulatedDevice):
         if name == "mechVel":
             return self.shaft.speed
         if name == "iqf":
-            return self.output_torque(0.0) / C.CG_TORQUE_CONSTANT
+            return self.firmware_torque() / D.CG_TORQUE_CONSTANT_NM_PER_A
         if name == "VBUS":
             return self.vbus_v
         if name == "rotation":
@@ -354,7 +366,7 @@ class CyberGear(EmulatedDevice):
     def _feedback_frame(self, host: int, now_s: float) -> can.Message:
         pos, vel, torque, temp = self._lay.fb_fields
         raw = {"Pos": pos.truncated(self.mech_pos), "Vel": vel.truncated(self.shaft.speed),
-               "Torque": torque.truncated(self.output_torque(now_s)),
+               "Torque": torque.truncated(self.firmware_torque()),
                "Temp": temp.truncated(self.temperature_c)}
         key = (self.motor_id, host, self.mode, self._faults)
         can_id = self._feedback_ids.get(key)

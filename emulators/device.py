@@ -1,4 +1,4 @@
-"""What every emulated CAN device shares: its shaft, its API and a fast DBC codec.
+"""What every emulated CAN device shares: its shaft and its API.
 
 A device answers frames (``handle``), emits its periodic frames
 (``periodic``) and tells the physics the torque it applies to its output
@@ -10,23 +10,18 @@ as a simple inertia with viscous and Coulomb friction.
 Times are simulated seconds (``now_s``); every frame a device emits carries
 ``timestamp = now_s``.
 
-``FrameCodec`` packs raw signal values with the bit layout cantools compiles
-from the DBC (``create_encode_decode_formats``, the same bitstruct formats
-``Message.encode``/``decode`` use) without cantools' per-call checks: the
-emulators sit on the rig's hot path (~20 frames per 2 ms tick at >= 10x real
-time), and ``Message.encode`` costs ~12 us a frame where this costs ~1 us.
-tests/test_dbc.py checks it against ``Message.encode``/``decode``.
+Devices encode and decode their frames with ``wheelleg.dbc.codec`` (compiled
+once from the DBC): they sit on the rig's hot path (~20 frames per 2 ms tick
+at >= 10x real time), where cantools' ``Message.encode`` costs ~12 us a frame.
 """
 from __future__ import annotations
 
 import abc
 import logging
 import math
-from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import can
-from cantools.database.utils import create_encode_decode_formats
 
 log = logging.getLogger(__name__)
 
@@ -176,83 +171,6 @@ class PeriodicSchedule:
             return False
         self._next_slot = slot + 1
         return True
-
-
-class FrameCodec:
-    """Raw-value encode/decode of one DBC message, or of a subset of its signals.
-
-    For a multiplexed message pass the multiplexer plus the signals of one
-    multiplexer value. Raw values are the integers on the wire (float32
-    signals: the float). ``decode_raw`` needs exactly ``length`` bytes.
-    """
-
-    def __init__(self, message, signals: Sequence | None = None):
-        self.message = message
-        self.frame_id = message.frame_id
-        self.length = message.length
-        chosen = list(message.signals if signals is None else signals)
-        self.signals = {s.name: s for s in chosen}
-        formats = create_encode_decode_formats(chosen, self.length)
-        self._big = formats.big_endian
-        self._little = formats.little_endian
-
-    def encode_raw(self, raw: Mapping) -> bytes:
-        word = int.from_bytes(self._big.pack(raw), "big") | int.from_bytes(self._little.pack(raw), "little")
-        return word.to_bytes(self.length, "big")
-
-    def decode_raw(self, data: bytes) -> dict:
-        if len(data) != self.length:
-            raise ValueError(f"{self.message.name}: {len(data)} bytes, expected {self.length}")
-        return {**self._big.unpack(data), **self._little.unpack(data[::-1])}
-
-
-class FieldScale:
-    """One integer signal's scale, offset and limits, read once from its cantools Signal.
-
-    ``rounded`` is the nearest raw step, saturated to the field (IMU, C620);
-    ``truncated`` is the CyberGear manual's ``float_to_uint`` over the
-    signal's [minimum, maximum], identical to ``dbc.truncating_raw`` (tests
-    check it) but without reading the Signal on every call.
-    """
-
-    __slots__ = ("name", "scale", "offset", "minimum", "maximum", "raw_lo", "raw_hi", "_span")
-
-    def __init__(self, signal):
-        bits = signal.length
-        self.name = signal.name
-        self.scale = signal.scale
-        self.offset = signal.offset
-        self.minimum = signal.minimum
-        self.maximum = signal.maximum
-        if signal.is_signed:
-            self.raw_lo, self.raw_hi = -(1 << (bits - 1)), (1 << (bits - 1)) - 1
-        else:
-            self.raw_lo, self.raw_hi = 0, (1 << bits) - 1
-        has_range = self.minimum is not None and self.maximum is not None
-        self._span = self.maximum - self.minimum if has_range else None
-
-    def value(self, raw: int) -> float:
-        """Physical value of a raw integer."""
-        return raw * self.scale + self.offset
-
-    def rounded(self, value: float) -> int:
-        """Nearest raw step, clamped to the field; NaN encodes as the raw value of 0."""
-        if value != value:
-            value = 0.0
-        raw = (value - self.offset) / self.scale
-        if raw >= self.raw_hi:
-            return self.raw_hi
-        if raw <= self.raw_lo:
-            return self.raw_lo
-        return int(round(raw))
-
-    def truncated(self, value: float) -> int:
-        """``int((clamp(x, min, max) - min) * (2^bits - 1) / (max - min))``, unsigned fields; NaN -> 0."""
-        if value != value:
-            return 0
-        lo, hi = self.minimum, self.maximum
-        value = lo if value < lo else hi if value > hi else value
-        return min(int((value - lo) * self.raw_hi / self._span), self.raw_hi)
 
 
 def frame(arbitration_id: int, data: bytes, extended: bool, now_s: float) -> can.Message:

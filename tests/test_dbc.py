@@ -17,7 +17,7 @@ from hypothesis import strategies as st
 
 from wheelleg.dbc import all_dbc_files, load_bus, load_file, truncating_raw
 from wheelleg.dbc import cybergear as cg
-from wheelleg.emulators.device import FieldScale, FrameCodec
+from wheelleg.dbc.codec import MessageCodec
 
 FILES = all_dbc_files()
 
@@ -99,14 +99,52 @@ def test_round_trip_at_the_range_ends_and_middle(case):
 def test_raw_round_trip_of_every_field_end(case):
     """Raw extremes of each field survive encode/decode, and the fast codec agrees with cantools."""
     msg, signals = _branch(case)
-    codec = FrameCodec(msg, signals)
-    for end in (0, 1):
-        raw = {s.name: case[2] if s.is_multiplexer else
-               (float(s.maximum if end else s.minimum) if s.is_float else _raw_range(s)[end]) for s in signals}
-        data = msg.encode(raw, scaling=False, strict=False)
-        assert codec.encode_raw(raw) == data
-        assert msg.decode(data, scaling=False, decode_choices=False) == raw
-        assert codec.decode_raw(data) == raw
+    for codec in (MessageCodec(msg, signals), MessageCodec.of(msg)):  # the branch alone, the whole message
+        for end in (0, 1):
+            raw = {s.name: case[2] if s.is_multiplexer else
+                   (float(s.maximum if end else s.minimum) if s.is_float else _raw_range(s)[end]) for s in signals}
+            data = msg.encode(raw, scaling=False, strict=False)
+            assert codec.encode_raw(raw) == data
+            assert msg.decode(data, scaling=False, decode_choices=False) == raw
+            assert codec.decode_raw(data) == raw
+
+
+def _same(mine: dict, ref: dict) -> bool:
+    """Equal keys, values (NaN equals NaN) and value types."""
+    return list(mine) == list(ref) and all(
+        a == b or (a != a and b != b) for a, b in zip(mine.values(), ref.values())) and [
+        type(v) for v in mine.values()] == [type(v) for v in ref.values()]
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.data())
+def test_compiled_codec_equals_cantools_for_every_message(data):
+    """Any payload of any layout of any DBC: the compiled codec decodes (raw and physical, values
+    and types) as cantools does, and encodes the raw values back to the bytes cantools gives."""
+    case = data.draw(st.sampled_from(CASES), label="case")
+    msg, _ = _branch(case)
+    codec = MessageCodec.of(msg)
+    payload = data.draw(st.binary(min_size=msg.length, max_size=msg.length), label="payload")
+    if case[2] is not None:  # put the case's multiplexer value in the payload
+        raw = codec.branches[case[2]].decode_raw(payload)
+        payload = codec.encode_raw({**raw, codec.multiplexer.name: case[2]})
+    assert _same(codec.decode(payload), msg.decode(payload, decode_choices=False)), msg.name
+    raw = msg.decode(payload, scaling=False, decode_choices=False)
+    assert _same(codec.decode_raw(payload), raw), msg.name
+    if not any(v != v for v in raw.values()):  # a NaN's payload bits are not one value
+        assert codec.encode_raw(raw) == msg.encode(raw, scaling=False, strict=False), msg.name
+
+
+def test_compiled_codec_refuses_bad_input_with_a_clear_error():
+    feedback = MessageCodec.of(load_file("cybergear.dbc").get_message_by_name("CG_Feedback"))
+    with pytest.raises(ValueError, match="CG_Feedback: 7 bytes, expected 8"):
+        feedback.decode(bytes(7))
+    raw = feedback.decode_raw(bytes(8))
+    with pytest.raises(ValueError, match=r"Pos: raw value 65536 outside 0\.\.65535"):
+        feedback.encode_raw({**raw, "Pos": 65536})
+    read = MessageCodec.of(load_file("cybergear.dbc").get_message_by_name("CG_ParamRead"))
+    with pytest.raises(ValueError, match="no signals for multiplexer Index = 0"):
+        read.decode(bytes(8))
 
 
 @settings(max_examples=400, deadline=None)
@@ -265,4 +303,5 @@ def test_fast_truncating_encoder_equals_the_manual_encoder(value):
     for path in ("cybergear.dbc", "cybergear_4pi.dbc"):
         for name in ("CG_MotionCmd", "CG_Feedback"):
             for sig in load_file(path).get_message_by_name(name).signals:
-                assert FieldScale(sig).truncated(value) == truncating_raw(sig, value), (path, sig.name)
+                fast = MessageCodec.of(load_file(path).get_message_by_name(name)).signals[sig.name]
+                assert fast.truncated(value) == truncating_raw(sig, value), (path, sig.name)

@@ -11,23 +11,21 @@ Values are numbers (choices stay numbers). A frame that cannot be decoded
 (unknown id, wrong length) yields ``None``: the raw frame is still recorded.
 
 Speed: cantools' ``Message.decode`` costs 3-5 us per frame here, too much for
-the rig's hot path. ``CompiledLayout`` reads each signal's layout (start bit,
-length, byte order, sign, scale, offset) from the cantools message once and
-decodes by shifting one integer; tests check it against cantools'
-``decode(decode_choices=False)`` for every message of every DBC, values and
-types. Multiplexed messages and IEEE-float signals go through cantools.
-Lookups are cached per (channel, id) and the CyberGear id fields per id.
+the rig's hot path; payloads of the message's length go through the compiled
+codec (``wheelleg.dbc.codec``, checked against cantools in tests/test_dbc.py),
+others (and layouts the codec does not compile) through cantools. Lookups are
+cached per (channel, id) and the CyberGear id fields per id.
 """
 from __future__ import annotations
 
 from typing import Callable
 
-from cantools.database.conversion import BaseConversion, IdentityConversion
 from cantools.database.errors import DecodeError
 
 from wheelleg import dbc
 from wheelleg.controller.constants import CG_HOST_ID
 from wheelleg.dbc import cybergear as cg
+from wheelleg.dbc.codec import MessageCodec
 
 _CACHE_LIMIT = 65536  # distinct (channel, id, extended) keys remembered
 _ID_CACHE_LIMIT = 4096  # CyberGear ids whose fields are remembered (type-1 ids vary with torque)
@@ -98,80 +96,31 @@ def _cybergear_names() -> frozenset[str]:
 _CYBERGEAR_MESSAGES = _cybergear_names()
 
 
-# -- compiled signal layouts ---------------------------------------------------------
-class CompiledLayout:
-    """A cantools message's signals as (shift, mask) on the payload read as one integer.
-
-    Little-endian signals: the payload as a little-endian integer, shifted by
-    the start bit. Big-endian (Motorola) signals: the payload as a big-endian
-    integer; the DBC start bit is the signal's MSB in sawtooth numbering.
-    """
-
-    def __init__(self, message, fields: list[tuple]):
-        self.length = message.length
-        self.fields = fields  # (name, big endian, shift, mask, sign bit or 0, scale, offset)
-        self.big = any(f[1] for f in fields)
-        self.little = any(not f[1] for f in fields)
-
-    @classmethod
-    def compile(cls, message) -> "CompiledLayout | None":
-        """The layout of ``message``, or None where cantools must decode (mux, float)."""
-        if message.is_multiplexed() or message.is_container or any(s.is_float for s in message.signals):
-            return None
-        fields = []
-        for s in message.signals:
-            if s.byte_order == "little_endian":
-                big, shift = False, s.start
-            else:
-                msb = 8 * (s.start // 8) + 7 - s.start % 8  # network bit number of the MSB
-                big, shift = True, 8 * message.length - msb - s.length
-            if shift < 0 or shift + s.length > 8 * message.length:
-                return None
-            # the numeric conversion cantools applies when choices are not decoded
-            conv = BaseConversion.factory(scale=s.scale, offset=s.offset, choices=None, is_float=False)
-            scale, offset = (None, None) if isinstance(conv, IdentityConversion) else (conv.scale, conv.offset)
-            sign = 1 << (s.length - 1) if s.is_signed else 0
-            fields.append((s.name, big, shift, (1 << s.length) - 1, sign, scale, offset))
-        return cls(message, fields)
-
-    def decode(self, data: bytes) -> dict:
-        """Signal values of a payload of exactly ``length`` bytes."""
-        big = int.from_bytes(data, "big") if self.big else 0
-        little = int.from_bytes(data, "little") if self.little else 0
-        out = {}
-        for name, is_big, shift, mask, sign, scale, offset in self.fields:
-            raw = ((big if is_big else little) >> shift) & mask
-            if sign and raw & sign:
-                raw -= sign << 1
-            out[name] = raw if scale is None else raw * scale + offset
-        return out
-
-
 # -- plans ---------------------------------------------------------------------------
 class DecodePlan:
     """How to decode frames of one identifier: the DBC message and the id fields."""
 
-    __slots__ = ("message", "name", "layout", "id_fields", "id_units", "renamed", "_id_cache")
+    __slots__ = ("message", "name", "codec", "id_fields", "id_units", "renamed", "_id_cache")
 
     def __init__(self, message, id_fields: Callable[[int], dict] | None = None,
                  id_units: tuple[tuple[str, str], ...] = (), renamed: tuple[tuple[str, str], ...] = ()):
         self.message = message  # cantools Message
         self.name: str = message.name
-        self.layout = CompiledLayout.compile(message)
+        self.codec = _compiled(message)
         self.id_fields = id_fields
         self.id_units = id_units  # (field name, unit) for the schema
         self.renamed = renamed  # id field -> name used (the payload wins a clash)
         self._id_cache: dict[int, dict] = {}
 
     def decode(self, can_id: int, data: bytes) -> dict | None:
-        layout = self.layout
-        if layout is not None and len(data) == layout.length:
-            values = layout.decode(data)
-        else:
-            try:
+        codec = self.codec
+        try:
+            if codec is not None and len(data) == codec.length:
+                values = codec.decode(data)
+            else:
                 values = self.message.decode(data, decode_choices=False)
-            except (DecodeError, ValueError, KeyError, IndexError):
-                return None
+        except (DecodeError, ValueError, KeyError, IndexError):
+            return None
         if self.id_fields is not None:
             values.update(self._fields_of(can_id))
         return values
@@ -186,6 +135,14 @@ class DecodePlan:
             if len(self._id_cache) < _ID_CACHE_LIMIT:
                 self._id_cache[can_id] = fields
         return fields
+
+
+def _compiled(message) -> MessageCodec | None:
+    """The compiled codec of ``message``, or None where only cantools decodes it (nested multiplexing)."""
+    try:
+        return MessageCodec.of(message)
+    except ValueError:
+        return None
 
 
 def _cybergear_plan(message) -> DecodePlan:

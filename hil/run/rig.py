@@ -90,7 +90,8 @@ class Rig:
         self.log_path = out_dir / f"{scenario.name}.log"
         self.names = {CAN1: config.channels[0], CAN2: config.channels[1]}
         self.rng = np.random.default_rng(config.seed)
-        self.physics = Physics(terrain=scenario.terrain, timestep_s=config.physics_dt_s)
+        self.physics = Physics(terrain=scenario.terrain, timestep_s=config.physics_dt_s,
+                               overrides=config.plant.overrides)
         scenario.start(self.physics)
         # the buses first: a missing vcan fails before any file is written
         self._raw = {k: _open_bus(config, ch) for k, ch in self.names.items()}
@@ -126,7 +127,8 @@ class Rig:
                         "duration_s": repr(self.scenario.duration_s),
                         "interface": self.config.interface, "can1": self.names[CAN1],
                         "can2": self.names[CAN2], "git_revision": git_revision(),
-                        "controller_params": json.dumps(params, sort_keys=True, default=repr)}}
+                        "controller_params": json.dumps(params, sort_keys=True, default=repr),
+                        "plant_overrides": json.dumps(self.config.plant.overrides_dict(), sort_keys=True)}}
 
     @staticmethod
     def _attachments() -> list:

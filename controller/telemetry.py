@@ -1,0 +1,46 @@
+"""The controller's last output, typed, and the debug record projected from it.
+
+What one tick computed and the next one reads back lives in ``LastOutput``:
+the legs' lengths and angles (the stand-up and body-on-the-ground checks, the
+recovery and jump tables) and the axle speed (a forward jump's run-up). The
+record the rig writes to the trace (``/controller/debug``) is
+``debug_record(last)``, a projection that nothing in the controller reads, so
+renaming or dropping one of its keys cannot change what the robot does.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from wheelleg.controller.chassis import LEGS, ChassisReport
+from wheelleg.controller.jump import Phase
+
+
+@dataclass(frozen=True)
+class LastOutput:
+    """One run tick's result as the next tick sees it (SI units)."""
+
+    chassis: ChassisReport
+    support_n: dict  # leg name -> support force estimate (N) after this tick's update
+    jump_phase: Phase  # the jump table's phase after this tick's step
+
+    def leg_lengths_m(self) -> tuple[float, float]:
+        """Measured L0 (m) of the left and the right leg."""
+        return tuple(self.chassis.legs[leg].length_m for leg in LEGS)
+
+    def leg_angles_rad(self) -> tuple[float, float]:
+        """Measured theta (rad) of the left and the right leg."""
+        return tuple(self.chassis.legs[leg].theta_rad for leg in LEGS)
+
+
+def debug_record(last: LastOutput) -> dict:
+    """The trace's flat debug record (key -> number) of ``last``; read by no control path."""
+    c = last.chassis
+    record = {"x": c.x_m, "x_ref": c.x_ref_m, "speed": c.speed_m_s, "speed_ref": c.speed_ref_m_s,
+              "pitch": c.pitch_rad, "roll": c.roll_rad, "yaw": c.yaw_rad, "yaw_ref": c.yaw_ref_rad}
+    for leg in LEGS:
+        s = c.legs[leg]
+        record.update({f"{leg}_L0": s.length_m, f"{leg}_L0_ref": s.length_ref_m, f"{leg}_theta": s.theta_rad,
+                       f"{leg}_T": s.wheel_torque_nm, f"{leg}_Tp": s.leg_torque_nm})
+    record.update({f"Fn_{leg}": last.support_n[leg] for leg in LEGS})
+    record["jump_phase"] = int(last.jump_phase)
+    return record
