@@ -41,7 +41,7 @@ def rig_config(seed: int, overrides: dict):
     from wheelleg.emulators.plant import PlantConfig
     from wheelleg.hil.run.rig import RigConfig
 
-    return RigConfig(seed=seed, plant=PlantConfig.from_overrides(overrides) if overrides else PlantConfig())
+    return RigConfig(seed=seed, plant=PlantConfig.from_overrides(overrides))
 
 
 def check_ranges(ranges: dict[str, tuple[float, float]]) -> None:
