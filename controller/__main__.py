@@ -1,6 +1,6 @@
-"""The controller as the robot runs it: ``python -m controller``.
+"""The controller as the robot runs it: ``python -m wheelleg.controller``.
 
-    python -m controller --interface socketcan --wheels can0 --joints can1
+    python -m wheelleg.controller --interface socketcan --wheels can0 --joints can1
 
 Free-runs on its own 2 ms timer (``--sync`` ticks on the rig's SYNC frames
 instead). SIGINT and SIGTERM stop every motor before it exits. ``--log FILE``
@@ -23,7 +23,7 @@ from wheelleg.dbc import CAN1, CAN2
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="python -m controller", description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="python -m wheelleg.controller", description=__doc__.splitlines()[0])
     add_arguments(parser)
     return parser
 

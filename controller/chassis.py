@@ -1,11 +1,11 @@
-"""The chassis task of seed 000: LQR on the wheel-legged pendulum, VMC legs.
+"""The robot's chassis task (docs/control.md): LQR on the wheel-legged pendulum, VMC legs.
 
 One ``ChassisController.step`` per control period turns what the buses said
 (``BusState``) and what is asked (``Command``) into hip shaft torques and wheel
-output torques. The pieces follow the seed's chassis_control(): forward
+output torques. The pieces follow the design document's chassis_control(): forward
 kinematics, K(L0) fitting, state references, LQR torques, leg-length PID with
 gravity feed-forward, VMC to joint torques; plus yaw, split-leg and roll
-control from control_notes.md §1.5-1.7.
+control scaled from public balance-robot controllers (docs/control.md).
 
 Sign conventions are those of controller/constants.py: theta > 0 with the
 wheel behind the hip, phi (body) nose-up positive, T forward-rolling positive.
@@ -140,7 +140,7 @@ def turn_lean(speed: float, yaw_rate: float) -> float:
     """Roll (rad) that leans into a turn: -atan(v w / g), left side down turning left.
 
     The body's weight and the centripetal force v w then add up along the
-    legs, as a cyclist leans (control_notes: lean into turns).
+    legs, as a cyclist leans (docs/control.md, leaning into turns).
     """
     lean = math.atan(speed * yaw_rate / C.GRAVITY)
     return -_clamp(lean, P.TURN_LEAN_LIMIT)
@@ -172,7 +172,7 @@ def _clamp(value: float, limit: float) -> float:
 
 
 class ChassisController:
-    """Seed 000's chassis_control(), one call per control period."""
+    """The design document's chassis_control(), one call per control period."""
 
     def __init__(self, dt: float = P.CONTROL_PERIOD):
         self.dt = dt
@@ -228,7 +228,7 @@ class ChassisController:
         return out
 
     def _air_step(self, legs: dict, att: Attitude, speed: float, cmd: Command) -> Output:
-        """In the air (control_notes §1.8): wheel torque 0, a leg-angle PD holds each
+        """In the air (docs/control.md, in the air): wheel torque 0, a leg-angle PD holds each
         leg vertical (theta -> 0), a leg PD without gravity feed-forward holds
         ``cmd.leg_length`` (or ``cmd.leg_force`` pushes); no roll, no yaw. The
         position and heading references follow the robot, so nothing winds up."""
@@ -308,7 +308,7 @@ class ChassisController:
     def _roll(self, att: Attitude, cmd: Command) -> float:
         """Force added to the left leg (taken from the right): level the body."""
         err = self.roll_set_point(cmd) - att.roll  # roll > 0: left side up
-        # seed 002: integrate the roll error into a leg-length difference
+        # terrain self-levelling: integrate the roll error into a leg-length difference
         self.roll_offset += P.ROLL_LEVEL_KI * err * self.dt
         self.roll_offset = _clamp(self.roll_offset, P.ROLL_LEVEL_LIMIT)
         return _clamp(P.ROLL_KP * err - P.ROLL_KD * att.wx, P.ROLL_FORCE_LIMIT)

@@ -1,23 +1,25 @@
 """The robot's physical constants, in one place, each with its source.
 
 Everything here is a fact about the machine (geometry, masses, motor data,
-wiring), not a tuning choice; tuning lives in ``controller/params.py``.
-The MuJoCo model (``emulators/robot/robot.xml``), the LQR design script
-(``controller/design/lqr.py``) and the controller all read these numbers, and
-``tests/test_model.py`` checks that the MJCF agrees with them.
+wiring) as the controller believes it, not a tuning choice; tuning lives in
+``controller/params.py``. The LQR design script (``controller/design/lqr.py``)
+and the controller read these numbers. The rig's plant has its own (the truth,
+``emulators/robot/description.py``), so a run can make the two disagree;
+``tests/test_model.py`` checks that they agree at the nominal values.
 
 Sources:
-  [seed]   ../shared/seeds/000_6527c9111757cbbd.txt, mechanical and mass tables
-  [CG]     ../shared/protocols.md §1 (Xiaomi CyberGear manual, S1/S2)
-  [DJI]    ../shared/protocols.md §2 (C620 guide D1, M3508 data D3/D4)
-  [derived] chosen here to fit the seed's totals; marked as such, to be
+  [seed]   the robot team's design document, mechanical and mass tables
+           (docs/robot.md)
+  [CG]     Xiaomi CyberGear manual and drivers (docs/protocols.md, Xiaomi CyberGear)
+  [DJI]    DJI C620 guide, M3508 data (docs/protocols.md, DJI C620 with M3508 P19)
+  [derived] chosen here to fit the design document's totals; marked as such, to be
             replaced by CAD values when the team has them.
 
 Conventions (SI units throughout; angles in rad):
   body frame  x forward, y left, z up; roll/pitch/yaw ZYX, pitch > 0 nose DOWN
               (right hand about +y). The LQR's body angle phi is -pitch
-              (nose up positive), as in the seed's ``phi = -pitch_angle``.
-  leg plane   the seed's five-bar frame, one per leg, both seen alike ("both
+              (nose up positive), as in the design document's ``phi = -pitch_angle``.
+  leg plane   the design document's five-bar frame, one per leg, both seen alike ("both
               legs are controlled as seen from the left", seed): origin at hip
               A (front hip), x_fb pointing BACKWARD towards hip E (rear hip,
               at x_fb = L5), y_fb pointing DOWN. phi1 is the angle of link AB,
@@ -52,22 +54,22 @@ PHI1_STOP = math.pi - STOP_ANGLE  # rad, front thigh on its stop
 PHI4_STOP = STOP_ANGLE  # rad, rear thigh on its stop
 HIP_SWEEP = 1.40  # rad, how far each hip turns off its stop before the links
 #                   lock (phi1 = 95 deg, the leg's geometric maximum) [derived
-#                   from the geometry in control_notes.md §1.4]
+#                   from the geometry, docs/robot.md]
 
 # --- masses [seed: 质量相关]: 4.635 = 2.839 + 2 * 0.715 + 2 * 0.183 ---------
 MASS_TOTAL = 4.635  # kg
 MASS_BODY = 2.839  # kg, includes the four CyberGear hip motors
 MASS_LEG = 0.715  # kg per leg: four links plus the M3508 wheel motor at C
 MASS_WHEEL = 0.183  # kg per wheel (tyre and hub)
-# how one leg's 0.715 kg splits [derived: M3508 0.365 kg (DJI, D3) plus its
+# how one leg's 0.715 kg splits [derived: M3508 0.365 kg (DJI) plus its
 # mount at C, the rest in the links]
 MASS_LINK_THIGH = 0.05  # kg, each of AB and ED
 MASS_LINK_SHIN = 0.075  # kg, each of BC and DC
 MASS_WHEEL_MOTOR = MASS_LEG - 2 * MASS_LINK_THIGH - 2 * MASS_LINK_SHIN  # kg at C
 
-# --- body and wheel shape [derived: a box that holds the seed's parts] -----
+# --- body and wheel shape [derived: a box that holds the design document's parts] -----
 BODY_SIZE = (0.26, 0.24, 0.08)  # m, x, y, z extent of the body box
-BODY_COM_ABOVE_HIP = 0.02  # m, "l" in the seed model: body CoM above the hip axis
+BODY_COM_ABOVE_HIP = 0.02  # m, "l" in the design document's model: body CoM above the hip axis
 LEG_PLANE_Y = 0.12  # m, each leg's plane from the body's mid-plane
 WHEEL_WIDTH = 0.03  # m
 
@@ -82,7 +84,7 @@ BODY_INERTIA = box_inertia(MASS_BODY, BODY_SIZE)  # kg m^2, (Ixx, Iyy, Izz)
 WHEEL_INERTIA = 0.5 * MASS_WHEEL * WHEEL_RADIUS**2  # kg m^2 about the axle (solid disc)
 
 
-# --- CyberGear hip motors on CAN2 [CG §1.2, §1.5] ---------------------------
+# --- CyberGear hip motors on CAN2 [CG: the motor, type 1] ---------------------------
 CG_TORQUE_LIMIT = 12.0  # N m, protocol range and peak torque
 CG_SPEED_LIMIT = 30.0  # rad/s, protocol velocity range
 CG_POSITION_LIMIT = 12.5  # rad, default position field range (+-4 pi option)
@@ -99,7 +101,7 @@ CG_ROTOR_INERTIA = 2.0e-5  # kg m^2, motor side
 HIP_ARMATURE = CG_ROTOR_INERTIA * CG_GEAR**2  # kg m^2 at the joint (1.2e-3)
 CG_HOST_ID = 0xFD  # the host id the controller puts in bits 15..8 (debugger's)
 
-# --- C620 + M3508 wheel drives on CAN1 [DJI §2.2, §2.7] ---------------------
+# --- C620 + M3508 wheel drives on CAN1 [DJI: frames, the motor and ESC] ---------------------
 M3508_GEAR = 3591 / 187  # reduction, rotor to output shaft
 M3508_TORQUE_CONSTANT = 0.3  # N m / A at the output shaft
 C620_CURRENT_LIMIT = 20.0  # A, command range -16384..16384 <-> -20..20 A
@@ -129,7 +131,7 @@ class Joint:
 
 
 # Shafts point outwards, so a left shaft turning positive lowers phi (see the
-# module docstring); ids follow the seed's cyber_gear_data order, front first.
+# module docstring); ids follow the design document's cyber_gear_data order, front first.
 JOINTS = (
     Joint("left_front_hip", 1, "left", "A", -1),
     Joint("left_rear_hip", 2, "left", "E", -1),

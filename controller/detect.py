@@ -1,7 +1,7 @@
-"""Offline detection, after seed 000's detect_task.
+"""Offline detection, after the design document's detect_task (docs/control.md).
 
 Every device has an offline threshold and a warning level. Each tick the
-highest level among the offline devices and their number are found (the seed
+highest level among the offline devices and their number are found (the document
 turns them into buzzer and RGB patterns; here they go into the heartbeat).
 All devices start offline, as in detect_device_init().
 """
@@ -22,7 +22,7 @@ class DeviceRule:
 
 # Thresholds: a few periods of each device's frame rate (joints answer every
 # 2 ms command, ESCs send at 1 kHz, the IMU at 500 Hz, the remote at 50 Hz),
-# in the range of DJI's detect_task.c and the HNU daemon (control_notes §1.10).
+# in the range of DJI's detect_task.c and the HNU daemon (docs/control.md).
 RULES = tuple(
     [DeviceRule(j.name, 0.020, 4, True) for j in C.JOINTS]
     + [DeviceRule(w.name, 0.010, 4, True) for w in C.WHEELS]
@@ -48,7 +48,7 @@ def check(last_seen_s: dict[str, float], now_s: float, faulted=frozenset()) -> R
     """Which devices are offline at ``now_s`` given when each was last heard (s).
 
     A device named in ``faulted`` (a CyberGear reporting fault bits, a C620
-    latched by ``EscWatch``) counts as offline: the seed's detect task flags a device whose data is in error
+    latched by ``EscWatch``) counts as offline: the design document's detect task flags a device whose data is in error
     the same way as one that went silent (``error_exist``).
     """
     mask = count = level = 0

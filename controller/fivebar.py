@@ -1,9 +1,9 @@
-"""Five-bar leg kinematics and VMC (virtual model control), seed 000 §VMC.
+"""Five-bar leg kinematics and VMC (virtual model control), docs/control.md.
 
 Pure functions on floats (``math`` only): the chassis calls them twice per
 2 ms tick, once per leg.
 
-Frame (controller/constants.py, "leg plane"): the seed's five-bar frame,
+Frame (controller/constants.py, "leg plane"): the design document's five-bar frame,
 origin at the front hip A, x_fb pointing BACKWARD towards the rear hip E at
 (L5, 0), y_fb pointing DOWN. phi1 is the angle of link AB, phi4 of link ED,
 phi2 of BC, phi3 of DC, all measured from x_fb towards y_fb. Seen in the
@@ -19,7 +19,7 @@ Virtual leg coordinates in the LQR's convention (seed model table):
   Tp  (N m) virtual hip torque acting on the leg from the body; Tp > 0
             drives theta positive (swings the wheel backward), and its
             reaction drives the body's phi positive (nose up), as in the
-            seed's (1.6) and (1.9).
+            design document's (1.6) and (1.9).
 
 Virtual work, derived here. The hip motors act between body and links, so
 their power is T1 dphi1 + T4 dphi4 with phi1, phi4 relative to the body. The
@@ -81,7 +81,7 @@ def _wrap(angle: float) -> float:
 def forward_kinematics(phi1: float, phi4: float) -> LegKinematics:
     """Leg pose from the two hip angles (rad, five-bar frame).
 
-    The seed's construction (its C code): B and D from the thighs, then
+    The design document's construction (its C code): B and D from the thighs, then
     phi2 = 2 atan2(B0 + sqrt(A0^2 + B0^2 - C0^2), A0 + C0), the branch with C
     below the knees. Raises ValueError when the angles cannot close the loop
     (a wrong reading, not a pose the leg can take).
@@ -175,7 +175,7 @@ def _hip_angle(dx: float, dy: float, thigh: float, shin: float, side: float) -> 
 def support_force(F: float, Tp: float, theta: float, L0: float, dL0: float, ddL0: float,
                   dtheta: float, ddtheta: float, body_accel_z: float,
                   axle_mass: float = MASS_AT_AXLE) -> float:
-    """Ground's normal force on the wheel Fn (N), seed's leg_fn_cal.
+    """Ground's normal force on the wheel Fn (N), the design document's leg_fn_cal.
 
     Inputs: F (N) and Tp (N m) the leg's push and hip torque, best measured
     (``leg_force`` of the motors' feedback torques), in this module's signs;
@@ -186,8 +186,8 @@ def support_force(F: float, Tp: float, theta: float, L0: float, dL0: float, ddL0
 
     The leg's vertical push on the wheel is P = F cos(theta) - Tp sin(theta)/L0
     (Tp > 0 swings the wheel back and, for theta > 0, up: it unloads it; the
-    seed writes +Tp with its opposite Tp). The wheel sits L0 cos(theta) below
-    the hip, so (control_notes §1.4, tulingzt's form)
+    document writes +Tp with its opposite Tp). The wheel sits L0 cos(theta) below
+    the hip, so (docs/control.md, tulingzt's form)
       zdd_w = zdd_body - ddL0 cos + 2 dL0 dtheta sin + L0 ddtheta sin + L0 dtheta^2 cos
       Fn = P + m (g + zdd_w).
     """

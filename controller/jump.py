@@ -1,4 +1,4 @@
-"""The jump sequence (control_notes §1.9): squat, thrust, retract, flight, land.
+"""The jump sequence (docs/control.md, jumps): squat, thrust, retract, flight, land.
 
 ``PHASES`` is the table: for each phase, what the chassis does in it and how
 it ends (its exit condition, or its timeout, each naming the next phase).

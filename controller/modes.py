@@ -1,4 +1,4 @@
-"""Operating modes, after seed 004's mode machine (MIT Cheetah ControlFSM).
+"""Operating modes, after the MIT Cheetah's mode machine (ControlFSM; docs/control.md).
 
 E-stop from the remote's switch wins from any mode; the motors are enabled
 only in STAND_UP, BALANCE, MOVE and JUMP. The transitions are an explicit table

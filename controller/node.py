@@ -4,7 +4,7 @@
 frame, ``tick`` returns the frames to send (the rig's replay feeds it recorded
 frames the same way). ``ControllerNode`` owns the two buses and the clock:
 
-- sync mode (the rig's lockstep, DESIGN.md): a tick runs when SYNC with the
+- sync mode (the rig's lockstep, docs/design.md): a tick runs when SYNC with the
   same counter has arrived on both buses; the controller's clock is the tick
   count times the control period;
 - free-run mode (the robot, real time): a tick runs every control period of
@@ -52,7 +52,7 @@ class TickResult:
 
 
 class Controller:
-    """Seed 000's chassis and detect tasks over CAN frames, without I/O.
+    """The design document's chassis and detect tasks over CAN frames, without I/O.
 
     Around the mode machine (controller/modes.py): the jump and recovery phase
     tables (jump.py, recovery.py), the support-force off-ground estimate
@@ -267,7 +267,7 @@ class Controller:
             cmd.leg_length = jc.leg_length
 
     def _update_support(self, legs: dict) -> None:
-        """Fn per leg (seed's leg_fn_cal) and the debounced off-ground state."""
+        """Fn per leg (the design document's leg_fn_cal) and the debounced off-ground state."""
         imu = self.bus.imu
         accel_z = support.vertical_accel(imu.quat, imu.accel)
         for leg, state in legs.items():

@@ -1,14 +1,14 @@
 """Controller tuning: every number here is a choice, not a fact about the robot.
 
-Facts live in ``controller/constants.py``. Sources are control_notes.md
-sections (the open-source robots each default was scaled from).
+Facts live in ``controller/constants.py``. The open-source robots each default was
+scaled from are named in docs/control.md.
 """
 from __future__ import annotations
 
 # --- timing ------------------------------------------------------------------
-# 2 ms (500 Hz): the norm for CAN joint motors (control_notes §0.2). At 1 kHz the
+# 2 ms (500 Hz): the norm for CAN joint motors (docs/control.md). At 1 kHz the
 # four CyberGear command/reply pairs alone would need ~120% of CAN2 at 1 Mbit/s;
-# at 500 Hz CAN2 carries ~62% with SYNC and heartbeat (README, bus load).
+# at 500 Hz CAN2 carries ~62% with SYNC and heartbeat (docs/measurements.md, bus load).
 CONTROL_PERIOD = 0.002  # s
 
 # --- LQR design (controller/design/lqr.py reads these) ------------------------
@@ -19,20 +19,20 @@ LEG_LENGTH_MAX = 0.26  # m, upper end (geometric max 0.28, singular at 0.2865)
 LEG_LENGTH_NOMINAL = 0.17  # m
 LQR_GRID_POINTS = 50
 
-# --- leg length (VMC force along the leg) [control_notes §6, scaled from Reborn] --
+# --- leg length (VMC force along the leg) [scaled from Reborn, docs/control.md] --
 LEG_KP = 400.0  # N/m
 LEG_KD = 25.0  # N s/m
-LEG_KI = 1500.0  # N/(m s): removes the feed-forward's error (the seed's pid_calc is a full PID)
+LEG_KI = 1500.0  # N/(m s): removes the feed-forward's error (the design document's pid_calc is a full PID)
 LEG_INTEGRAL_LIMIT = 15.0  # N
 LEG_FORCE_LIMIT = 80.0  # N, PID output clamp (feed-forward comes on top)
-LEG_GRAVITY_FF = 17.0  # N per leg: (M_body/2 + m_leg/2) g, control_notes §6
-LEG_LENGTH_RATE = 0.25  # m/s, slew of the leg-length set point (seed 002's compliant height)
+LEG_GRAVITY_FF = 17.0  # N per leg: (M_body/2 + m_leg/2) g
+LEG_LENGTH_RATE = 0.25  # m/s, slew of the leg-length set point (a servo tutorial's compliant height change)
 
 # --- roll levelling ------------------------------------------------------------
 ROLL_KP = 400.0  # N/rad, force difference between the legs (McMaster 600/10 at 5 kg)
 ROLL_KD = 15.0  # N s/rad
 ROLL_FORCE_LIMIT = 25.0  # N
-ROLL_LEVEL_KI = 0.5  # (m/s)/rad: seed 002's integral levelling of the leg-length difference
+ROLL_LEVEL_KI = 0.5  # (m/s)/rad: terrain self-levelling, the roll error integrated into the leg-length difference
 # m, largest left/right leg-length difference (levelling + lean): 0.13 of the legs'
 # 0.14 m range levels a side slope up to atan(0.13 / 0.315) = 22 deg (aim: 15 deg)
 ROLL_LEVEL_LIMIT = 0.13
@@ -58,12 +58,12 @@ YAW_TORQUE_LIMIT = 2.0  # N m
 
 # --- motion commands --------------------------------------------------------------
 SPEED_LIMIT = 2.0  # m/s
-ACCEL_LIMIT = 4.0  # m/s^2, slew of the speed set point (Reborn, control_notes §3)
+ACCEL_LIMIT = 4.0  # m/s^2, slew of the speed set point (Reborn)
 POSITION_ERROR_LIMIT = 0.15  # m, position error fed to the LQR is clamped (Skythinker)
 YAW_RATE_LIMIT = 4.0  # rad/s
 
 # --- torque limits ----------------------------------------------------------------
-HIP_TORQUE_LIMIT = 10.0  # N m, normal clamp below the CyberGear's 12 (control_notes §6)
+HIP_TORQUE_LIMIT = 10.0  # N m, normal clamp below the CyberGear's 12 (docs/control.md)
 WHEEL_TORQUE_LIMIT = 5.5  # N m, below the C620's 20 A x 0.3 N m/A
 
 # --- safety -------------------------------------------------------------------------
@@ -82,7 +82,7 @@ ESC_MISMATCH_S = 0.010  # s
 ESC_BACK_EMF_FRACTION = 0.8  # above 0.8 x no-load speed, driving, the current may be capped
 
 # --- support force and off-ground detection (controller/support.py) ------------------
-# control_notes §1.8: teams use 10-20 N on 10-15 kg robots; this one's static Fn is
+# Teams use 10-20 N on 10-15 kg robots; this one's static Fn is
 # ~22.7 N per wheel, so thresholds scale to 7 N (off) / 12 N (on). The gap is the
 # hysteresis; the debounce rides out a wheel bouncing off a bump.
 FN_OFF = 7.0  # N, both legs below it ...
@@ -93,13 +93,13 @@ FN_FILTER_TAU = 0.008  # s, low-pass of the Fn estimate (an impact is a few ms l
 FN_DERIVATIVE_TAU = 0.010  # s, low-pass on the differenced ddL0 and ddtheta
 FN_TRUST_THETA = 0.3  # rad, legs further from vertical: Fn may not call it airborne (support.estimate_trusted)
 
-# --- in the air (control_notes §1.8, §6 "In-air") -----------------------------------------
+# --- in the air (docs/control.md) ------------------------------------------------------------
 AIR_THETA_KP = 5.0  # N m/rad, leg-angle PD on Tp (I ~0.014 kg m^2 -> ~20 rad/s)
 AIR_THETA_KD = 0.4  # N m s/rad
 AIR_LEG_LENGTH = 0.20  # m, long legs in the air leave stroke to absorb the landing
 AIR_LEG_FORCE_LIMIT = 40.0  # N, leg PD clamp in the air (no gravity feed-forward there)
 
-# --- jump (controller/jump.py; control_notes §1.9 mapped to this robot) --------------------
+# --- jump (controller/jump.py; public jumps mapped to this robot) ---------------------------
 JUMP_SQUAT_LENGTH = 0.12  # m, lowest leg length of the K(L0) fit: the longest stroke
 JUMP_SQUAT_MIN_S = 0.15  # s, settle in the squat before pushing
 JUMP_SQUAT_TIMEOUT = 1.5  # s, push anyway if the squat (and a forward run-up) is not reached

@@ -5,8 +5,8 @@ attitude and both legs: it can place the body box (constants.BODY_SIZE, its
 centre at the CoM, the hip midpoint O ``BODY_COM_ABOVE_HIP`` below it) and
 each wheel's lowest point in a frame that turns with roll and pitch only, and
 take the flat ground through the lower wheel. When the box's lowest corner
-comes down to that ground the body is resting on the floor: fallen (issue 4:
-"pitch or leg angle past a limit, body on the ground"), whatever the angles say
+comes down to that ground the body is resting on the floor: fallen ("pitch or leg
+angle past a limit, body on the ground"), whatever the angles say
 (legs collapsed under a load, a slow topple onto the nose).
 """
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Recovery stand from lying (seed 004's RECOVERY_STAND, for a wheel-legged body).
+"""Recovery stand from lying (the MIT Cheetah's RECOVERY_STAND, for a wheel-legged body).
 
 When STAND_UP starts with the body past the fall limits (lying on its nose
 after a fall, legs limp and swung back), the ordinary stand-up cannot work:

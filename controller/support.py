@@ -1,6 +1,6 @@
-"""Ground support force per leg and the off-ground decision (seed 000's leg_fn_cal).
+"""Ground support force per leg and the off-ground decision (the design document's leg_fn_cal).
 
-``fivebar.support_force`` is the seed's formula; this module feeds it what
+``fivebar.support_force`` is the design document's formula; this module feeds it what
 the robot measures each tick and turns its output into a debounced
 "both wheels off the ground":
 
@@ -16,7 +16,7 @@ bounce is a few ms long, the decisions below want tens of ms.
 ``ContactDebounce`` is a per-robot hysteresis with a counter: airborne only
 after both legs have been below ``FN_OFF`` for ``OFF_GROUND_DEBOUNCE``, back on
 the ground once either leg has been above ``FN_ON`` for
-``TOUCHDOWN_DEBOUNCE`` (control_notes §1.8: 7 N / 12 N for this 4.6 kg robot,
+``TOUCHDOWN_DEBOUNCE`` (docs/control.md: 7 N / 12 N for this 4.6 kg robot,
 whose static Fn is ~22.7 N per wheel).
 """
 from __future__ import annotations

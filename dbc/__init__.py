@@ -6,10 +6,11 @@ them (through cantools) and adds what a DBC cannot say by itself: the
 CyberGear fields that live in the 29-bit identifier (``wheelleg.dbc.cybergear``) and
 the manual's truncating float-to-uint encoder.
 
-Buses: CAN1 (``CAN1 = "can1"``) carries the wheel ESCs, the IMU, the remote,
-SYNC and heartbeat; CAN2 (``CAN2 = "can2"``) carries the four CyberGear joint
-motors, SYNC and heartbeat. These two names are the buses' names everywhere in
-the project (controller, emulators, traces), defined here only.
+Buses (docs/protocols.md): CAN1 (``CAN1 = "can1"``) carries the wheel ESCs,
+the IMU, the remote, SYNC and heartbeat; CAN2 (``CAN2 = "can2"``) carries the
+four CyberGear joint motors, SYNC and heartbeat. These two names are the
+buses' names everywhere in the project (controller, emulators, traces),
+defined here only.
 """
 from __future__ import annotations
 

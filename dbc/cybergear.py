@@ -1,7 +1,7 @@
 """The CyberGear 29-bit identifier codec.
 
-A CyberGear identifier is ``type << 24 | data16 << 8 | target`` (protocols.md
-§1.3); what ``data16`` holds depends on the type: the host id, a torque
+A CyberGear identifier is ``type << 24 | data16 << 8 | target`` (docs/protocols.md,
+the 29-bit identifier); what ``data16`` holds depends on the type: the host id, a torque
 feed-forward (type 1), mode and fault bits (type 2 and other replies) or a new
 id (type 7). The DBC describes those fields with four pseudo messages
 (``CG_Id_*``: the identifier read as a little-endian u32); this module reads
@@ -21,7 +21,7 @@ DEVICE_ID_TARGET = 0xFE  # replies to type 0/7/22 go to this address
 FAULT_NAMES = ("FaultUnderVoltage", "FaultOverCurrent", "FaultOverTemp",
                "FaultMagEncoder", "FaultHallEncoder", "FaultNotCalibrated")
 
-# communication types (protocols.md §1.4)
+# communication types (docs/protocols.md)
 T_DEVICE_ID, T_MOTION, T_FEEDBACK, T_ENABLE, T_STOP = 0, 1, 2, 3, 4
 T_SET_ZERO, T_SET_ID, T_PARAM_READ, T_PARAM_WRITE = 6, 7, 17, 18
 T_FAULT_WARN, T_SET_BAUD = 21, 22

@@ -1,4 +1,4 @@
-"""DJI RoboMaster C620 ESC driving an M3508 P19 (../shared/protocols.md §2).
+"""DJI RoboMaster C620 ESC driving an M3508 P19 (docs/protocols.md).
 
 The ESC takes its slot of the 0x200 (ESC 1-4) or 0x1FF (ESC 5-8) current
 frame, clamps it to +-16384 (+-20 A) and drives the motor; it never answers a
@@ -11,17 +11,21 @@ Choices where the sources are silent:
 * A command frame must be standard-id, data, DLC 8 (the manual's frame);
   anything else is ignored.
 * When commands stop, the last current is held forever unless
-  ``command_timeout_s`` is set (§2.5: undocumented; hold is the worst case).
+  ``command_timeout_s`` is set (undocumented; hold is the worst case).
 * Back-EMF: the drive torque available at output speed w is
   ``K_EMF * (W_NO_LOAD - |w|)``, capped by the current. K_EMF comes from the
-  M3508+C620 speed-torque data (§2.7): rated 3 N m at 469 rpm, no load at
+  M3508+C620 speed-torque data (DJI's M3508 manual): rated 3 N m at 469 rpm, no load at
   482 rpm, so 3 N m / 13 rpm = 2.2 N m s/rad; the torque falls to zero at the
-  no-load speed. Braking is not limited.
+  no-load speed. Braking is not limited. The no-load speed is the 24 V one;
+  it scales with ``supply_v`` (a DC motor's speed at zero torque is V / ke).
+* ``kt_scale``: the motor's true torque constant over the datasheet's
+  0.3 N m/A (a plant override). The feedback reports the current the motor
+  carries, so a host that believes 0.3 N m/A misjudges the torque.
 * Motor temperature: first order, ``THERMAL_TAU_S`` and ``HEAT_K_PER_A2``
   are assumptions (DJI publishes no thermal data): the rated 10 A settles at
   100 degC. The ESC's optional 125 degC cut-off is not modelled.
 * The feedback current is the current the ESC achieves (after the back-EMF
-  limit), on the command's scale (community convention, §2.10).
+  limit), on the command's scale (community convention).
 """
 from __future__ import annotations
 
@@ -29,16 +33,16 @@ import math
 
 import can
 
-from wheelleg.controller import constants as C
 from wheelleg.dbc import load_file
 from wheelleg.dbc.codec import MessageCodec
 from wheelleg.emulators.device import EmulatedDevice, PeriodicSchedule, Shaft, frame, is_data_frame
+from wheelleg.emulators.robot import description as D
 
-FEEDBACK_PERIOD_S = 0.001  # 1 kHz default feedback rate (D1 p.17)
+FEEDBACK_PERIOD_S = 0.001  # 1 kHz default feedback rate (DJI's C620 guide p. 17)
 FULL_DLC = 8
-RATED_TORQUE_NM = 3.0  # output shaft, max continuous (§2.7)
-RATED_SPEED_RAD_S = 469 * 2 * math.pi / 60  # output, at rated torque with a C620 (§2.7)
-BACK_EMF_NM_S_PER_RAD = RATED_TORQUE_NM / (C.M3508_NO_LOAD_SPEED - RATED_SPEED_RAD_S)
+RATED_TORQUE_NM = 3.0  # output shaft, max continuous (M3508 manual)
+RATED_SPEED_RAD_S = 469 * 2 * math.pi / 60  # output, at rated torque with a C620 (M3508 manual)
+BACK_EMF_NM_S_PER_RAD = RATED_TORQUE_NM / (D.M3508_NO_LOAD_SPEED_RAD_S - RATED_SPEED_RAD_S)
 THERMAL_TAU_S = 600.0  # s, assumed
 HEAT_K_PER_A2 = 0.75  # K/A^2, assumed: 10 A continuous settles 75 K above ambient
 
@@ -47,7 +51,8 @@ class C620(EmulatedDevice):
     """One C620 + M3508 on CAN1 (standard ids)."""
 
     def __init__(self, esc_id: int = 1, command_timeout_s: float | None = None,
-                 ambient_c: float = 25.0, rotor_offset_rad: float = 0.0, shaft: Shaft | None = None):
+                 ambient_c: float = 25.0, rotor_offset_rad: float = 0.0, shaft: Shaft | None = None,
+                 supply_v: float = D.SUPPLY_NOMINAL_V, kt_scale: float = 1.0):
         super().__init__(shaft)
         if not 1 <= esc_id <= 8:
             raise ValueError(f"C620 id must be 1..8, got {esc_id}")
@@ -65,7 +70,11 @@ class C620(EmulatedDevice):
             self._fb.signals[name] for name in ("RotorSpeed", "TorqueCurrent", "MotorTemp"))
         self._angle_counts = round(360.0 / self._fb.signals["RotorAngle"].scale)  # 8192 per rotor turn
         self._schedule = PeriodicSchedule(FEEDBACK_PERIOD_S)
+        if not (supply_v > 0.0 and kt_scale > 0.0):
+            raise ValueError(f"supply_v and kt_scale must be > 0, got {supply_v!r}, {kt_scale!r}")
         self.esc_id = esc_id
+        self.torque_constant = D.M3508_TORQUE_CONSTANT_NM_PER_A * kt_scale  # N m/A, true
+        self.no_load_speed = D.M3508_NO_LOAD_SPEED_RAD_S * (supply_v / D.SUPPLY_NOMINAL_V)  # rad/s, output
         self.command_timeout_s = command_timeout_s
         self.rotor_offset_rad = rotor_offset_rad
         self.ambient_c = ambient_c
@@ -89,9 +98,9 @@ class C620(EmulatedDevice):
         return [self.feedback_frame(now_s)]
 
     def feedback_frame(self, now_s: float) -> can.Message:
-        rotor = (self.shaft.angle * C.M3508_GEAR + self.rotor_offset_rad) % (2 * math.pi)
+        rotor = (self.shaft.angle * D.M3508_GEAR + self.rotor_offset_rad) % (2 * math.pi)
         counts = int(rotor / (2 * math.pi) * self._angle_counts) % self._angle_counts
-        rotor_rpm = self.shaft.speed * C.M3508_GEAR * 60.0 / (2 * math.pi)
+        rotor_rpm = self.shaft.speed * D.M3508_GEAR * 60.0 / (2 * math.pi)
         raw = {"RotorAngle": counts,
                "RotorSpeed": self._speed_field.rounded(rotor_rpm),
                "TorqueCurrent": self._current_field.rounded(self.output_current(now_s)),
@@ -107,16 +116,16 @@ class C620(EmulatedDevice):
         return self.command_raw * self._amps_per_raw
 
     def output_torque(self, now_s: float) -> float:
-        tau = self.commanded_current(now_s) * C.M3508_TORQUE_CONSTANT
+        tau = self.commanded_current(now_s) * self.torque_constant
         speed = self.shaft.speed
         if tau * speed > 0.0:  # driving: back-EMF leaves less torque near no-load speed
-            available = max(0.0, BACK_EMF_NM_S_PER_RAD * (C.M3508_NO_LOAD_SPEED - abs(speed)))
+            available = max(0.0, BACK_EMF_NM_S_PER_RAD * (self.no_load_speed - abs(speed)))
             tau = max(-available, min(available, tau))
         return tau
 
     def output_current(self, now_s: float) -> float:
         """A the motor carries now (what the feedback reports)."""
-        return self.output_torque(now_s) / C.M3508_TORQUE_CONSTANT
+        return self.output_torque(now_s) / self.torque_constant
 
     def advance(self, dt_s: float, now_s: float) -> None:
         if not dt_s > 0.0:

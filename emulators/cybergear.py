@@ -1,6 +1,6 @@
-"""Xiaomi CyberGear micro-motor, frame for frame (../shared/protocols.md §1).
+"""Xiaomi CyberGear micro-motor, frame for frame (docs/protocols.md).
 
-Reply rules (§1.11): every accepted host->motor frame of types 0, 1, 2 (a
+Reply rules (docs/protocols.md, how the emulated CyberGear answers): every accepted host->motor frame of types 0, 1, 2 (a
 poll), 3, 4, 6, 7, 17, 18, 21 and 22 gets exactly one reply; the motor sends
 nothing on its own. Types 0/7/22 answer with a type-0 device-id frame to
 0xFE, 17 with a type-17 frame, 21 with a type-21 fault/warning frame and
@@ -8,11 +8,11 @@ everything else with a type-2 feedback frame. Replies go to the host id in
 bits 15..8 of the request; type 1 carries none and is answered to the last
 host seen (initially 0x00, CAN_MASTER's example value).
 
-Choices where the sources are silent (⚠ in protocols.md), made once here:
+Choices where the sources are silent (docs/protocols.md), made once here:
 
 * DLC: types whose payload the motor reads (1, 4, 6, 17, 18, 22) need DLC 8,
   otherwise silence; types whose payload it ignores (0, 2, 3, 7, 21) accept
-  any DLC (the debugger sends type 0 with DLC 1, §1.12).
+  any DLC (the debugger sends type 0 with DLC 1).
 * Undocumented types (5, 8-16, 19, 20, 23-31), remote/error/FD frames,
   standard ids and frames for other targets: silence.
 * Type 17 of an index outside 0x7005-0x7020's table: silence (the manual
@@ -35,7 +35,11 @@ Model: the output torque per run mode (0 motion, 1 position, 2 speed,
 3 current) is limited to +-limit_torque, then +-12 N m, then by a back-EMF
 line so that the motor cannot push the shaft beyond 30 rad/s; the winding
 temperature follows a first-order model (``THERMAL_TAU_S``) and latches the
-over-temperature fault at 80 degC.
+over-temperature fault at 80 degC. The back-EMF line's speed scales with the
+supply (``vbus_v``, 24 V nominal). ``kt_scale`` is the shaft's true torque
+over the torque the firmware means to make (its torque constant wrong, a plant
+override): the shaft gets ``kt_scale`` times it, the feedback reports what
+the firmware believes it makes.
 """
 from __future__ import annotations
 
@@ -43,29 +47,29 @@ import math
 
 import can
 
-from wheelleg.controller import constants as C
 from wheelleg.dbc import CYBERGEAR_FILES, load_file
 from wheelleg.dbc import cybergear as cg
 from wheelleg.dbc.codec import MessageCodec
 from wheelleg.emulators.device import EmulatedDevice, Shaft, frame, is_data_frame
+from wheelleg.emulators.robot import description as D
 
 MODE_RESET, MODE_CALI, MODE_RUN = 0, 1, 2
 RUN_MODES = (0, 1, 2, 3)  # operation (motion), position, speed, current
-MAX_MOTOR_ID = 127  # parameter CAN_ID 0x200A range (§1.3)
-CURRENT_LIMIT_A = 23.0  # peak phase current; iq_ref / limit_cur range (§1.2, §1.7)
+MAX_MOTOR_ID = 127  # parameter CAN_ID 0x200A range
+CURRENT_LIMIT_A = 23.0  # peak phase current; iq_ref / limit_cur range
 FULL_DLC = 8
 
 # Back-EMF: the drive torque available at speed v is K_EMF * (V_MAX - |v|),
 # capped at 12 N m. K_EMF = Kt * ke / R with Kt 0.87 N m/A, R 0.45 ohm and
 # ke = 0.055 Vrms/rpm (output rpm) * sqrt(2) * 60 / (2 pi) = 0.743 V s/rad
-# (§1.2): 1.44 N m s/rad. V_MAX is the protocol's 30 rad/s (no-load ~31): full
+# (the manual's data): 1.44 N m s/rad. V_MAX is the protocol's 30 rad/s (no-load ~31): full
 # torque up to ~21.7 rad/s, none beyond 30 rad/s, so the motor alone cannot
 # drive the shaft past the range of its velocity field. Braking is not limited.
 BACK_EMF_NM_S_PER_RAD = 1.44
-SPEED_LIMIT_RAD_S = C.CG_SPEED_LIMIT
+SPEED_LIMIT_RAD_S = D.CG_SPEED_LIMIT_RAD_S  # at the nominal supply
 
 # Winding temperature, first order: dT/dt = (T_amb + HEAT * I^2 - T) / TAU.
-# Fitted to the overload table (§1.2, 25 degC ambient) so that the fault at
+# Fitted to the overload table (the manual's, 25 degC ambient) so that the fault at
 # 80 degC trips at the table's times: 12 N m for 28 s and 6 N m for 700 s give
 # two equations 55 K = a tau_i^2 (1 - exp(-t_i / TAU)) (a in K/(N m)^2);
 # solving: TAU = 97.4 s, a = 1.529 K/(N m)^2, i.e. HEAT = a Kt^2 = 1.157 K/A^2.
@@ -79,13 +83,13 @@ HEAT_K_PER_A2 = 1.157
 # loop tick at an assumed 1 kHz speed loop (the manual gives no unit).
 SPEED_LOOP_HZ = 1000.0
 
-DEFAULT_PARAMS = {  # runtime table defaults (§1.7; S1 config table); ⚠ limit_spd assumed 2 rad/s
+DEFAULT_PARAMS = {  # runtime table defaults (the manual's tables); ⚠ limit_spd assumed 2 rad/s
     "run_mode": 0, "iq_ref": 0.0, "spd_ref": 0.0, "limit_torque": 12.0, "cur_kp": 0.125,
     "cur_ki": 0.0158, "cur_filt_gain": 0.1, "loc_ref": 0.0, "limit_spd": 2.0,
     "limit_cur": CURRENT_LIMIT_A, "loc_kp": 30.0, "spd_kp": 1.0, "spd_ki": 0.002,
 }
 READ_ONLY = frozenset({"mechPos", "iqf", "mechVel", "VBUS"})  # 0x7019-0x701C
-# id fault bit -> type-21 fault word bit (§1.6, §1.8); the encoder faults have no word bit
+# id fault bit -> type-21 fault word bit (docs/protocols.md, types 2 and 21); the encoder faults have no word bit
 FAULT_WORD = {"FaultOverTemp": "FaultOverTemp", "FaultUnderVoltage": "FaultUnderVoltage",
               "FaultOverCurrent": "FaultPhaseAOverCurrent", "FaultNotCalibrated": "FaultNotCalibrated"}
 BAUD_CODES = (1, 2, 3, 4)  # type 22: 1M, 500k, 250k, 125k
@@ -134,8 +138,8 @@ class CyberGear(EmulatedDevice):
     """One CyberGear on a CAN bus (29-bit ids); see the module docstring for the rules."""
 
     def __init__(self, motor_id: int = 0x7F, position_range: str = "12.5", uid: int | None = None,
-                 ambient_c: float = 25.0, host_id: int = 0x00, vbus_v: float = 24.0,
-                 shaft: Shaft | None = None):
+                 ambient_c: float = 25.0, host_id: int = 0x00, vbus_v: float = D.SUPPLY_NOMINAL_V,
+                 shaft: Shaft | None = None, kt_scale: float = 1.0):
         super().__init__(shaft)
         if not 0 <= motor_id <= MAX_MOTOR_ID:
             raise ValueError(f"CyberGear motor id must be 0..{MAX_MOTOR_ID}, got {motor_id}")
@@ -145,7 +149,11 @@ class CyberGear(EmulatedDevice):
         self.uid = (0x4347_0000_0000_0000 | motor_id) if uid is None else uid & 0xFFFF_FFFF_FFFF_FFFF
         self.ambient_c = ambient_c
         self.temperature_c = ambient_c
+        if not (vbus_v > 0.0 and kt_scale > 0.0):
+            raise ValueError(f"vbus_v and kt_scale must be > 0, got {vbus_v!r}, {kt_scale!r}")
         self.vbus_v = vbus_v
+        self.kt_scale = kt_scale
+        self.speed_limit_rad_s = SPEED_LIMIT_RAD_S * (vbus_v / D.SUPPLY_NOMINAL_V)  # back-EMF: no drive beyond
         self.last_host = host_id & 0xFF
         self.mode = MODE_RESET
         self.params = dict(DEFAULT_PARAMS)
@@ -182,7 +190,7 @@ class CyberGear(EmulatedDevice):
 
     @property
     def warn_over_temp(self) -> bool:
-        return self.temperature_c >= C.CG_WARN_TEMP
+        return self.temperature_c >= D.CG_WARN_TEMP_C
 
     def inject_fault(self, name: str) -> None:
         """Latch a fault as the firmware would: torque off, reset mode, bit in every type-2 id."""
@@ -197,13 +205,18 @@ class CyberGear(EmulatedDevice):
 
     # -- physics -----------------------------------------------------------------
     def output_torque(self, now_s: float) -> float:
+        """N m on the shaft: what the firmware makes times the true-torque scale."""
+        return self.firmware_torque() * self.kt_scale
+
+    def firmware_torque(self) -> float:
+        """N m the firmware means to make (and reports): the run mode's demand within its limits."""
         if self.mode != MODE_RUN or self._faults:
             return 0.0
-        limit = min(self.params["limit_torque"], C.CG_TORQUE_LIMIT)
+        limit = min(self.params["limit_torque"], D.CG_TORQUE_LIMIT_NM)
         tau = _clamp(self._demand_torque(), -limit, limit)
         speed = self.shaft.speed
         if tau * speed > 0.0:  # driving, not braking: back-EMF limit
-            available = max(0.0, BACK_EMF_NM_S_PER_RAD * (SPEED_LIMIT_RAD_S - abs(speed)))
+            available = max(0.0, BACK_EMF_NM_S_PER_RAD * (self.speed_limit_rad_s - abs(speed)))
             tau = _clamp(tau, -available, available)
         return tau
 
@@ -213,10 +226,10 @@ class CyberGear(EmulatedDevice):
             p_ref, v_ref, kp, kd, tau_ff = self._motion
             return kp * (p_ref - self.mech_pos) + kd * (v_ref - self.shaft.speed) + tau_ff
         if run_mode == 3:
-            return _clamp(p["iq_ref"], -CURRENT_LIMIT_A, CURRENT_LIMIT_A) * C.CG_TORQUE_CONSTANT
+            return _clamp(p["iq_ref"], -CURRENT_LIMIT_A, CURRENT_LIMIT_A) * D.CG_TORQUE_CONSTANT_NM_PER_A
         limit_cur = p["limit_cur"]
         iq = p["spd_kp"] * (self._speed_ref() - self.shaft.speed) + self._speed_integral_a
-        return _clamp(iq, -limit_cur, limit_cur) * C.CG_TORQUE_CONSTANT
+        return _clamp(iq, -limit_cur, limit_cur) * D.CG_TORQUE_CONSTANT_NM_PER_A
 
     def _speed_ref(self) -> float:
         p = self.params
@@ -232,10 +245,10 @@ class CyberGear(EmulatedDevice):
             err = self._speed_ref() - self.shaft.speed
             self._speed_integral_a = _clamp(
                 self._speed_integral_a + self.params["spd_ki"] * SPEED_LOOP_HZ * err * dt_s, -limit, limit)
-        current = self.output_torque(now_s) / C.CG_TORQUE_CONSTANT
+        current = self.firmware_torque() / D.CG_TORQUE_CONSTANT_NM_PER_A
         settle = self.ambient_c + HEAT_K_PER_A2 * current * current
         self.temperature_c += (settle - self.temperature_c) * (1.0 - math.exp(-dt_s / THERMAL_TAU_S))
-        if self.temperature_c >= C.CG_OVER_TEMP and "FaultOverTemp" not in self._faults:
+        if self.temperature_c >= D.CG_OVER_TEMP_C and "FaultOverTemp" not in self._faults:
             self.inject_fault("FaultOverTemp")
 
     # -- frames in ---------------------------------------------------------------
@@ -330,7 +343,7 @@ class CyberGear(EmulatedDevice):
         if name == "mechVel":
             return self.shaft.speed
         if name == "iqf":
-            return self.output_torque(0.0) / C.CG_TORQUE_CONSTANT
+            return self.firmware_torque() / D.CG_TORQUE_CONSTANT_NM_PER_A
         if name == "VBUS":
             return self.vbus_v
         if name == "rotation":
@@ -353,7 +366,7 @@ class CyberGear(EmulatedDevice):
     def _feedback_frame(self, host: int, now_s: float) -> can.Message:
         pos, vel, torque, temp = self._lay.fb_fields
         raw = {"Pos": pos.truncated(self.mech_pos), "Vel": vel.truncated(self.shaft.speed),
-               "Torque": torque.truncated(self.output_torque(now_s)),
+               "Torque": torque.truncated(self.firmware_torque()),
                "Temp": temp.truncated(self.temperature_c)}
         key = (self.motor_id, host, self.mode, self._faults)
         can_id = self._feedback_ids.get(key)

@@ -17,10 +17,10 @@ from dataclasses import dataclass
 import can
 import numpy as np
 
-from wheelleg.controller import constants as C
 from wheelleg.dbc import CAN1, load_bus
 from wheelleg.dbc.codec import MessageCodec
 from wheelleg.emulators.device import EmulatedDevice, PeriodicSchedule, frame
+from wheelleg.emulators.robot import description as D
 
 FRAMES = {  # frame -> its signals in the order measure() returns the values
     "IMU_Orientation": ("QuatW", "QuatX", "QuatY", "QuatZ"),
@@ -82,7 +82,7 @@ class Imu(EmulatedDevice):
         self._codecs = [MessageCodec.of(db.get_message_by_name(name)) for name in FRAMES]
         self._fields = [tuple(codec.signals[name] for name in names)
                         for codec, names in zip(self._codecs, FRAMES.values())]
-        self.set_truth((1.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, C.GRAVITY))
+        self.set_truth((1.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, D.GRAVITY_M_S2))
 
     def set_truth(self, quat_wxyz, gyro_body_rad_s, specific_force_body_m_s2) -> None:
         """True orientation (body->world, shape (4,)), rate and specific force (shape (3,) each)."""

@@ -11,6 +11,7 @@ from __future__ import annotations
 import logging
 import threading
 import time
+from collections import deque
 from collections.abc import Sequence
 
 import can
@@ -29,11 +30,23 @@ class DeviceNode:
     so devices on one node do not hear each other, as they need not. A frame
     the bus refuses to send (full queue, bus off) is dropped and counted in
     ``send_errors``, like a real controller's lost transmit.
+
+    Latency (plant overrides, rig only): a frame received by ``service`` at
+    t reaches the devices at the first ``service`` at or after t +
+    ``command_delay_s``; a frame a device sends at t goes on the bus at the
+    first ``service`` at or after t + ``feedback_delay_s``, with what it said
+    at t. So delays are taken on the service grid (each physics step in the rig).
     """
 
-    def __init__(self, bus: can.BusABC, devices: Sequence[EmulatedDevice]):
+    def __init__(self, bus: can.BusABC, devices: Sequence[EmulatedDevice],
+                 command_delay_s: float = 0.0, feedback_delay_s: float = 0.0):
+        if not (command_delay_s >= 0.0 and feedback_delay_s >= 0.0):
+            raise ValueError(f"delays must be >= 0 s, got {command_delay_s!r}, {feedback_delay_s!r}")
         self.bus = bus
         self.devices = list(devices)
+        self.command_delay_s, self.feedback_delay_s = command_delay_s, feedback_delay_s
+        self._inbound: deque[tuple[float, can.Message]] = deque()  # (due s, frame) for the devices
+        self._outbound: deque[tuple[float, can.Message]] = deque()  # (due s, frame) for the bus
         self.frames_in = 0
         self.frames_out = 0
         self.send_errors = 0
@@ -42,24 +55,41 @@ class DeviceNode:
         """Hand one received frame to every device and send their replies."""
         for device in self.devices:
             for reply in device.handle(msg, now_s):
-                self._send(reply)
+                self._emit(reply, now_s)
 
     def send_periodic(self, now_s: float) -> None:
         """Send every device's periodic frames due by ``now_s``."""
         for device in self.devices:
             for out in device.periodic(now_s):
-                self._send(out)
+                self._emit(out, now_s)
 
     def service(self, now_s: float) -> int:
-        """Drain the bus, answer each frame, then send periodic frames; returns frames received."""
+        """Drain the bus, answer each frame, then send periodic frames; returns frames received.
+
+        Frames held back by a latency go first, in the order they were made.
+        """
+        for msg in _due(self._outbound, now_s):
+            msg.timestamp = now_s
+            self._send(msg)
+        for msg in _due(self._inbound, now_s):
+            self.dispatch(msg, now_s)
         received = 0
         recv = self.bus.recv
         while (msg := recv(timeout=0)) is not None:
             received += 1
-            self.dispatch(msg, now_s)
+            if self.command_delay_s > 0.0:
+                self._inbound.append((now_s + self.command_delay_s, msg))
+            else:
+                self.dispatch(msg, now_s)
         self.frames_in += received
         self.send_periodic(now_s)
         return received
+
+    def _emit(self, msg: can.Message, now_s: float) -> None:
+        if self.feedback_delay_s > 0.0:
+            self._outbound.append((now_s + self.feedback_delay_s, msg))
+        else:
+            self._send(msg)
 
     def _send(self, msg: can.Message) -> None:
         try:
@@ -100,3 +130,14 @@ class DeviceNode:
             if msg is not None:
                 self.frames_in += 1
                 self.dispatch(msg, time.monotonic() - start)
+
+
+_DUE_SLACK_S = 1e-9  # float sums of periods land a hair before the instant they name
+
+
+def _due(queue: deque, now_s: float) -> list[can.Message]:
+    """Pop and return the frames of ``queue`` ((due s, frame), in due order) due by ``now_s``."""
+    out = []
+    while queue and queue[0][0] <= now_s + _DUE_SLACK_S:
+        out.append(queue.popleft()[1])
+    return out

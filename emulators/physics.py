@@ -3,8 +3,10 @@
 ``Physics`` owns one ``MjModel``/``MjData``. The plant writes motor torques
 (``set_torques``), steps it (``step``) and reads back what the devices would
 measure (``shaft_state``, ``imu``); the recorder reads ``ground_truth``, which
-the controller never sees. Conventions are controller/constants.py's; the
-model is described in emulators/robot/README.md.
+the controller never sees. Its numbers and conventions are the robot
+description's (emulators/robot/description.py), never the controller's; the
+model is described in emulators/robot/README.md. ``overrides`` (plant
+overrides, emulators/overrides.py) change the model before it is compiled.
 
 Timing of the readings. ``mj_step`` evaluates sensors and contacts at the
 state it starts from, then integrates. So after ``step``:
@@ -24,13 +26,14 @@ from __future__ import annotations
 import math
 import operator
 from pathlib import Path
-from typing import Sequence
+from typing import Mapping, Sequence
 
 import mujoco
 import numpy as np
 
-from wheelleg.controller import constants as C
-from wheelleg.controller import fivebar
+from wheelleg.emulators.model_overrides import override_model
+from wheelleg.emulators.robot import description as D
+from wheelleg.emulators.robot import fivebar
 from wheelleg.emulators.terrain import GROUND_GROUP, TerrainFeature, add_to_spec
 
 __all__ = ["Physics", "TerrainFeature", "SCENE_PATH", "ROBOT_PATH"]
@@ -40,10 +43,11 @@ SCENE_PATH = MODEL_DIR / "scene.xml"
 ROBOT_PATH = MODEL_DIR / "robot.xml"
 
 LEGS = ("left", "right")
-HIP_NAMES = tuple(j.name for j in C.JOINTS)
-WHEEL_NAMES = tuple(w.name for w in C.WHEELS)
-# the rest pose drawn in robot.xml: both thighs on their stops
-_REST = fivebar.forward_kinematics(C.PHI1_STOP, C.PHI4_STOP)
+HIP_NAMES = tuple(m.name for m in D.HIP_MOTORS)
+WHEEL_NAMES = tuple(w.name for w in D.WHEEL_DRIVES)
+# the rest pose drawn in robot.xml: both thighs on their stops; its shin angles (phi2, phi3)
+_REST_PHI = (D.PHI1_STOP_RAD, D.PHI4_STOP_RAD)
+_REST_SHINS = fivebar.link_angles(*_REST_PHI)
 _RESTING_TILT_RAD = 0.05  # nose down: a resting robot topples forward, every time
 _RESTING_HOLD_S = 1.5  # hips held on their stops while the robot topples and lands
 _RESTING_SETTLE_S = 1.0  # then limp, to come to rest
@@ -81,24 +85,29 @@ def leg_joint_angles(leg: str, phi1: float, phi4: float) -> dict[str, float]:
     joint about +y (left) turns by minus their change, about -y (right) by plus.
     Raises ValueError if the loop does not close.
     """
-    k = fivebar.forward_kinematics(phi1, phi4)
+    phi2, phi3 = fivebar.link_angles(phi1, phi4)
+    (rest1, rest4), (rest2, rest3) = _REST_PHI, _REST_SHINS
     axis_sign = -1.0 if leg == "left" else 1.0
-    joints = {j.name: fivebar.shaft_from_phi(j, phi1 if j.hip == "A" else phi4) for j in C.JOINTS if j.leg == leg}
-    joints[f"{leg}_front_knee"] = axis_sign * _wrap((k.phi2 - k.phi1) - (_REST.phi2 - _REST.phi1))
-    joints[f"{leg}_rear_knee"] = axis_sign * _wrap((k.phi3 - k.phi4) - (_REST.phi3 - _REST.phi4))
+    joints = {m.name: fivebar.shaft_from_phi(m, phi1 if m.hip == "A" else phi4)
+              for m in D.HIP_MOTORS if m.leg == leg}
+    joints[f"{leg}_front_knee"] = axis_sign * _wrap((phi2 - phi1) - (rest2 - rest1))
+    joints[f"{leg}_rear_knee"] = axis_sign * _wrap((phi3 - phi4) - (rest3 - rest4))
     return joints
 
 
 class Physics:
     """The simulated robot and its world. All quantities SI (m, rad, s, N, N m)."""
 
-    def __init__(self, terrain: Sequence[TerrainFeature] = (), timestep_s: float = 0.001):
+    def __init__(self, terrain: Sequence[TerrainFeature] = (), timestep_s: float = 0.001,
+                 overrides: Mapping[str, float] | None = None):
         if not (math.isfinite(timestep_s) and 0 < timestep_s <= 0.01):
             raise ValueError(f"timestep_s must be in (0, 0.01] s, got {timestep_s}")
         self.terrain = tuple(terrain)
         spec = mujoco.MjSpec.from_file(str(SCENE_PATH))
         spec.option.timestep = timestep_s
         self.terrain_names = add_to_spec(spec, self.terrain)
+        override_model(spec, overrides or {})
+        self.spec = spec  # what was compiled (a rig trace attaches its XML when the plant is overridden)
         self.model = spec.compile()
         self.data = mujoco.MjData(self.model)
         self._scratch = mujoco.MjData(self.model)  # for readings that must not touch self.data
@@ -125,6 +134,7 @@ class Physics:
             self._shafts[name] = (int(m.jnt_qposadr[j]), int(m.jnt_dofadr[j]))
         self._actuator = {name: m.actuator(name).id for name in HIP_NAMES + WHEEL_NAMES}
         self._body = m.body("body").id
+        self._com_body = m.body_ipos[self._body].copy()  # m, body frame: the nominal CoM is its origin
         self._body_box = m.geom("body_box").id
         self._wheel_geom = {leg: m.geom(f"{leg}_wheel").id for leg in LEGS}
         self._wheel_size = tuple(float(v) for v in m.geom_size[self._wheel_geom["left"]][:2])  # radius, half width
@@ -175,7 +185,8 @@ class Physics:
     def _update_body_force(self) -> None:
         rot = np.empty(9)
         mujoco.mju_quat2Mat(rot, self.data.qpos[3:7])
-        arm = rot.reshape(3, 3) @ self._force_point_body  # the body frame's origin is its CoM
+        # the force acts at the CoM (MuJoCo's xipos): the arm is from there (0 unless a com override moved it)
+        arm = rot.reshape(3, 3) @ (self._force_point_body - self._com_body)
         self.data.xfrc_applied[self._body, :3] = self._force_world
         self.data.xfrc_applied[self._body, 3:] = np.cross(arm, self._force_world)
 
@@ -321,7 +332,7 @@ class Physics:
 
     def _set_legs(self, lengths_m: dict[str, float]) -> None:
         for leg, length in lengths_m.items():
-            phi1, phi4 = fivebar.inverse_kinematics(length, math.pi / 2)
+            phi1, phi4 = fivebar.hip_angles(length, math.pi / 2)
             for joint, angle in leg_joint_angles(leg, phi1, phi4).items():
                 j = self._joint_id[joint]
                 lo, hi = self.model.jnt_range[j]

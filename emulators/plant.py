@@ -5,22 +5,30 @@ an IMU reads the model's sensors and a remote sends the operator's frames.
 Each device keeps its own protocol state; the plant only moves torques into
 the physics and shaft angles, speeds and IMU truth back out, once per physics
 step (1 ms), so the C620s send their feedback at 1 kHz as the real ones do.
+
+The plant's numbers are its own (emulators/robot/description.py), never the
+controller's; ``PlantConfig.overrides`` moves them per run (the keys and their
+ranges: ``OVERRIDES``, emulators/overrides.py).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
+from typing import Mapping
 
 import can
 import numpy as np
 
-from wheelleg.controller import constants as C
 from wheelleg.dbc import CAN1, CAN2
 from wheelleg.emulators.c620 import C620
 from wheelleg.emulators.cybergear import CyberGear
 from wheelleg.emulators.imu import Imu, ImuNoise
 from wheelleg.emulators.node import DeviceNode
+from wheelleg.emulators.overrides import OVERRIDES, check_overrides
 from wheelleg.emulators.physics import Physics
 from wheelleg.emulators.remote import Remote
+from wheelleg.emulators.robot import description as D
+
+__all__ = ["CAN1", "CAN2", "OVERRIDES", "Plant", "PlantConfig"]
 
 
 @dataclass
@@ -30,6 +38,35 @@ class PlantConfig:
     imu_noise: ImuNoise = field(default_factory=ImuNoise)
     esc_command_timeout_s: float | None = None  # None: hold the last current (C620 default)
     imu_period_s: float = 0.002
+    overrides: dict[str, float] = field(default_factory=dict)  # key of OVERRIDES -> value (its unit)
+
+    def __post_init__(self):
+        self.overrides = check_overrides(self.overrides)
+
+    @classmethod
+    def from_overrides(cls, mapping: Mapping[str, str | float]) -> "PlantConfig":
+        """A config with these overrides (strings or numbers); ValueError (one line) for an
+        unknown key or a value outside its range."""
+        return cls(overrides=dict(mapping))
+
+    def overrides_dict(self) -> dict[str, float]:
+        """The overrides that differ from their defaults, key -> float (JSON-able)."""
+        return {k: v for k, v in self.overrides.items() if v != OVERRIDES[k].default}
+
+    def value(self, key: str) -> float:
+        """The true value of override ``key`` in this run: the override, else its default."""
+        return self.overrides.get(key, OVERRIDES[key].default)
+
+    def true_imu_noise(self) -> ImuNoise:
+        """``imu_noise`` with the IMU overrides applied (noise scale, gyro bias per axis)."""
+        if not any(k.startswith("imu_gyro_bias") or k == "imu_noise_scale" for k in self.overrides_dict()):
+            return self.imu_noise
+        scale, bias = self.value("imu_noise_scale"), self.value("imu_gyro_bias")
+        n = self.imu_noise
+        return replace(n, gyro_std_rad_s=n.gyro_std_rad_s * scale, accel_std_m_s2=n.accel_std_m_s2 * scale,
+                       attitude_std_rad=n.attitude_std_rad * scale,
+                       gyro_bias_rad_s=tuple(b + bias + self.value(f"imu_gyro_bias_{axis}")
+                                             for b, axis in zip(n.gyro_bias_rad_s, "xyz")))
 
 
 class Plant:
@@ -39,14 +76,19 @@ class Plant:
                  config: PlantConfig | None = None):
         config = config or PlantConfig()
         self.physics = physics
-        self.joints = {j.name: CyberGear(motor_id=j.motor_id) for j in C.JOINTS}
-        self.wheels = {w.name: C620(esc_id=w.esc_id, command_timeout_s=config.esc_command_timeout_s)
-                       for w in C.WHEELS}
-        self.imu = Imu(period_s=config.imu_period_s, noise=config.imu_noise, rng=rng)
+        volts = config.value("supply_voltage_v")
+        self.joints = {m.name: CyberGear(motor_id=m.motor_id, vbus_v=volts, kt_scale=config.value("hip_kt_scale"))
+                       for m in D.HIP_MOTORS}
+        self.wheels = {w.name: C620(esc_id=w.esc_id, command_timeout_s=config.esc_command_timeout_s,
+                                    supply_v=volts, kt_scale=config.value("wheel_kt_scale"))
+                       for w in D.WHEEL_DRIVES}
+        self.imu = Imu(period_s=config.imu_period_s, noise=config.true_imu_noise(), rng=rng)
         self.remote = Remote()
+        delays = {"command_delay_s": config.value("command_delay_s"),
+                  "feedback_delay_s": config.value("feedback_delay_s")}
         self.nodes = {
-            CAN1: DeviceNode(buses[CAN1], [*self.wheels.values(), self.imu, self.remote]),
-            CAN2: DeviceNode(buses[CAN2], list(self.joints.values())),
+            CAN1: DeviceNode(buses[CAN1], [*self.wheels.values(), self.imu, self.remote], **delays),
+            CAN2: DeviceNode(buses[CAN2], list(self.joints.values()), **delays),
         }
         self._sync_shafts()
 

@@ -8,10 +8,11 @@ robot team's own tests to use ``rig_run``::
         run.assert_passed()                                # the scenario's own checks
         assert abs(run.window("pitch", 1.0)).max() < 0.03  # arrays from the trace (s, rad)
 
-- ``rig_run(scenario, duration=None, seed=0)`` runs the scenario on the chosen
-  transport (``--can-interface``, ``--can-channels``) and reads the trace back.
-  Runs are cached for the session per (scenario, seed, duration), so several
-  tests can judge one run. Traces go to ``--rig-out`` (default: pytest's tmp).
+- ``rig_run(scenario, duration=None, seed=0, plant=None)`` runs the scenario on
+  the chosen transport (``--can-interface``, ``--can-channels``) and reads the
+  trace back; ``plant`` is a dict of plant overrides (``wheelleg run --plant``,
+  e.g. ``{"com_x_m": 0.02}``). Runs are cached for the session per (scenario,
+  seed, duration, plant), so several tests can judge one run. Traces go to ``--rig-out`` (default: pytest's tmp).
 - ``@pytest.mark.socketcan``: skipped, with the reason and the way to get
   vcan, when vcan0/vcan1 (or the ``--can-channels``) cannot be opened.
 - A failing test that used ``rig_run`` gets a "wheelleg rig" report section
@@ -29,6 +30,7 @@ from pathlib import Path
 
 import pytest
 
+from wheelleg.hil.analyze.bug_report import rerun_command
 from wheelleg.hil.run.scenario import RunData
 
 _RUNS_OF_ITEM = pytest.StashKey[list]()
@@ -103,6 +105,7 @@ class RigRun(RunData):
                  f"  trace:   {self.trace_path}",
                  f"  log:     {self.log_path}",
                  f"  replay:  {self.replay_command}",
+                 f"  rerun:   {rerun_command(self.meta)}",
                  f"  inspect: wheelleg inspect {self.trace_path} --plot {self.trace_path.with_suffix('.inspect.png')}"]
         lines += [f"  [{'PASS' if c.passed else 'FAIL'}] {c.name}: {c.detail}" for c in self.checks]
         return "\n".join(lines)
@@ -119,14 +122,17 @@ class _RunCache:
         self.runs: dict[tuple, RigRun] = {}
         self.executed = 0  # rig runs actually done (the rest came from the cache)
 
-    def get(self, scenario: str, duration: float | None, seed: int) -> RigRun:
-        key = (scenario, int(seed), None if duration is None else float(duration))
+    def get(self, scenario: str, duration: float | None, seed: int, plant: dict | None = None) -> RigRun:
+        from wheelleg.emulators.overrides import check_overrides  # ValueError: one line, the known keys
+
+        overrides = tuple(check_overrides(plant or {}).items())
+        key = (scenario, int(seed), None if duration is None else float(duration), overrides)
         run = self.runs.get(key)
         if run is None:
             run = self.runs[key] = self._execute(*key)
         return run
 
-    def _execute(self, scenario: str, seed: int, duration: float | None) -> RigRun:
+    def _execute(self, scenario: str, seed: int, duration: float | None, overrides: tuple) -> RigRun:
         if self.interface == "socketcan":
             reason = socketcan_missing(self.channels)
             if reason:
@@ -134,10 +140,11 @@ class _RunCache:
         from wheelleg.hil.commands.run import execute  # the rig (MuJoCo, emulators) only when used
         from wheelleg.hil.record.rundata import load_run
 
-        label = re.sub(r"[^A-Za-z0-9_.-]", "_", f"{scenario}-seed{seed}-{duration or 'full'}s")
+        plant = [f"{k}={v!r}" for k, v in overrides]
+        label = re.sub(r"[^A-Za-z0-9_.-]", "_", "-".join([f"{scenario}-seed{seed}-{duration or 'full'}s", *plant]))
         args = argparse.Namespace(scenario=scenario, out=self.out_dir / label, interface=self.interface,
                                   channels=",".join(self.channels), seed=seed, duration=duration,
-                                  realtime=False, external_controller=False, no_plot=True)
+                                  realtime=False, external_controller=False, no_plot=True, plant=plant)
         outcome, results = execute(args)
         self.executed += 1
         data = load_run(outcome.trace_path)
@@ -157,11 +164,11 @@ def rig_cache(request, tmp_path_factory) -> _RunCache:
 
 @pytest.fixture
 def rig_run(request, rig_cache):
-    """``rig_run(scenario, duration=None, seed=0) -> RigRun``: run (or reuse) a scenario run."""
+    """``rig_run(scenario, duration=None, seed=0, plant=None) -> RigRun``: run (or reuse) a scenario run."""
     runs = request.node.stash.setdefault(_RUNS_OF_ITEM, [])
 
-    def run(scenario: str, duration: float | None = None, seed: int = 0) -> RigRun:
-        result = rig_cache.get(scenario, duration, seed)
+    def run(scenario: str, duration: float | None = None, seed: int = 0, plant: dict | None = None) -> RigRun:
+        result = rig_cache.get(scenario, duration, seed, plant)
         if not any(r is result for r in runs):  # identity: RunData holds arrays
             runs.append(result)
         return result

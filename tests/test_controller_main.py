@@ -1,4 +1,4 @@
-"""``python -m controller`` as the robot runs it: the --log listener and the way out
+"""``python -m wheelleg.controller`` as the robot runs it: the --log listener and the way out
 (SIGINT/SIGTERM stop every motor before the process exits)."""
 from __future__ import annotations
 

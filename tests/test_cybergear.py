@@ -415,7 +415,7 @@ def test_feedback_uses_the_truncating_encoder_and_saturates_position(rig):
     motor.shaft.speed = 0.0
     assert drv.one(poll).data[2:4] == b"\x7f\xff"
     motor.shaft.angle = 12.0
-    assert drv.one(poll).data[0:2] == (0xFAE0).to_bytes(2, "big")  # §1.12's hardware check value
+    assert drv.one(poll).data[0:2] == (0xFAE0).to_bytes(2, "big")  # the hardware check value (docs/protocols.md, type 1)
     motor.shaft.angle = 40.0
     assert drv.one(poll).data[0:2] == b"\xff\xff"  # saturates, does not wrap
     assert drv.read(1, "mechPos") == 40.0  # while mechPos keeps the multi-turn angle

@@ -1,6 +1,6 @@
 """The DBC files: clean loads, round trips of every message (every multiplexer value),
 every signal's range (hypothesis), and the CyberGear byte orders and id fields pinned
-with vectors from protocols.md."""
+with vectors from docs/protocols.md."""
 from __future__ import annotations
 
 import logging
@@ -181,7 +181,7 @@ def test_every_signal_range_fits_its_field():
                 assert lo <= raw <= hi, (case[0], case[1], s.name, end)
 
 
-# -- CyberGear vectors (protocols.md §1) -------------------------------------------------------
+# -- CyberGear vectors (docs/protocols.md) -------------------------------------------------------
 CG = load_file("cybergear.dbc")
 CG_MSG = CG.get_message_by_name
 
@@ -222,7 +222,7 @@ def test_type2_feedback_id_carries_mode_and_faults():
     assert (parsed.ctype, parsed.mode, parsed.motor_id, parsed.host) == (2, 2, 0x7F, 0xFD)
     assert parsed.faults == set(cg.FAULT_NAMES)
     assert cg.reply_motor(0x02BF7FFD) == 0x7F
-    bit_of = {name: 16 + i for i, name in enumerate(cg.FAULT_NAMES)}  # §1.6: bit 16 under-voltage .. 21
+    bit_of = {name: 16 + i for i, name in enumerate(cg.FAULT_NAMES)}  # type 2: bit 16 under-voltage .. 21
     assert bit_of == {"FaultUnderVoltage": 16, "FaultOverCurrent": 17, "FaultOverTemp": 18,
                       "FaultMagEncoder": 19, "FaultHallEncoder": 20, "FaultNotCalibrated": 21}
     for name, bit in bit_of.items():
@@ -233,8 +233,8 @@ def test_type2_payload_is_big_endian():
     fb = CG_MSG("CG_Feedback")
     data = fb.encode({"Pos": 0xFAE0, "Vel": 0x7FFF, "Torque": 0x1234, "Temp": 0x014D}, scaling=False)
     assert data == bytes.fromhex("fae07fff1234014d")
-    assert fb.decode(data)["Temp"] == pytest.approx(33.3)  # §1.6's example
-    assert truncating_raw(fb.get_signal_by_name("Pos"), 12.0) == 0xFAE0  # §1.12, +-12.5 rad
+    assert fb.decode(data)["Temp"] == pytest.approx(33.3)  # the manual's example
+    assert truncating_raw(fb.get_signal_by_name("Pos"), 12.0) == 0xFAE0  # the hardware check value, +-12.5 rad
 
 
 def test_request_ids_put_host_in_15_8_and_motor_in_7_0():
@@ -314,7 +314,7 @@ def test_4pi_file_differs_only_in_the_position_scale():
             else:
                 assert [getattr(sa, k) for k in scaling] == [getattr(sb, k) for k in scaling], sa.name
     pos = b.get_message_by_name("CG_Feedback").get_signal_by_name("Pos")
-    assert truncating_raw(pos, 12.0) == 0xFA3A  # §1.12's +-4 pi check value
+    assert truncating_raw(pos, 12.0) == 0xFA3A  # the hardware check value, +-4 pi
 
 
 @given(st.floats(allow_nan=True, allow_infinity=True, width=64))

@@ -1,4 +1,4 @@
-"""Offline detection and the fail-safe reaction (seed 000's detect task), without the rig."""
+"""Offline detection and the fail-safe reaction (the design document's detect task), without the rig."""
 import math
 
 import can

@@ -5,7 +5,7 @@ ids, DLC 0-8, random bytes), biased towards frames the device might take for
 its own (its id, its types, parameter indices, NaN/inf floats); a hypothesis
 test does the same with shrinking. Every reply must be a frame the real
 device could send: the right id kind, DLC, a layout the DBC decodes, and for
-a CyberGear at most one reply, of the type §1.11 gives for the request.
+a CyberGear at most one reply, of the type docs/protocols.md gives for the request.
 """
 from __future__ import annotations
 
@@ -24,7 +24,7 @@ from wheelleg.emulators.c620 import C620
 from wheelleg.emulators.cybergear import CyberGear
 from wheelleg.emulators.imu import Imu
 
-REPLY_TYPE = {0: 0, 1: 2, 2: 2, 3: 2, 4: 2, 6: 2, 7: 0, 17: 17, 18: 2, 21: 21, 22: 0}  # §1.11
+REPLY_TYPE = {0: 0, 1: 2, 2: 2, 3: 2, 4: 2, 6: 2, 7: 0, 17: 17, 18: 2, 21: 21, 22: 0}  # docs/protocols.md, how the emulated CyberGear answers
 REPLY_MESSAGE = {0: "CG_DeviceId", 2: "CG_Feedback", 17: "CG_ParamRead", 21: "CG_FaultWarn"}
 PARAM_INDICES = sorted({i for s in load_file("cybergear.dbc").get_message_by_name("CG_ParamWrite").signals
                         for i in (s.multiplexer_ids or ())})

@@ -1,6 +1,6 @@
 """Five-bar kinematics and VMC against independent constructions.
 
-The references here do not reuse wheelleg.controller.fivebar: seed 001's construction
+The references here do not reuse wheelleg.controller.fivebar: a second team's construction
 by perpendicular bisector, central finite differences of the leg geometry,
 and statics by virtual work on point coordinates.
 """
@@ -29,7 +29,7 @@ def working_poses(n: int = 300) -> list[tuple[float, float]]:
 
 
 def random_angle_poses(n: int = 300) -> list[tuple[float, float]]:
-    """(phi1, phi4) drawn straight from the hips' sweeps, kept where seed 001 closes the loop."""
+    """(phi1, phi4) drawn straight from the hips' sweeps, kept where that construction closes the loop."""
     rng = np.random.default_rng(RNG_SEED + 1)
     poses = []
     while len(poses) < n:
@@ -41,7 +41,7 @@ def random_angle_poses(n: int = 300) -> list[tuple[float, float]]:
 
 
 def _seed001(phi1: float, phi4: float):
-    """Seed 001's forward kinematics, in its own frame, mapped back to the five-bar frame.
+    """The second team's forward kinematics, in its own frame, mapped back to the five-bar frame.
 
     001: origin O at the middle of the hips, motors at -+ld/2, thighs lt, shins
     ll; knees C, D; the wheel E = F + l_FE * rot(CD)/|CD| with F the middle of
@@ -294,4 +294,4 @@ def test_standing_torques_lift_the_body_on_both_sides():
     assert t4 == pytest.approx(-t1)  # symmetric pose
     front, rear = (j for j in C.JOINTS if j.leg == "left")
     assert fb.shaft_torque(front, t1) > 0 > fb.shaft_torque(rear, t4)
-    assert 1.0 < abs(t1) < 2.0  # control_notes §1.4: ~1.4 N m per motor at 17 N
+    assert 1.0 < abs(t1) < 2.0  # docs/robot.md: ~1.4 N m per motor at 17 N

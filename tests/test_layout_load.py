@@ -1,4 +1,4 @@
-"""tools/layout_load.py: scaling the seed's layout to other control rates."""
+"""tools/layout_load.py: scaling the robot's frame layout to other control rates."""
 import pytest
 
 from wheelleg.dbc import cybergear as cg

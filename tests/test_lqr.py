@@ -32,7 +32,7 @@ def closed_loop(L0: float, dt: float = P.CONTROL_PERIOD):
 
 
 def lagrangian_model(L0: float) -> tuple[np.ndarray, np.ndarray]:
-    """A, B linearised upright from the Lagrangian, written independently of the seed.
+    """A, B linearised upright from the Lagrangian, written independently of the design document.
 
     q = (x, theta, phi). Wheel CoM at height R, leg CoM at (x + L sin th,
     R + L cos th), body CoM at (x + (L+LM) sin th - l sin ph, R + (L+LM) cos th

@@ -1,4 +1,7 @@
-"""The MJCF robot agrees with controller/constants.py and the seed's five-bar.
+"""The MJCF robot agrees with its description (emulators/robot/description.py), and at
+the nominal values with what the controller believes (controller/constants.py and its
+five-bar kinematics): a plant override may move the truth, the nominal robot is the
+one the controller was designed for.
 
 Everything is read from the compiled model (MjModel) or measured in
 simulation, never parsed from the XML text.
@@ -14,9 +17,20 @@ import pytest
 from wheelleg.controller import constants as C
 from wheelleg.controller import fivebar
 from wheelleg.emulators.physics import HIP_NAMES, SCENE_PATH, Physics, TerrainFeature
+from wheelleg.emulators.robot import description as D
 
 LEGS = ("left", "right")
 SIDE = {"left": +1.0, "right": -1.0}
+WHEEL_NAMES = tuple(w.name for w in D.WHEEL_DRIVES)
+# what the description's numbers imply (kg, kg m^2, N m)
+MASS_LEG = 2 * D.MASS_LINK_THIGH_KG + 2 * D.MASS_LINK_SHIN_KG + D.MASS_WHEEL_MOTOR_KG
+MASS_TOTAL = D.MASS_BODY_KG + 2 * MASS_LEG + 2 * D.MASS_WHEEL_KG
+_X, _Y, _Z = D.BODY_SIZE_M
+BODY_INERTIA = tuple(D.MASS_BODY_KG * (a * a + b * b) / 12 for a, b in ((_Y, _Z), (_X, _Z), (_X, _Y)))  # solid box
+WHEEL_INERTIA = 0.5 * D.MASS_WHEEL_KG * D.WHEEL_RADIUS_M ** 2  # solid disc about its axle
+WHEEL_TORQUE_LIMIT = D.C620_CURRENT_LIMIT_A * D.M3508_TORQUE_CONSTANT_NM_PER_A
+HIP_ARMATURE = D.CG_ROTOR_INERTIA_KG_M2 * D.CG_GEAR ** 2  # rotor reflected through the gear
+WHEEL_ARMATURE = D.M3508_ROTOR_INERTIA_KG_M2 * D.M3508_GEAR ** 2
 
 
 @pytest.fixture(scope="module")
@@ -35,45 +49,45 @@ def _body(m, name):
 
 
 # --- masses, sizes, limits ----------------------------------------------------------
-def test_masses_match_constants(model):
+def test_masses_match_description(model):
     m = model
-    assert m.body_mass[_body(m, "body")] == pytest.approx(C.MASS_BODY, abs=1e-9)
-    assert m.body_subtreemass[_body(m, "body")] == pytest.approx(C.MASS_TOTAL, abs=1e-9)
+    assert m.body_mass[_body(m, "body")] == pytest.approx(D.MASS_BODY_KG, abs=1e-9)
+    assert m.body_subtreemass[_body(m, "body")] == pytest.approx(MASS_TOTAL, abs=1e-9)
     for leg in LEGS:
         leg_bodies = [f"{leg}_front_thigh", f"{leg}_rear_thigh", f"{leg}_front_shin", f"{leg}_rear_shin"]
-        assert sum(m.body_mass[_body(m, b)] for b in leg_bodies) == pytest.approx(C.MASS_LEG, abs=1e-9)
+        assert sum(m.body_mass[_body(m, b)] for b in leg_bodies) == pytest.approx(MASS_LEG, abs=1e-9)
         for hip in ("front", "rear"):
-            assert m.body_mass[_body(m, f"{leg}_{hip}_thigh")] == pytest.approx(C.MASS_LINK_THIGH, abs=1e-9)
+            assert m.body_mass[_body(m, f"{leg}_{hip}_thigh")] == pytest.approx(D.MASS_LINK_THIGH_KG, abs=1e-9)
         # the M3508 at C rides on link BC (the front shin)
         assert m.body_mass[_body(m, f"{leg}_front_shin")] == pytest.approx(
-            C.MASS_LINK_SHIN + C.MASS_WHEEL_MOTOR, abs=1e-9)
-        assert m.body_mass[_body(m, f"{leg}_rear_shin")] == pytest.approx(C.MASS_LINK_SHIN, abs=1e-9)
-        assert m.body_mass[_body(m, f"{leg}_wheel")] == pytest.approx(C.MASS_WHEEL, abs=1e-9)
+            D.MASS_LINK_SHIN_KG + D.MASS_WHEEL_MOTOR_KG, abs=1e-9)
+        assert m.body_mass[_body(m, f"{leg}_rear_shin")] == pytest.approx(D.MASS_LINK_SHIN_KG, abs=1e-9)
+        assert m.body_mass[_body(m, f"{leg}_wheel")] == pytest.approx(D.MASS_WHEEL_KG, abs=1e-9)
 
 
 def test_body_inertia_size_and_com(model):
     m = model
     b = _body(m, "body")
-    np.testing.assert_allclose(m.body_inertia[b], C.BODY_INERTIA, rtol=1e-9)
+    np.testing.assert_allclose(m.body_inertia[b], BODY_INERTIA, rtol=1e-9)
     np.testing.assert_allclose(m.body_ipos[b], 0.0, atol=1e-12)  # the body frame is at its CoM
     box = _id(m, mujoco.mjtObj.mjOBJ_GEOM, "body_box")
-    np.testing.assert_allclose(2 * m.geom_size[box], C.BODY_SIZE, rtol=1e-12)
+    np.testing.assert_allclose(2 * m.geom_size[box], D.BODY_SIZE_M, rtol=1e-12)
     for leg in LEGS:
-        for hip, x in (("front", C.L5 / 2), ("rear", -C.L5 / 2)):
+        for hip, x in (("front", D.L5_M / 2), ("rear", -D.L5_M / 2)):
             np.testing.assert_allclose(m.body_pos[_body(m, f"{leg}_{hip}_thigh")],
-                                       [x, SIDE[leg] * C.LEG_PLANE_Y, -C.BODY_COM_ABOVE_HIP], atol=1e-12)
+                                       [x, SIDE[leg] * D.LEG_PLANE_Y_M, -D.BODY_COM_ABOVE_HIP_M], atol=1e-12)
 
 
-def test_link_lengths_match_constants(model):
+def test_link_lengths_match_description(model):
     m = model
     site = lambda name: m.site_pos[_id(m, mujoco.mjtObj.mjOBJ_SITE, name)]  # noqa: E731
     for leg in LEGS:
         a, e = m.body_pos[_body(m, f"{leg}_front_thigh")], m.body_pos[_body(m, f"{leg}_rear_thigh")]
-        assert np.linalg.norm(a - e) == pytest.approx(C.L5, abs=1e-9)
-        assert np.linalg.norm(m.body_pos[_body(m, f"{leg}_front_shin")]) == pytest.approx(C.L1, abs=1e-9)
-        assert np.linalg.norm(m.body_pos[_body(m, f"{leg}_rear_shin")]) == pytest.approx(C.L4, abs=1e-9)
-        assert np.linalg.norm(site(f"{leg}_front_c")) == pytest.approx(C.L2, abs=1e-9)
-        assert np.linalg.norm(site(f"{leg}_rear_c")) == pytest.approx(C.L3, abs=1e-9)
+        assert np.linalg.norm(a - e) == pytest.approx(D.L5_M, abs=1e-9)
+        assert np.linalg.norm(m.body_pos[_body(m, f"{leg}_front_shin")]) == pytest.approx(D.L1_M, abs=1e-9)
+        assert np.linalg.norm(m.body_pos[_body(m, f"{leg}_rear_shin")]) == pytest.approx(D.L4_M, abs=1e-9)
+        assert np.linalg.norm(site(f"{leg}_front_c")) == pytest.approx(D.L2_M, abs=1e-9)
+        assert np.linalg.norm(site(f"{leg}_rear_c")) == pytest.approx(D.L3_M, abs=1e-9)
 
 
 def test_wheels_radius_width_inertia_and_track(model):
@@ -84,27 +98,27 @@ def test_wheels_radius_width_inertia_and_track(model):
     for leg in LEGS:
         g = _id(m, mujoco.mjtObj.mjOBJ_GEOM, f"{leg}_wheel")
         assert m.geom_type[g] == mujoco.mjtGeom.mjGEOM_CYLINDER
-        assert m.geom_size[g][0] == pytest.approx(C.WHEEL_RADIUS, abs=1e-12)
-        assert 2 * m.geom_size[g][1] == pytest.approx(C.WHEEL_WIDTH, abs=1e-12)
+        assert m.geom_size[g][0] == pytest.approx(D.WHEEL_RADIUS_M, abs=1e-12)
+        assert 2 * m.geom_size[g][1] == pytest.approx(D.WHEEL_WIDTH_M, abs=1e-12)
         # wheel centre in the body frame, on the axle line at y = +-HALF_TRACK
         rel = d.xmat[body].reshape(3, 3).T @ (d.geom_xpos[g] - d.xpos[body])
-        assert rel[1] == pytest.approx(SIDE[leg] * C.HALF_TRACK, abs=1e-9)
+        assert rel[1] == pytest.approx(SIDE[leg] * D.HALF_TRACK_M, abs=1e-9)
         # its axle along y, and its inertia about the axle that of a solid disc
         wheel = _body(m, f"{leg}_wheel")
         principal = d.ximat[wheel].reshape(3, 3)  # the wheel's inertia frame in the world
         axle = principal @ np.diag(m.body_inertia[wheel]) @ principal.T
-        assert axle[1, 1] == pytest.approx(C.WHEEL_INERTIA, rel=1e-9)
+        assert axle[1, 1] == pytest.approx(WHEEL_INERTIA, rel=1e-9)
 
 
 def test_actuators_match_joints_and_limits(model):
     m = model
-    for name in HIP_NAMES + tuple(w.name for w in C.WHEELS):
+    for name in HIP_NAMES + WHEEL_NAMES:
         a = _id(m, mujoco.mjtObj.mjOBJ_ACTUATOR, name)
         j = _id(m, mujoco.mjtObj.mjOBJ_JOINT, name)
         assert m.actuator_trnid[a][0] == j
         assert m.actuator_gear[a][0] == 1.0
         assert m.actuator_ctrllimited[a]
-        limit = C.CG_TORQUE_LIMIT if name in HIP_NAMES else C.WHEEL_TORQUE_LIMIT
+        limit = D.CG_TORQUE_LIMIT_NM if name in HIP_NAMES else WHEEL_TORQUE_LIMIT
         np.testing.assert_allclose(m.actuator_ctrlrange[a], [-limit, limit])
     assert m.nu == 6
 
@@ -113,9 +127,9 @@ def test_actuators_match_joints_and_limits(model):
 def test_rotor_armature_matches_constants(model):
     """Each driven joint carries its motor's rotor reflected through the gear (kg m^2)."""
     m = model
-    for name in HIP_NAMES + tuple(w.name for w in C.WHEELS):
+    for name in HIP_NAMES + WHEEL_NAMES:
         j = _id(m, mujoco.mjtObj.mjOBJ_JOINT, name)
-        expected = C.HIP_ARMATURE if name in HIP_NAMES else C.WHEEL_ARMATURE
+        expected = HIP_ARMATURE if name in HIP_NAMES else WHEEL_ARMATURE
         assert m.dof_armature[m.jnt_dofadr[j]] == pytest.approx(expected, rel=1e-4), name
 
 def test_hip_ranges_model_stop_and_sweep(model):
@@ -238,7 +252,7 @@ def _random_hip_angles(rng, n):
 
 def test_fivebar_geometry_matches_seed_forward_kinematics():
     """Hips driven to random angles in zero gravity; once the loop constraint has
-    settled, the simulated hip-midpoint -> axle vector is the seed's (L0, phi0)."""
+    settled, the simulated hip-midpoint -> axle vector is the design document's (L0, phi0)."""
     phys = Physics()
     m, d = phys.model, phys.data
     m.opt.gravity[:] = 0.0
@@ -317,3 +331,21 @@ def test_scene_without_terrain_is_robot_plus_floor(model):
     assert {model.body(i).name for i in range(model.nbody)} >= {"world", "body", "left_wheel", "right_wheel"}
     ground = [model.geom(g).name for g in range(model.ngeom) if model.geom_bodyid[g] == 0]
     assert ground == ["floor"]
+
+
+def test_the_nominal_truth_is_what_the_controller_believes():
+    """At the nominal values the description and the controller's constants agree (the LQR was
+    designed for this robot); a plant override is then the only source of mismatch."""
+    pairs = {"L1": D.L1_M, "L2": D.L2_M, "L3": D.L3_M, "L4": D.L4_M, "L5": D.L5_M,
+             "WHEEL_RADIUS": D.WHEEL_RADIUS_M, "HALF_TRACK": D.HALF_TRACK_M, "PHI1_STOP": D.PHI1_STOP_RAD,
+             "PHI4_STOP": D.PHI4_STOP_RAD, "HIP_SWEEP": D.HIP_SWEEP_RAD, "MASS_BODY": D.MASS_BODY_KG,
+             "MASS_TOTAL": MASS_TOTAL, "MASS_WHEEL": D.MASS_WHEEL_KG, "CG_TORQUE_LIMIT": D.CG_TORQUE_LIMIT_NM,
+             "CG_TORQUE_CONSTANT": D.CG_TORQUE_CONSTANT_NM_PER_A, "CG_GEAR": D.CG_GEAR,
+             "CG_OVER_TEMP": D.CG_OVER_TEMP_C, "CG_WARN_TEMP": D.CG_WARN_TEMP_C, "M3508_GEAR": D.M3508_GEAR,
+             "M3508_TORQUE_CONSTANT": D.M3508_TORQUE_CONSTANT_NM_PER_A, "GRAVITY": D.GRAVITY_M_S2,
+             "M3508_NO_LOAD_SPEED": D.M3508_NO_LOAD_SPEED_RAD_S, "C620_CURRENT_LIMIT": D.C620_CURRENT_LIMIT_A}
+    for name, truth in pairs.items():
+        assert getattr(C, name) == pytest.approx(truth, rel=1e-12), name
+    wiring = {(m.name, m.motor_id, m.leg, m.hip, m.sign) for m in D.HIP_MOTORS}
+    assert wiring == {(j.name, j.motor_id, j.leg, j.hip, j.sign) for j in C.JOINTS}
+    assert {(w.name, w.esc_id) for w in D.WHEEL_DRIVES} == {(w.name, w.esc_id) for w in C.WHEELS}

@@ -20,7 +20,7 @@ TRUTH_KEYS = {"t", "x", "y", "z", "roll", "pitch", "yaw", "vx", "vy", "vz", "wx"
 
 def hold_legs(phys: Physics, leg_length_m: float, seconds: float, wheels_nm=None, every_step=None) -> None:
     """Hips held at ``leg_length_m`` (legs vertical in the body) by a PD plus the
-    gravity feed-forward of the seed's VMC (T = J^T F); wheels get ``wheels_nm``."""
+    gravity feed-forward of the design document's VMC (T = J^T F); wheels get ``wheels_nm``."""
     phi1, phi4 = fivebar.inverse_kinematics(leg_length_m, math.pi / 2)
     k = fivebar.forward_kinematics(phi1, phi4)
     push_n = (C.MASS_BODY / 2 + 2 * C.MASS_LINK_THIGH + 2 * C.MASS_LINK_SHIN) * C.GRAVITY

@@ -30,6 +30,16 @@ def test_second_test_shares_the_run(rig_run, rig_cache):
 def test_a_failing_scenario_test(rig_run):
     run = rig_run("balance", duration=0.2, seed=1)
     assert run.deadline_misses < 0, "deliberately failing"
+
+def test_plant_overrides_are_a_run_of_their_own(rig_run, rig_cache):
+    import json
+    plain = rig_run("balance", duration=0.2, seed=1)
+    shifted = rig_run("balance", duration=0.2, seed=1, plant={"com_x_m": "0.02"})
+    assert shifted is not plain and rig_run("balance", duration=0.2, seed=1, plant={"com_x_m": 0.02}) is shifted
+    assert json.loads(shifted.meta["plant_overrides"]) == {"com_x_m": 0.02}
+    assert json.loads(plain.meta["plant_overrides"]) == {}
+    assert "rerun:   wheelleg run balance --seed 1 --duration 0.2 --plant com_x_m=0.02" in shifted.describe()
+    assert rig_cache.executed == 2
 '''
 
 
@@ -37,13 +47,14 @@ def test_rig_run_fixture_caches_runs_and_reports_failures(pytester):
     pytester.makepyfile(test_scenarios=SCENARIO_TESTS)
     out = pytester.path / "rig-out"
     result = pytester.runpytest("-p", "no:cacheprovider", "--can-channels", "rigA,rigB", "--rig-out", str(out))
-    result.assert_outcomes(passed=2, failed=1)
+    result.assert_outcomes(passed=3, failed=1)
     text = result.stdout.str()
     section = text[text.index("wheelleg rig"):]
     trace = re.search(r"trace:\s+(\S+\.mcap)", section).group(1)
     log = re.search(r"log:\s+(\S+\.log)", section).group(1)
     assert trace.startswith(str(out)) and f"wheelleg replay {trace}" in section
     assert f"wheelleg inspect {trace}" in section
+    assert "rerun:   wheelleg run balance --seed 1 --duration 0.2" in section
     assert "[PASS]" in section or "[FAIL]" in section  # the scenario's own checks are listed
     # the replay command the report names works on the trace and on the log
     assert main(["replay", trace]) == 0

@@ -1,4 +1,4 @@
-"""Issue 4's airborne scenarios (jump, jump-step, drop, fall, estop, pose), run in the rig."""
+"""The airborne scenarios (jump, jump-step, drop, fall, estop, pose), run in the rig."""
 import numpy as np
 import pytest
 

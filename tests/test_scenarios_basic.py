@@ -1,4 +1,4 @@
-"""Issue 3's scenarios, run in the rig and judged from their MCAP traces."""
+"""The basic scenarios, run in the rig and judged from their MCAP traces."""
 import argparse
 from pathlib import Path
 

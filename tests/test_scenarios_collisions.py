@@ -1,4 +1,4 @@
-"""Issue 4's collision scenarios (push, impact, wall), run in the rig and judged from their traces."""
+"""The collision scenarios (push, impact, wall), run in the rig and judged from their traces."""
 import numpy as np
 import pytest
 

@@ -1,4 +1,4 @@
-"""Issue 5's fault scenarios, run in the rig (one cached run each) and judged from their traces."""
+"""The fault scenarios, run in the rig (one cached run each) and judged from their traces."""
 import argparse
 
 import numpy as np

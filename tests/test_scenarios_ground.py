@@ -1,4 +1,4 @@
-"""Issue 4's terrain scenarios (slope, bump, step-down, turn-fast, sprint) in the rig."""
+"""The terrain scenarios (slope, bump, step-down, turn-fast, sprint) in the rig."""
 import math
 
 import numpy as np

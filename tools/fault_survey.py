@@ -3,7 +3,7 @@
 Each entry balances on flat ground, injects one fault at 1 s for the rest of
 the run and reports, from the trace, the modes the controller went through,
 when it first changed mode, how far the body pitched and the largest offline
-mask. A markdown table, for the README's fault table; not a pass/fail check
+mask. A markdown table, for docs/measurements.md's fault table; not a pass/fail check
 (the scenarios in hil/scenarios/faults.py are those).
 """
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""What the seed's frame layout costs each bus at a control rate: ``python -m tools.layout_load TRACE``.
+"""What the robot's frame layout costs each bus at a control rate: ``python -m tools.layout_load TRACE``.
 
 Reads a steady stretch of a rig trace (a balance run), measures each frame
 kind's wire bits exactly (``wheelleg.hil.bus.busload.frame_bits``: the recorded payloads,

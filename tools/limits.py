@@ -32,7 +32,7 @@ class Figure:
     factory   size -> Scenario
     ladder    increasing sizes to walk up (the full search)
     coarse    a shorter ladder (``--coarse``)
-    aim       the size the issue asks for
+    aim       the size the robot is meant to reach
     note      shown after the sizes tried (why a figure has no aim, what caps the ladder)
     """
 

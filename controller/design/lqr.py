@@ -2,8 +2,9 @@
 
     python -m wheelleg.controller.design.lqr [--dt S] [--check]
 
-The wheel-legged pendulum of seed 000, (1.1)-(1.9) as control_notes.md §1.2
-writes them (the seed's (1.8)/(1.9) have cos/sin(theta) where phi belongs),
+The wheel-legged pendulum of the design document, (1.1)-(1.9) as the public
+controllers write them (docs/control.md; the document's own (1.8)/(1.9) have
+cos/sin(theta) where phi belongs),
 with this robot's numbers from controller/constants.py:
 
   state x = [theta, dtheta, x, dx, phi, dphi]   (rad, rad/s, m, m/s, rad, rad/s)
@@ -27,7 +28,7 @@ CoM come from the five-bar's mass split at each L0 (``leg_mass_properties``).
 
 The accelerations appear linearly, so sympy's linear_eq_to_matrix gives
 M(q) qdd = b(q, qd, u); at the upright equilibrium qdd = 0, hence
-d(qdd)/dx = M0^-1 db/dx and d(qdd)/du = M0^-1 db/du (control_notes §1.2).
+d(qdd)/dx = M0^-1 db/dx and d(qdd)/du = M0^-1 db/du (docs/control.md).
 Exact zero-order-hold discretisation at dt, discrete LQR by
 scipy.linalg.solve_discrete_are, each of the 12 gains fitted as a cubic in L0.
 """

@@ -1,8 +1,9 @@
 """The trace as a bug report: does it carry what replay needs, and where does this machine differ?
 
 A rig trace records the run (scenario, seed, control period, bus channels, git
-revision, controller parameters as JSON) and attaches the DBC files and the
-MJCF, so another engineer can replay it elsewhere. ``bug_report_gaps`` lists
+revision, controller parameters and plant overrides as JSON) and attaches the
+DBC files and the MJCF, so another engineer can replay it elsewhere, or rerun
+it with the same plant (``rerun_command``). ``bug_report_gaps`` lists
 what a trace lacks; ``environment_warnings`` lists where the installed tree
 differs from the recording (DBC files, revision, parameters), since replay
 runs today's controller with today's DBC files.
@@ -24,6 +25,24 @@ def current_params() -> dict:
     """The controller's tuning as the rig records it (``run.controller_params``)."""
     params = {k: v for k, v in vars(P).items() if k.isupper()}
     return json.loads(json.dumps(params, sort_keys=True, default=repr))
+
+
+def plant_overrides(run: dict) -> dict[str, float]:
+    """The run's plant overrides (run metadata ``plant_overrides``, JSON), {} when none or absent."""
+    try:
+        recorded = json.loads(run.get("plant_overrides") or "{}")
+    except ValueError:
+        return {}
+    return {str(k): float(v) for k, v in recorded.items()} if isinstance(recorded, dict) else {}
+
+
+def rerun_command(run: dict) -> str:
+    """The one command that runs the recorded scenario again on the same plant (run metadata in)."""
+    parts = ["wheelleg run", run.get("scenario", "SCENARIO"), f"--seed {run.get('seed', 0)}"]
+    if run.get("duration_s"):
+        parts.append(f"--duration {run['duration_s']}")
+    parts += [f"--plant {key}={value!r}" for key, value in plant_overrides(run).items()]
+    return " ".join(parts)
 
 
 def git_revision(cwd: Path | None = None) -> str:

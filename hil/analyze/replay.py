@@ -36,7 +36,7 @@ import can
 from wheelleg.controller import params as P
 from wheelleg.controller.modes import Mode
 from wheelleg.controller.node import Controller, ControllerNode
-from wheelleg.hil.analyze.bug_report import environment_warnings
+from wheelleg.hil.analyze.bug_report import environment_warnings, plant_overrides, rerun_command
 from wheelleg.hil.record.decode import FrameDecoder
 from wheelleg.hil.record.sources import (CAN1, CAN2, CONTROLLER_NODES, DBS, HEARTBEAT, ROLES, BusFrame,
                               TraceError, TraceSource, heartbeat_tick, is_heartbeat, is_sync,
@@ -134,7 +134,7 @@ def _check_pairing(source: TraceSource, groups: dict) -> list[str]:
 
 
 # A log written by the controller itself (python-can's CanutilsLogWriter via
-# ``python -m controller --log``) is in the order the controller handled the
+# ``python -m wheelleg.controller --log``) is in the order the controller handled the
 # frames, each received frame stamped when the bus delivered it: a frame read
 # after a tick's sends is stamped before them. Steps back up to this bound are
 # that reordering (file order is what replay uses); larger ones are a broken
@@ -465,6 +465,10 @@ def _recorded_period(source: TraceSource) -> float | None:
 def _schedule_notes(source: TraceSource, schedule: Schedule, period: float) -> list[str]:
     notes = list(schedule.notes)
     frames = source.frames
+    overrides = plant_overrides(source.run)
+    if overrides:  # replay feeds the recorded frames, so the plant needs no rebuilding; a rerun does
+        notes.append(f"recorded on a changed plant ({', '.join(f'{k}={v!r}' for k, v in overrides.items())}); "
+                     f"to run it again: {rerun_command(source.run)}")
     if schedule.steps:
         first = frames[schedule.steps[0].expected[CAN1][-1]]
         mode = HEARTBEAT.decode(first.data, decode_choices=False)["Mode"]

@@ -1,4 +1,4 @@
-"""``wheelleg controller``: the robot's controller alone on its buses (``python -m controller``)."""
+"""``wheelleg controller``: the robot's controller alone on its buses (``python -m wheelleg.controller``)."""
 from __future__ import annotations
 
 import argparse

@@ -4,6 +4,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from wheelleg.emulators.overrides import help_text, parse_assignment
+from wheelleg.emulators.plant import PlantConfig
 from wheelleg.hil import scenarios
 from wheelleg.hil.run.loop_timing import describe, describe_plant
 from wheelleg.hil.analyze.plot import plot_run
@@ -33,6 +35,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="do not start the controller in-process: another process answers on the buses "
                              "(lockstep: `wheelleg controller --sync`; with --realtime: `wheelleg controller`)")
     parser.add_argument("--no-plot", action="store_true", help="skip the PNG")
+    parser.add_argument("--plant", action="append", default=[], metavar="KEY=VALUE",
+                        help="change the plant's truth for this run (the controller keeps its belief); "
+                             "repeatable; the keys are listed below")
+    parser.formatter_class = argparse.RawDescriptionHelpFormatter
+    parser.epilog = "plant overrides (--plant KEY=VALUE):\n" + help_text()
+
+
+def plant_config(assignments: list[str]) -> PlantConfig:
+    """PlantConfig of ``--plant KEY=VALUE`` items; ValueError (one line) for a bad one."""
+    return PlantConfig.from_overrides(dict(parse_assignment(text) for text in assignments))
 
 
 def execute(args: argparse.Namespace):
@@ -44,9 +56,13 @@ def execute(args: argparse.Namespace):
     channels = tuple(c.strip() for c in args.channels.split(","))
     if len(channels) != 2:
         raise SystemExit("--channels needs two names: CAN1 (wheels),CAN2 (joints)")
+    try:
+        plant = plant_config(getattr(args, "plant", None) or [])
+    except ValueError as exc:
+        raise SystemExit(f"run: {exc}") from exc
     config = RigConfig(interface=args.interface, channels=channels, seed=args.seed,
                        realtime=args.realtime, in_process_controller=not args.external_controller,
-                       decode=not getattr(args, "no_decode", False))
+                       decode=not getattr(args, "no_decode", False), plant=plant)
     try:
         rig = Rig(scenario, config, args.out)
     except BusOpenError as exc:
@@ -72,6 +88,8 @@ def run(args: argparse.Namespace) -> int:
         if "controller" in outcome.timing:
             print(f"  {describe(outcome.timing['controller'])}")
         print(f"  {describe_plant(outcome.timing['plant'])}")
+    if args.plant:
+        print(f"  plant overrides: {' '.join(args.plant)}")
     print(f"  trace {outcome.trace_path}\n  log   {outcome.log_path}")
     print_bus_load(load_run(outcome.trace_path))
     for r in results:

@@ -4,7 +4,7 @@ Foxglove reads these to list and plot fields, so every numeric field is a
 JSON number and carries its unit in ``description``. Values that are not
 finite (NaN, inf) are written as ``null``: JSON has no NaN.
 
-Topics (the trace contract, issue 3 item 6):
+Topics (the trace contract, docs/design.md):
 - ``/can/<channel>``: one message per frame (``CAN_FRAME``).
 - ``/decoded/<channel>/<Message>``: the DBC signals of one frame
   (``decoded_schema``), plus the CyberGear fields that live in the 29-bit id.
@@ -36,7 +36,7 @@ CAN_FRAME: dict = {
     "additionalProperties": False,
 }
 
-# /sim/state: field -> unit. Order is the order of the issue's contract.
+# /sim/state: field -> unit. Order is the order of the trace contract.
 SIM_STATE_FIELDS: dict[str, str] = {
     "t": "s",
     "x": "m", "y": "m", "z": "m",

@@ -1,4 +1,4 @@
-"""Fault injection, scheduled from a scenario (issue 5).
+"""Fault injection, scheduled from a scenario (docs/design.md, faults).
 
 Every injector returns a list of ``Action``s: the fault's start and, when it
 has a duration, its end. The start's dict is its event in /scenario/events

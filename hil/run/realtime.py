@@ -2,7 +2,7 @@
 
 ``wheelleg run SCENARIO --realtime``. Nothing is in lockstep: no SYNC, no
 waiting for heartbeats. The controller is a free-running ``ControllerNode``
-(as on the robot, ``python -m controller`` without ``--sync``) in its own
+(as on the robot, ``python -m wheelleg.controller`` without ``--sync``) in its own
 thread; with ``--external-controller`` it is whatever process answers on the
 buses. The plant steps the physics each ``physics_dt_s`` of wall time since
 the start, serving the buses before each batch of steps and after it.

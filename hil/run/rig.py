@@ -1,6 +1,6 @@
 """The rig: plant, controller and recorder on two CAN buses, in lockstep.
 
-Lockstep (DESIGN.md): each control period the rig sends SYNC(T) on both
+Lockstep (docs/design.md): each control period the rig sends SYNC(T) on both
 buses after the period's feedback; the controller runs one tick per SYNC and
 ends it with a heartbeat on both buses; the plant handles the commands that
 came before the heartbeats (they are in bus order) and only then steps the
@@ -90,12 +90,16 @@ class Rig:
         self.log_path = out_dir / f"{scenario.name}.log"
         self.names = {CAN1: config.channels[0], CAN2: config.channels[1]}
         self.rng = np.random.default_rng(config.seed)
-        self.physics = Physics(terrain=scenario.terrain, timestep_s=config.physics_dt_s)
+        self.physics = Physics(terrain=scenario.terrain, timestep_s=config.physics_dt_s,
+                               overrides=config.plant.overrides)
         scenario.start(self.physics)
         # the buses first: a missing vcan fails before any file is written
         self._raw = {k: _open_bus(config, ch) for k, ch in self.names.items()}
+        attachments = self._attachments()
+        if config.plant.overrides_dict():  # the model this run compiled; its overrides are in the metadata
+            attachments.append(("plant_model.xml", self.physics.spec.to_xml().encode(), "application/xml"))
         self.trace = TraceWriter(self.trace_path, metadata=self._metadata(),
-                                 attachments=self._attachments(),
+                                 attachments=attachments,
                                  dbs={self.names[CAN1]: load_bus(CAN1), self.names[CAN2]: load_bus(CAN2)},
                                  decode=config.decode)
         self.log = CandumpWriter(self.log_path)
@@ -126,7 +130,8 @@ class Rig:
                         "duration_s": repr(self.scenario.duration_s),
                         "interface": self.config.interface, "can1": self.names[CAN1],
                         "can2": self.names[CAN2], "git_revision": git_revision(),
-                        "controller_params": json.dumps(params, sort_keys=True, default=repr)}}
+                        "controller_params": json.dumps(params, sort_keys=True, default=repr),
+                        "plant_overrides": json.dumps(self.config.plant.overrides_dict(), sort_keys=True)}}
 
     @staticmethod
     def _attachments() -> list:

@@ -1,4 +1,4 @@
-"""Issue 4: jumps, drops, falls, E-stop and pose set points.
+"""Jumps, drops, falls, E-stop and pose set points.
 
 The sized scenarios come from factories (``jump_scenario(clearance_m)``,
 ``jump_step_scenario(step_height_m)``, ``drop_scenario(height_m)``) so a

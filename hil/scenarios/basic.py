@@ -1,4 +1,4 @@
-"""Issue 3's scenarios: balance, stand up, drive, turn, change height."""
+"""The basic scenarios: balance, stand up, drive, turn, change height."""
 from __future__ import annotations
 
 import math

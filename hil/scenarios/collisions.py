@@ -1,4 +1,4 @@
-"""Issue 4: pushes, impacts and walls.
+"""Pushes, impacts and walls.
 
 Each scenario comes from a factory with its size (push impulse N s, object
 speed m/s, wall height m); the default instance is registered. Checks read the

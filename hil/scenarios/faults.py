@@ -1,4 +1,4 @@
-"""Issue 5: offline devices, device faults, frame loss, bus off, overload.
+"""Offline devices, device faults, frame loss, bus off, overload.
 
 Each scenario balances on flat ground, injects one fault at ``FAULT_AT`` and
 judges the controller's reaction from the trace: the time from the fault to

@@ -1,4 +1,4 @@
-"""Issue 4: slopes, bumps, steps and fast turns.
+"""Slopes, bumps, steps and fast turns.
 
 Each scenario comes from a factory with its size (slope deg, bump height m,
 step height m, speed m/s); the default instance is registered. ``sprint`` (a

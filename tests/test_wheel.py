@@ -1,0 +1,64 @@
+"""The built wheel, tried as a robot team would: one import name, and the pytest
+plugin working in a project that has its own ``controller`` and ``hil`` packages."""
+from __future__ import annotations
+
+import subprocess
+import sys
+import textwrap
+import zipfile
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parent.parent
+
+
+@pytest.fixture(scope="module")
+def wheel(tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("wheel")
+    subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "-q",
+                    "-w", str(out), str(REPO)], check=True, capture_output=True, text=True)
+    (path,) = out.glob("wheelleg_hil-*.whl")
+    return path
+
+
+def test_the_wheel_has_one_top_level_package(wheel):
+    with zipfile.ZipFile(wheel) as zf:
+        names = zf.namelist()
+    tops = {n.split("/")[0] for n in names if not n.split("/")[0].endswith((".dist-info", ".data"))}
+    assert tops == {"wheelleg"}
+    # the data the package reads at run time travels with it
+    assert {"wheelleg/dbc/cybergear.dbc", "wheelleg/emulators/robot/robot.xml"} <= set(names)
+
+
+def test_a_project_with_its_own_controller_and_hil_uses_rig_run(wheel, tmp_path):
+    """The collision the editable install hid: a team's own ``controller``/``hil`` packages."""
+    venv = tmp_path / "venv"
+    # the dependencies come from this interpreter's site-packages; the package only from the wheel
+    subprocess.run([sys.executable, "-m", "venv", "--system-site-packages", str(venv)], check=True)
+    py = venv / "bin" / "python"
+    subprocess.run([str(py), "-m", "pip", "install", "-q", "--no-deps", "--force-reinstall", str(wheel)],
+                   check=True, capture_output=True, text=True)
+    project = tmp_path / "team"
+    for package in ("controller", "hil"):
+        (project / package).mkdir(parents=True)
+        (project / package / "__init__.py").write_text("TEAM = True\n")
+        (project / package / "params.py").write_text("GAIN = 1.0\n")
+    (project / "pytest.ini").write_text("[pytest]\npythonpath = .\n")
+    (project / "tests").mkdir()
+    (project / "tests" / "test_team.py").write_text(textwrap.dedent("""
+        import controller, hil
+        import wheelleg
+
+        def test_our_packages_and_the_rig(rig_run):
+            assert controller.TEAM and hil.TEAM
+            assert "site-packages" in wheelleg.__file__
+            run = rig_run("balance", duration=1.5, seed=1)
+            run.assert_passed()
+            assert abs(run.window("pitch", 1.0)).max() < 0.035  # rad, 2 deg
+    """))
+    # -I: the repository (this test's cwd, PYTHONPATH) must not leak into the team's session
+    done = subprocess.run([str(py), "-I", "-m", "pytest", "-q", "-p", "no:cacheprovider", "tests"],
+                          cwd=project, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-2000:]
+    assert "1 passed" in done.stdout
