@@ -17,6 +17,7 @@ from wheelleg.hil.campaign.progress import Progress
 from wheelleg.hil.commands import campaign
 
 RUNS_SEEN: list = []  # (scenario, sample) of every fake run, in the order they ran
+BROKEN: set = set()  # (scenario, sample) the fake rig cannot run (its row has an error)
 
 
 def fake_run(job: sampling.Job, settings: execution.RunSettings) -> dict:
@@ -26,6 +27,9 @@ def fake_run(job: sampling.Job, settings: execution.RunSettings) -> dict:
     where.mkdir(parents=True, exist_ok=True)
     (where / f"{job.scenario}.mcap").write_bytes(b"trace")
     offset = abs(job.overrides.get("com_x_m", 0.0))
+    if (job.scenario, job.sample) in BROKEN:
+        return execution.finish_files({**execution.failed_row(job, "RuntimeError: broken"), "wall_s": 0.0},
+                                      job, settings)
     row = execution.failed_row(job, None)
     row["checks"] = [{"name": "drift < 5 cm", "passed": offset < 0.02, "figure": offset * 3000,
                       "detail": f"max drift {offset * 3000:.1f} cm (limit 5)"}]
@@ -145,8 +149,14 @@ def test_same_command_same_results_and_a_resumed_campaign_runs_only_what_is_miss
     assert rows_without_wall_time(tmp_path / "a") == rows_without_wall_time(tmp_path / "b")
 
     RUNS_SEEN.clear()  # more samples: only the new ones run
+    BROKEN.add(("balance", 7))
     run_campaign(["balance", "--samples", "8", "--vary", "com_x_m=-0.03..0.03", "-q", "--out", str(tmp_path / "b")])
     assert sorted(RUNS_SEEN) == [("balance", 6), ("balance", 7)]
+    BROKEN.clear()  # a run that could not run is run again on resume
+    RUNS_SEEN.clear()
+    run_campaign(["balance", "--samples", "8", "--vary", "com_x_m=-0.03..0.03", "-q", "--out", str(tmp_path / "b")])
+    assert RUNS_SEEN == [("balance", 7)]
+    assert [r["error"] for r in rows_without_wall_time(tmp_path / "b")] == [None] * 8
 
 
 @pytest.mark.parametrize("argv", [

@@ -15,6 +15,7 @@ import logging
 import math
 import os
 import re
+import shlex
 import shutil
 import signal
 import time
@@ -55,14 +56,14 @@ def check_ranges(ranges: dict[str, tuple[float, float]]) -> None:
 
 
 def rerun_command(job: Job, settings: RunSettings) -> str:
-    """The one command that runs ``job`` alone, giving the same trace."""
+    """The one command that runs ``job`` alone (the same candump log, byte for byte), shell-quoted."""
     words = ["wheelleg", "run", job.scenario, "--seed", str(job.seed)]
     if settings.duration_s is not None:
-        words += ["--duration", f"{settings.duration_s:g}"]
+        words += ["--duration", repr(settings.duration_s)]
     for key, value in sorted(job.overrides.items()):
         words += ["--plant", f"{key}={value!r}"]
     words += ["--out", str(run_dir(job, settings) / "rerun")]
-    return " ".join(words)
+    return shlex.join(words)
 
 
 def run_dir(job: Job, settings: RunSettings) -> Path:
@@ -141,7 +142,7 @@ class Engine:
             previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
             try:
                 self.cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1,
-                                            processes=processes, dashboard_address=None, memory_limit=0,
+                                            processes=processes, dashboard_address=":0", memory_limit=0,
                                             silence_logs=logging.ERROR)
             finally:
                 signal.signal(signal.SIGINT, previous)

@@ -2,7 +2,8 @@
 
 A row is appended (and flushed) the moment its run is judged, so an
 interrupted campaign loses at most the runs that were in flight: the same
-command run again skips every (scenario, sample) already in the journal. At
+command run again skips every (scenario, sample) already judged in the journal
+(and runs again those that could not run: a dead worker, a rig error). At
 the end the journal is rewritten in plan order, so the same command gives the
 same file, wall times aside.
 """
@@ -53,8 +54,9 @@ class Journal:
                 row = json.loads(line)
                 self.rows[(row["scenario"], row["sample"])] = row
 
-    def __contains__(self, key: tuple[str, int]) -> bool:
-        return key in self.rows
+    def finished(self, key: tuple[str, int]) -> bool:
+        """(scenario, sample) ran to a verdict; a row with an ``error`` (the run could not run) did not."""
+        return key in self.rows and not self.rows[key].get("error")
 
     def append(self, row: dict) -> None:
         self.rows[(row["scenario"], row["sample"])] = row

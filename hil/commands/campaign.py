@@ -80,10 +80,10 @@ def run(args: argparse.Namespace, runner: execution.Runner = execution.run_job, 
         return 2
     log = journal.Journal(args.out)
     jobs = sampling.plan(args.scenarios, args.samples, args.seed, spec["ranges"])
-    todo = [job for job in jobs if (job.scenario, job.sample) not in log]
+    todo = [job for job in jobs if not log.finished((job.scenario, job.sample))]
     settings = execution.RunSettings(args.out.resolve(), args.duration, args.keep_passing)  # workers may run elsewhere
     if len(todo) < len(jobs):
-        print(f"campaign: resuming, {len(jobs) - len(todo)} of {len(jobs)} runs already in {log.path}")
+        print(f"campaign: resuming, {len(jobs) - len(todo)} of {len(jobs)} runs already judged in {log.path}")
     try:
         run_jobs(args, todo, settings, log, runner, processes, done=len(jobs) - len(todo), total=len(jobs))
     except KeyboardInterrupt:
