@@ -44,6 +44,7 @@ the firmware believes it makes.
 from __future__ import annotations
 
 import math
+from collections import deque
 
 import can
 
@@ -55,7 +56,8 @@ from wheelleg.emulators.robot import description as D
 
 MODE_RESET, MODE_CALI, MODE_RUN = 0, 1, 2
 RUN_MODES = (0, 1, 2, 3)  # operation (motion), position, speed, current
-MAX_MOTOR_ID = 127  # parameter CAN_ID 0x200A range
+MAX_MOTOR_ID = cg.MAX_MOTOR_ID  # parameter CAN_ID 0x200A range
+ECHO_MEMORY = 16  # own frames remembered to recognise their echo (docs/protocols.md, reply storms)
 CURRENT_LIMIT_A = 23.0  # peak phase current; iq_ref / limit_cur range
 FULL_DLC = 8
 
@@ -146,7 +148,11 @@ class CyberGear(EmulatedDevice):
         self._lay = _Layouts.get(position_range)
         self.position_range = position_range
         self.motor_id = motor_id
-        self.uid = (0x4347_0000_0000_0000 | motor_id) if uid is None else uid & 0xFFFF_FFFF_FFFF_FFFF
+        if uid is not None and not 0 <= uid <= 0xFFFF_FFFF_FFFF_FFFF:
+            raise ValueError(f"CyberGear uid must fit the 64-bit MCU id of the type-0 reply, got {uid:#x}")
+        if not 0 <= host_id <= 0xFF:
+            raise ValueError(f"CyberGear host id must be 0..255, got {host_id}")
+        self.uid = (0x4347_0000_0000_0000 | motor_id) if uid is None else uid
         self.ambient_c = ambient_c
         self.temperature_c = ambient_c
         if not (vbus_v > 0.0 and kt_scale > 0.0):
@@ -154,7 +160,9 @@ class CyberGear(EmulatedDevice):
         self.vbus_v = vbus_v
         self.kt_scale = kt_scale
         self.speed_limit_rad_s = SPEED_LIMIT_RAD_S * (vbus_v / D.SUPPLY_NOMINAL_V)  # back-EMF: no drive beyond
-        self.last_host = host_id & 0xFF
+        self.host_id = host_id  # CAN_MASTER: the one host in 0..127 this motor answers
+        self.last_host = host_id
+        self._sent: deque = deque(maxlen=ECHO_MEMORY)  # (id, data) of own frames not yet heard back
         self.mode = MODE_RESET
         self.params = dict(DEFAULT_PARAMS)
         self.baud_code = 1
@@ -170,8 +178,7 @@ class CyberGear(EmulatedDevice):
             cg.T_PARAM_READ: self._on_read, cg.T_PARAM_WRITE: self._on_write,
             cg.T_FAULT_WARN: self._on_fault_poll, cg.T_SET_BAUD: self._on_set_baud,
         }
-        self._fixed_dlc = {cg.T_MOTION, cg.T_STOP, cg.T_SET_ZERO, cg.T_PARAM_READ,
-                           cg.T_PARAM_WRITE, cg.T_SET_BAUD}
+        self._fixed_dlc = {cg.T_MOTION, cg.T_SET_ZERO, cg.T_PARAM_READ, cg.T_PARAM_WRITE, cg.T_SET_BAUD}
 
     # -- state -----------------------------------------------------------------
     @property
@@ -255,16 +262,32 @@ class CyberGear(EmulatedDevice):
     def _handle(self, msg: can.Message, now_s: float) -> list[can.Message]:
         if not msg.is_extended_id or not is_data_frame(msg):
             return []
-        can_id = msg.arbitration_id
-        if cg.target(can_id) != self.motor_id:
+        can_id, data = msg.arbitration_id, bytes(msg.data)
+        if cg.target(can_id) != self.motor_id or self._is_own_echo(can_id, data):
             return []
         ctype = cg.comm_type(can_id)
         handler = self._handlers.get(ctype)
-        if handler is None or (ctype in self._fixed_dlc and len(msg.data) != FULL_DLC):
+        if handler is None or (ctype in self._fixed_dlc and len(data) != FULL_DLC):
             return []
-        if ctype != cg.T_MOTION:
+        if ctype != cg.T_MOTION:  # type 1 has no sender field: only hosts send it
+            if not cg.sent_by_host(can_id, self.host_id):
+                return []  # another motor's reply to a host that shares this motor's id
             self.last_host = cg.request_host(can_id)
-        return handler(can_id, bytes(msg.data), now_s)
+        return self._remember(handler(can_id, data, now_s))
+
+    def _is_own_echo(self, can_id: int, data: bytes) -> bool:
+        """A frame this motor sent, heard back (an echoing transport): consumed, never answered."""
+        key = (can_id, data)
+        if key in self._sent:
+            self._sent.remove(key)
+            return True
+        return False
+
+    def _remember(self, frames: list[can.Message]) -> list[can.Message]:
+        for f in frames:
+            if cg.target(f.arbitration_id) == self.motor_id:  # only a self-addressed frame can come back as a request
+                self._sent.append((f.arbitration_id, bytes(f.data)))
+        return frames
 
     def _on_device_id(self, can_id: int, data: bytes, now_s: float) -> list[can.Message]:
         return [self._device_id_frame(now_s)]
@@ -291,7 +314,7 @@ class CyberGear(EmulatedDevice):
         self.mode = MODE_RESET
         self._motion = (0.0, 0.0, 0.0, 0.0, 0.0)
         self._speed_integral_a = 0.0
-        if self._lay.stop.decode_raw(data)["ClearFault"] == 1:
+        if self._lay.stop.decode_raw(data.ljust(FULL_DLC, b"\0"))["ClearFault"] == 1:
             self._faults = frozenset()
         return [self._feedback_frame(self.last_host, now_s)]
 
@@ -302,7 +325,7 @@ class CyberGear(EmulatedDevice):
 
     def _on_set_id(self, can_id: int, data: bytes, now_s: float) -> list[can.Message]:
         new_id = cg.set_id_new_id(can_id)
-        if new_id <= MAX_MOTOR_ID:
+        if new_id <= MAX_MOTOR_ID and (new_id != self.host_id or new_id == self.motor_id):
             self.motor_id = new_id
         return [self._device_id_frame(now_s)]
 

@@ -385,8 +385,8 @@ def test_set_zero_is_volatile_and_needs_byte0_1(rig):
 
 def test_replies_go_to_the_requesting_host_and_type1_to_the_last_one(rig):
     drv, _ = rig
-    assert cg.parse_reply_id(drv.enable(1, host=0x22).arbitration_id).host == 0x22
-    assert cg.parse_reply_id(drv.motion(1).arbitration_id).host == 0x22
+    assert cg.parse_reply_id(drv.enable(1, host=0xA2).arbitration_id).host == 0xA2
+    assert cg.parse_reply_id(drv.motion(1).arbitration_id).host == 0xA2
     drv.enable(1, host=0x00)
     assert cg.parse_reply_id(drv.motion(1).arbitration_id).host == 0x00
 
@@ -445,8 +445,7 @@ def _state(motor: CyberGear) -> tuple:
             motor.motor_id, motor.output_torque(0.0))
 
 
-@pytest.mark.parametrize("ctype", [cg.T_MOTION, cg.T_STOP, cg.T_SET_ZERO, cg.T_PARAM_READ,
-                                   cg.T_PARAM_WRITE, cg.T_SET_BAUD])
+@pytest.mark.parametrize("ctype", [cg.T_MOTION, cg.T_SET_ZERO, cg.T_PARAM_READ, cg.T_PARAM_WRITE, cg.T_SET_BAUD])
 @pytest.mark.parametrize("dlc", [0, 1, 7])
 def test_wrong_dlc_is_silent_and_changes_nothing(rig, ctype, dlc):
     drv, motor = rig
