@@ -1,8 +1,10 @@
 """Xiaomi CyberGear micro-motor, frame for frame (docs/protocols.md).
 
 Reply rules (docs/protocols.md, how the emulated CyberGear answers): every accepted host->motor frame of types 0, 1, 2 (a
-poll), 3, 4, 6, 7, 17, 18, 21 and 22 gets exactly one reply; the motor sends
-nothing on its own. Types 0/7/22 answer with a type-0 device-id frame to
+poll), 3, 4, 5, 6, 7, 17, 18, 20 (brake), 21 and 22 gets exactly one reply; the
+motor sends nothing on its own but the type-5 calibration result. A sender
+(bits 15..8) in 0..127 other than ``host_id`` is another motor: never answered;
+the echo of a frame the motor sent to its own id is dropped (no reply storms). Types 0/7/22 answer with a type-0 device-id frame to
 0xFE, 17 with a type-17 frame, 21 with a type-21 fault/warning frame and
 everything else with a type-2 feedback frame. Replies go to the host id in
 bits 15..8 of the request; type 1 carries none and is answered to the last
@@ -10,7 +12,8 @@ host seen (initially 0x00, CAN_MASTER's example value).
 
 Choices where the sources are silent (docs/protocols.md), made once here:
 
-* DLC: types whose payload the motor reads (1, 4, 6, 17, 18, 22) need DLC 8,
+* DLC: types whose payload the motor reads (1, 6, 17, 18, 22) need DLC 8 (a
+  stop of any length stops),
   otherwise silence; types whose payload it ignores (0, 2, 3, 7, 21) accept
   any DLC (the debugger sends type 0 with DLC 1).
 * Undocumented types (5, 8-16, 19, 20, 23-31), remote/error/FD frames,
