@@ -29,6 +29,7 @@ from wheelleg.dbc import cybergear as cg
 from wheelleg.dbc import truncating_raw
 from wheelleg.hil.record.candump import CandumpWriter
 from wheelleg.hil.bus.recorder import Recorder
+from wheelleg.hil.record.frame import Frame
 from wheelleg.hil.analyze.bug_report import git_revision
 from wheelleg.hil.analyze.replay import MemoryBus
 from wheelleg.hil.record.trace import TraceWriter
@@ -232,6 +233,5 @@ def robot_log(path: Path, ticks: int, channels=("can0", "can1"), devices: Device
                 received(t_us, "can2", reply)
     with CandumpWriter(path, flush_interval_s=None) as log:
         for t_us, bus, msg in rows:
-            log.write(names[bus], t_us * 1000, msg.arbitration_id, msg.is_extended_id,
-                      bytes(msg.data[:msg.dlc]))
+            log.write(Frame.of(msg, names[bus], t_us * 1000))
     return modes

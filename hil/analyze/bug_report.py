@@ -15,7 +15,7 @@ from pathlib import Path
 
 from wheelleg import dbc
 from wheelleg.controller import params as P
-from wheelleg.hil.record.sources import TraceSource
+from wheelleg.hil.record.sources import Recording
 
 RUN_KEYS = ("scenario", "seed", "control_period_s", "git_revision", "controller_params", "can1", "can2")
 
@@ -35,7 +35,7 @@ def git_revision(cwd: Path | None = None) -> str:
         return "unknown"
 
 
-def bug_report_gaps(source: TraceSource) -> list[str]:
+def bug_report_gaps(source: Recording) -> list[str]:
     """What the trace lacks to be replayed on another machine ([] for a complete rig trace)."""
     if source.kind != "mcap":
         return ["a candump log carries no DBC files, MJCF, parameters, scenario, seed or revision: "
@@ -47,7 +47,7 @@ def bug_report_gaps(source: TraceSource) -> list[str]:
     return gaps
 
 
-def environment_warnings(source: TraceSource) -> list[str]:
+def environment_warnings(source: Recording) -> list[str]:
     """Where this machine differs from the one that recorded: DBC files, revision, parameters."""
     out = [f"trace lacks {gap}" for gap in bug_report_gaps(source)] if source.kind == "mcap" else []
     installed = {p.name: p for p in dbc.all_dbc_files()}
@@ -67,7 +67,7 @@ def environment_warnings(source: TraceSource) -> list[str]:
     return out
 
 
-def _param_warnings(source: TraceSource) -> list[str]:
+def _param_warnings(source: Recording) -> list[str]:
     text = source.run.get("controller_params")
     if not text:
         return []

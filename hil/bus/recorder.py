@@ -12,6 +12,7 @@ from __future__ import annotations
 import can
 
 from wheelleg.hil.bus.busload import BusClock, LoadMeter
+from wheelleg.hil.record.frame import Frame
 
 
 class Recorder:
@@ -37,12 +38,12 @@ class Recorder:
         self.load.sample(self.now_ns)
         t_ns = self.clock(channel).transmit(self.now_ns, msg.arbitration_id, msg.is_extended_id, data)
         self.frames += 1
+        frame = Frame(t_ns, channel, msg.arbitration_id, msg.is_extended_id, data, msg.dlc, "",
+                      msg.is_error_frame, msg.is_remote_frame, msg.is_fd)
         if self.trace is not None:
-            self.trace.frame(channel, t_ns, msg.arbitration_id, msg.is_extended_id, msg.dlc, data,
-                             is_error=msg.is_error_frame)
+            self.trace.frame(frame)
         if self.log is not None:
-            self.log.write(channel, t_ns, msg.arbitration_id, msg.is_extended_id, data,
-                           is_error=msg.is_error_frame)
+            self.log.write(frame)
         return t_ns
 
 
