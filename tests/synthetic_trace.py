@@ -120,16 +120,17 @@ class SyntheticRig:
     """Scripted devices + a real sync-mode ControllerNode, recorded at the plant side."""
 
     def __init__(self, trace_path: Path | None, log_path: Path | None, devices: Devices | None = None,
-                 channels=("vcan0", "vcan1"), metadata: dict | None = None, events: dict | None = None):
+                 channels=("vcan0", "vcan1"), metadata: dict | None = None, events: dict | None = None,
+                 trace: TraceWriter | None = None):
         self.names = {"can1": channels[0], "can2": channels[1]}
         self.devices = devices or Devices()
-        self.trace = None
+        self.trace = trace
         if trace_path is not None:
             self.trace = TraceWriter(trace_path, metadata=metadata or run_metadata(channels),
                                      attachments=attachments(),
                                      dbs={channels[0]: DB1, channels[1]: DB2}, flush_interval_s=None)
         self.log = CandumpWriter(log_path, flush_interval_s=None) if log_path is not None else None
-        self.recorder = Recorder(self.trace, self.log)
+        self.recorder = Recorder([s for s in (self.trace, self.log) if s is not None], load_to=self.trace)
         self.buses = {"can1": MemoryBus("can1"), "can2": MemoryBus("can2")}
         self.node = ControllerNode(self.buses["can1"], self.buses["can2"], sync=True, period_s=PERIOD)
         self.events = events or {}  # tick -> (kind, fields)

@@ -217,10 +217,9 @@ def test_log_cut_inside_a_tick_replays_up_to_the_cut(robot, tmp_path, capsys):
 
 def test_killed_trace_replays_what_it_holds(tmp_path, capsys):
     path = tmp_path / "killed.mcap"
-    rig = SyntheticRig(None, None)
-    rig.trace = TraceWriter(path, metadata=run_metadata(), attachments=attachments(), chunk_span_s=0.02,
-                            dbs={"vcan0": dbc.load_bus("can1"), "vcan1": dbc.load_bus("can2")})
-    rig.recorder.trace = rig.trace
+    trace = TraceWriter(path, metadata=run_metadata(), attachments=attachments(), chunk_span_s=0.02,
+                        dbs={"vcan0": dbc.load_bus("can1"), "vcan1": dbc.load_bus("can2")})
+    rig = SyntheticRig(None, None, trace=trace)
     rig.run(100)
     data = path.read_bytes()
     path.write_bytes(data[:len(data) * 2 // 3])  # what a killed writer leaves: no summary, no footer
@@ -335,10 +334,9 @@ def test_replay_warns_about_dbc_revision_and_parameter_differences(tmp_path, mon
     del meta["run"]["seed"]
     files = [(n, d + b"\n" if n == "rig.dbc" else d, t) for n, d, t in attachments() if n != "robot.xml"]
     path = tmp_path / "old.mcap"
-    rig = SyntheticRig(None, None)
-    rig.trace = TraceWriter(path, metadata=meta, attachments=files,
-                            dbs={"vcan0": dbc.load_bus("can1"), "vcan1": dbc.load_bus("can2")})
-    rig.recorder.trace = rig.trace
+    trace = TraceWriter(path, metadata=meta, attachments=files,
+                        dbs={"vcan0": dbc.load_bus("can1"), "vcan1": dbc.load_bus("can2")})
+    rig = SyntheticRig(None, None, trace=trace)
     rig.run(40)
     gaps = bug_report_gaps(open_recording(path))
     assert "run metadata 'seed'" in gaps and "MJCF attachment (*.xml)" in gaps

@@ -9,23 +9,40 @@ clock, so a scenario and seed give the same bytes on every run and transport.
 """
 from __future__ import annotations
 
+from typing import Protocol, Sequence
+
 import can
 
 from wheelleg.hil.bus.busload import BusClock, LoadMeter
 from wheelleg.hil.record.frame import Frame
 
 
-class Recorder:
-    """Fans each observed frame out to the trace and the candump log."""
+class FrameSink(Protocol):
+    """Where recorded frames go, in the manner of python-can's ``Listener``.
 
-    def __init__(self, trace=None, log=None, bitrate: int = 1_000_000):
-        self.trace = trace  # wheelleg.hil.record.trace.TraceWriter or None
-        self.log = log  # wheelleg.hil.record.candump.CandumpWriter or None
+    ``on_frame`` gets every frame in bus order, at its bus time; ``stop`` ends
+    the recording (flush and close). ``TraceWriter`` (MCAP) and
+    ``CandumpWriter`` (candump log) are the rig's two sinks.
+    """
+
+    def on_frame(self, frame: Frame) -> None: ...
+
+    def stop(self) -> None: ...
+
+
+class Recorder:
+    """Puts each observed frame on its bus's wire clock and hands it to every sink.
+
+    ``load_to``: where the ``/bus/load`` windows go (the MCAP trace), or None.
+    """
+
+    def __init__(self, sinks: Sequence[FrameSink] = (), *, load_to=None, bitrate: int = 1_000_000):
+        self.sinks = list(sinks)
         self.clocks: dict[str, BusClock] = {}
         self.bitrate = bitrate
         self.now_ns = 0  # simulated time, set by the rig before each batch of frames
         self.frames = 0
-        self.load = LoadMeter(self.clocks, trace)  # /bus/load every 100 ms of bus time
+        self.load = LoadMeter(self.clocks, load_to)  # /bus/load every 100 ms of bus time
 
     def clock(self, channel: str) -> BusClock:
         if channel not in self.clocks:
@@ -40,11 +57,15 @@ class Recorder:
         self.frames += 1
         frame = Frame(t_ns, channel, msg.arbitration_id, msg.is_extended_id, data, msg.dlc, "",
                       msg.is_error_frame, msg.is_remote_frame, msg.is_fd)
-        if self.trace is not None:
-            self.trace.frame(frame)
-        if self.log is not None:
-            self.log.write(frame)
+        for sink in self.sinks:
+            sink.on_frame(frame)
         return t_ns
+
+    def stop(self) -> None:
+        """The last (partial) load window, then every sink stopped."""
+        self.load.sample(self.now_ns, final=True)
+        for sink in self.sinks:
+            sink.stop()
 
 
 class RecordingBus:

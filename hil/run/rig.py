@@ -99,7 +99,7 @@ class Rig:
                                  dbs={self.names[CAN1]: load_bus(CAN1), self.names[CAN2]: load_bus(CAN2)},
                                  decode=config.decode)
         self.log = CandumpWriter(self.log_path)
-        self.recorder = Recorder(self.trace, self.log)
+        self.recorder = Recorder([self.trace, self.log], load_to=self.trace)
         # Real transports deliver each socket's frames at their own pace: hold them
         # until both heartbeats are in, then serve them in the virtual bus's order.
         lockstep_real = config.interface != "virtual" and not config.realtime
@@ -267,6 +267,4 @@ class Rig:
                 bus.shutdown()
         for bus in self._raw.values():
             bus.shutdown()
-        self.recorder.load.sample(self.recorder.now_ns, final=True)  # the run's last window
-        self.trace.finish()
-        self.log.close()
+        self.recorder.stop()
