@@ -28,6 +28,7 @@ from wheelleg.controller.node import Controller, ControllerNode
 from wheelleg.dbc import cybergear as cg
 from wheelleg.dbc import truncating_raw
 from wheelleg.hil.record.candump import CandumpWriter
+from wheelleg.hil.bus.plant_bus import SimClock
 from wheelleg.hil.bus.recorder import Recorder
 from wheelleg.hil.record.frame import Frame
 from wheelleg.hil.analyze.bug_report import git_revision
@@ -130,7 +131,9 @@ class SyntheticRig:
                                      attachments=attachments(),
                                      dbs={channels[0]: DB1, channels[1]: DB2}, flush_interval_s=None)
         self.log = CandumpWriter(log_path, flush_interval_s=None) if log_path is not None else None
-        self.recorder = Recorder([s for s in (self.trace, self.log) if s is not None], load_to=self.trace)
+        self.clock = SimClock()
+        self.recorder = Recorder([s for s in (self.trace, self.log) if s is not None], self.clock,
+                                 load_to=self.trace)
         self.buses = {"can1": MemoryBus("can1"), "can2": MemoryBus("can2")}
         self.node = ControllerNode(self.buses["can1"], self.buses["can2"], sync=True, period_s=PERIOD)
         self.events = events or {}  # tick -> (kind, fields)
@@ -143,10 +146,10 @@ class SyntheticRig:
 
     def step(self, tick: int) -> None:
         d, t = self.devices, tick * PERIOD
-        self.recorder.now_ns = round(t * 1e9)
+        self.clock.set_s(t)
         if tick in self.events and self.trace is not None:
             kind, fields = self.events[tick]
-            self.trace.event(self.recorder.now_ns, kind, **fields)
+            self.trace.event(self.clock.now_ns, kind, **fields)
         for msg in d.wheels(t) + d.imu(t) + d.remote(tick):
             self._put("can1", msg)
         sync = _std("SYNC", Tick=tick)
@@ -164,8 +167,8 @@ class SyntheticRig:
             for reply in d.joint_reply(msg, tick, t):
                 self._put("can2", reply)
         if self.trace is not None:
-            self.trace.sim_state(self.recorder.now_ns, _truth(d.pitch(t)))
-        self.recorder.now_ns = round((t + PERIOD / 2) * 1e9)
+            self.trace.sim_state(self.clock.now_ns, _truth(d.pitch(t)))
+        self.clock.set_s(t + PERIOD / 2)
         for msg in d.wheels(t + PERIOD / 2):  # the C620s' second feedback of the period (1 kHz)
             self._put("can1", msg)
 
