@@ -14,7 +14,6 @@ heartbeat 500 Hz.
 """
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 
@@ -31,7 +30,7 @@ from wheelleg.hil.record.candump import CandumpWriter
 from wheelleg.hil.bus.plant_bus import SimClock
 from wheelleg.hil.bus.recorder import Recorder
 from wheelleg.hil.record.frame import Frame
-from wheelleg.hil.analyze.bug_report import git_revision
+from wheelleg.hil.record.run_metadata import run_record
 from wheelleg.hil.analyze.replay import MemoryBus
 from wheelleg.hil.record.trace import TraceWriter
 
@@ -104,10 +103,8 @@ class Devices:
 
 
 def run_metadata(channels=("vcan0", "vcan1"), **extra) -> dict:
-    params = {k: v for k, v in vars(P).items() if k.isupper()}
-    run = {"scenario": "synthetic", "seed": "0", "control_period_s": repr(PERIOD),
-           "duration_s": "0", "interface": "virtual", "can1": channels[0], "can2": channels[1],
-           "git_revision": git_revision(), "controller_params": json.dumps(params, sort_keys=True, default=repr)}
+    run = run_record(scenario="synthetic", seed=0, control_period_s=PERIOD, duration_s=0,
+                     channels={"can1": channels[0], "can2": channels[1]})
     run.update(extra)
     return {"run": run}
 

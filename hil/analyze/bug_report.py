@@ -10,29 +10,10 @@ runs today's controller with today's DBC files.
 from __future__ import annotations
 
 import json
-import subprocess
-from pathlib import Path
 
 from wheelleg import dbc
-from wheelleg.controller import params as P
+from wheelleg.hil.record.run_metadata import REPLAY_KEYS, current_params, git_revision
 from wheelleg.hil.record.sources import Recording
-
-RUN_KEYS = ("scenario", "seed", "control_period_s", "git_revision", "controller_params", "can1", "can2")
-
-
-def current_params() -> dict:
-    """The controller's tuning as the rig records it (``run.controller_params``)."""
-    params = {k: v for k, v in vars(P).items() if k.isupper()}
-    return json.loads(json.dumps(params, sort_keys=True, default=repr))
-
-
-def git_revision(cwd: Path | None = None) -> str:
-    try:
-        out = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True,
-                             cwd=cwd or Path(__file__).parent, timeout=5)
-        return out.stdout.strip() or "unknown"
-    except (OSError, subprocess.SubprocessError):
-        return "unknown"
 
 
 def bug_report_gaps(source: Recording) -> list[str]:
@@ -40,7 +21,7 @@ def bug_report_gaps(source: Recording) -> list[str]:
     if source.kind != "mcap":
         return ["a candump log carries no DBC files, MJCF, parameters, scenario, seed or revision: "
                 "replay uses what is installed here"]
-    gaps = [f"run metadata '{key}'" for key in RUN_KEYS if not source.run.get(key)]
+    gaps = [f"run metadata '{key}'" for key in REPLAY_KEYS if not source.run.get(key)]
     gaps += [f"attachment {p.name}" for p in dbc.all_dbc_files() if p.name not in source.attachments]
     if not any(name.endswith(".xml") for name in source.attachments):
         gaps.append("MJCF attachment (*.xml)")

@@ -10,7 +10,6 @@ internals. The simulation truth is the recorded run's: replay is open loop.
 """
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 
@@ -18,9 +17,9 @@ import can
 
 from wheelleg import dbc
 from wheelleg.hil.record.candump import CandumpWriter
-from wheelleg.hil.analyze.bug_report import current_params, git_revision
 from wheelleg.hil.analyze.replay import ReplayResult
 from wheelleg.hil.record.frame import Frame
+from wheelleg.hil.record.run_metadata import controller_params_json, git_revision
 from wheelleg.hil.record.sources import DBS, ROLES
 
 DEBUG_TOPIC = "/controller/debug"
@@ -82,7 +81,7 @@ def _metadata(result: ReplayResult) -> dict:
     run["reference_from"] = result.source.path.name
     run["reference_of_revision"] = run.get("git_revision", "unknown")
     run["git_revision"] = git_revision()
-    run["controller_params"] = json.dumps(current_params(), sort_keys=True)
+    run["controller_params"] = controller_params_json()
     return meta
 
 

@@ -41,7 +41,7 @@ def load_run(path: Path | str) -> RunData:
     if reader is None:
         raise TraceError(f"{path}: run data needs the rig's MCAP trace, not a candump log")
     channels = recording.channels
-    can1, can2 = channels.get(CAN1, ""), channels.get(CAN2, "")
+    can1 = channels.get(CAN1, "")
     return RunData(
         state=reader.sim_state(),
         heartbeat=reader.decoded(can1, "Heartbeat"),

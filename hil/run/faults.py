@@ -36,7 +36,7 @@ from wheelleg.dbc import cybergear as cg
 from wheelleg.hil.bus.busload import DEFAULT_BITRATE
 # BOTH, TO_DEVICES and priority are re-exported: scenarios and tests name them faults.*
 from wheelleg.hil.bus.frame_faults import (BOTH, BUSES, TO_CONTROLLER, TO_DEVICES, Arbitration, Babble,  # noqa: F401
-                              BusFaults, BusOff, Corrupt, Delay, Drop, ErrorFrames, Garbage, Select,
+                              BusOff, Corrupt, Delay, Drop, ErrorFrames, Garbage, Select,
                               make_select, priority)
 from wheelleg.hil.run.scenario import Action
 

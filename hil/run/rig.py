@@ -9,8 +9,6 @@ faults (``BusFaults``), the recorder, the schedule's lockstep watch.
 """
 from __future__ import annotations
 
-import json
-import subprocess
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -28,6 +26,7 @@ from wheelleg.hil.bus.plant_bus import PlantBus
 from wheelleg.hil.bus.recorder import Recorder
 from wheelleg.hil.bus.transport import open_bus
 from wheelleg.hil.record.candump import CandumpWriter
+from wheelleg.hil.record.run_metadata import run_record
 from wheelleg.hil.record.trace import TraceWriter
 from wheelleg.hil.run.scenario import Scenario
 from wheelleg.hil.run.schedule import HeldLockstep, Lockstep
@@ -59,14 +58,6 @@ class RunOutcome:
     wall_s: float
     sim_s: float
     timing: dict | None = None  # real-time mode: {"controller": ..., "plant": ...} (hil/run/loop_timing.py)
-
-def git_revision() -> str:
-    try:
-        out = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True,
-                             cwd=Path(__file__).parent, timeout=5)
-        return out.stdout.strip() or "unknown"
-    except (OSError, subprocess.SubprocessError):
-        return "unknown"
 
 def _open_bus(config: RigConfig, channel: str) -> can.BusABC:
     return open_bus(config.interface, channel)
@@ -125,14 +116,10 @@ class Rig:
 
     # -- metadata ------------------------------------------------------------
     def _metadata(self) -> dict:
-        params = {k: v for k, v in vars(P).items() if k.isupper()}
-        return {"run": {"scenario": self.scenario.name, "seed": str(self.config.seed),
-                        "control_period_s": repr(self.config.period_s),
-                        "physics_dt_s": repr(self.config.physics_dt_s),
-                        "duration_s": repr(self.scenario.duration_s),
-                        "interface": self.config.interface, "can1": self.names[CAN1],
-                        "can2": self.names[CAN2], "git_revision": git_revision(),
-                        "controller_params": json.dumps(params, sort_keys=True, default=repr)}}
+        cfg = self.config
+        return {"run": run_record(scenario=self.scenario.name, seed=cfg.seed, control_period_s=cfg.period_s,
+                                  physics_dt_s=cfg.physics_dt_s, duration_s=self.scenario.duration_s,
+                                  interface=cfg.interface, channels=self.names)}
 
     @staticmethod
     def _attachments() -> list:
