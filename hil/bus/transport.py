@@ -24,19 +24,31 @@ class LockstepVirtualBus(VirtualBus):
     ``send``; ``BusABC.recv`` keeps the policy (filters, timeouts).
     """
 
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self._closed = False
+
+    def _check_open(self) -> None:
+        if self._closed:
+            raise can.CanOperationError("Cannot operate on a closed bus")
+
+    def shutdown(self) -> None:
+        self._closed = True
+        super().shutdown()
+
     def _recv_internal(self, timeout: float | None) -> tuple[can.Message | None, bool]:
         if timeout != 0:  # a blocking wait (real-time mode, tools): python-can's own
             return super()._recv_internal(timeout)
         # The rig drains every bus with timeout 0 about 15 times a tick, mostly
         # finding it empty; queue.get would raise (and catch) queue.Empty each time.
-        self._check_if_open()
+        self._check_open()
         rx = self.queue
         if not rx.qsize():  # this bus is its queue's only reader: a frame counted is a frame to get
             return None, False
         return rx.get_nowait(), False
 
     def send(self, msg: can.Message, timeout: float | None = None) -> None:
-        self._check_if_open()
+        self._check_open()
         timestamp = msg.timestamp if self.preserve_timestamps else time.time()
         data = bytes(msg.data)
         full = False
