@@ -51,13 +51,16 @@ class PlantBus:
     def __init__(self, bus, channel: str, recorder: Recorder, stages: Sequence[BusStage] = ()):
         self.bus, self.channel, self.recorder = bus, channel, recorder
         self.stages = tuple(stages)
+        self._outbound = tuple(stage.outbound for stage in self.stages)  # bound once: the per-frame path
+        self._inbound = tuple(stage.inbound for stage in self.stages)
 
     def send(self, msg: can.Message, timeout: float | None = None) -> None:
         frames = [msg]
-        for stage in self.stages:
-            frames = stage.outbound(frames)
+        for outbound in self._outbound:
+            frames = outbound(frames)
+        observe, channel = self.recorder.observe, self.channel
         for frame in frames:
-            self.recorder.observe(self.channel, frame)
+            observe(channel, frame)
             self.bus.send(frame, timeout)
 
     def recv(self, timeout: float | None = None) -> can.Message | None:
@@ -66,8 +69,8 @@ class PlantBus:
             if msg is None:
                 return None
             self.recorder.observe(self.channel, msg)
-            for stage in self.stages:
-                if not stage.inbound(msg):
+            for inbound in self._inbound:
+                if not inbound(msg):
                     break
             else:
                 return msg

@@ -38,6 +38,7 @@ class Recorder:
 
     def __init__(self, sinks: Sequence[FrameSink], clock, *, load_to=None, bitrate: int = 1_000_000):
         self.sinks = list(sinks)
+        self._to_sinks = tuple(sink.on_frame for sink in self.sinks)  # bound once: the per-frame path
         self.sim_clock = clock
         self.clocks: dict[str, BusClock] = {}  # channel -> its wire
         self.bitrate = bitrate
@@ -58,8 +59,8 @@ class Recorder:
         self.frames += 1
         frame = Frame(t_ns, channel, msg.arbitration_id, msg.is_extended_id, data, msg.dlc, "",
                       msg.is_error_frame, msg.is_remote_frame, msg.is_fd)
-        for sink in self.sinks:
-            sink.on_frame(frame)
+        for on_frame in self._to_sinks:
+            on_frame(frame)
         return t_ns
 
     def stop(self) -> None:

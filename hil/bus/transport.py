@@ -43,7 +43,7 @@ class LockstepVirtualBus(VirtualBus):
         # finding it empty; queue.get would raise (and catch) queue.Empty each time.
         self._check_open()
         rx = self.queue
-        if not rx.qsize():  # this bus is its queue's only reader: a frame counted is a frame to get
+        if not rx.queue:  # this bus is its queue's only reader: a frame seen is a frame to get
             return None, False
         return rx.get_nowait(), False
 

@@ -42,7 +42,8 @@ class HeartbeatWatch:
         return frames
 
     def inbound(self, msg: can.Message) -> bool:
-        self.note(msg)
+        if msg.arbitration_id == _HEARTBEAT.frame_id:  # the common case, a frame that is none, cheaply
+            self.note(msg)
         return True
 
     def note(self, msg: can.Message) -> None:
