@@ -1,7 +1,9 @@
 """Xiaomi CyberGear micro-motor, frame for frame (docs/protocols.md).
 
 Reply rules (docs/protocols.md, how the emulated CyberGear answers): every accepted host->motor frame of types 0, 1, 2 (a
-poll), 3, 4, 5, 6, 7, 17, 18, 20 (brake), 21 and 22 gets exactly one reply; the
+poll), 3, 4, 5, 6, 7, 9, 17, 18, 20 (brake), 21 and 22 gets exactly one reply, a
+type-19 table request the whole table, a type-8 config write none (the stored
+table: ``cybergear_config``); the
 motor sends nothing on its own but the type-5 calibration result. A sender
 (bits 15..8) in 0..127 other than ``host_id`` is another motor: never answered;
 the echo of a frame the motor sent to its own id is dropped (no reply storms). Types 0/7/22 answer with a type-0 device-id frame to
@@ -16,7 +18,7 @@ Choices where the sources are silent (docs/protocols.md), made once here:
   stop of any length stops),
   otherwise silence; types whose payload it ignores (0, 2, 3, 7, 21) accept
   any DLC (the debugger sends type 0 with DLC 1).
-* Undocumented types (5, 8-16, 19, 20, 23-31), remote/error/FD frames,
+* Types 10-16 and 23-31, remote/error/FD frames,
   standard ids and frames for other targets: silence.
 * Type 17 of an index outside 0x7005-0x7020's table: silence (the manual
   does not say; a driver then times out, which it must handle anyway).
@@ -54,6 +56,7 @@ import can
 from wheelleg.dbc import CYBERGEAR_FILES, load_file
 from wheelleg.dbc import cybergear as cg
 from wheelleg.dbc.codec import MessageCodec
+from wheelleg.emulators.cybergear_config import StoredTable
 from wheelleg.emulators.device import EmulatedDevice, Shaft, frame, is_data_frame
 from wheelleg.emulators.robot import description as D
 
@@ -184,6 +187,7 @@ class CyberGear(EmulatedDevice):
         self._speed_integral_a = 0.0
         self._quick_move_rad_s = 0.0  # run_mode 7 target speed (0 when its run flag is 0)
         self._calibration_done_s: float | None = None  # when the type-5 result is due
+        self.table = StoredTable(position_range)  # 0x0000-0x302F, types 8, 9 and 19
         self._handlers = {
             cg.T_DEVICE_ID: self._on_device_id, cg.T_MOTION: self._on_motion,
             cg.T_FEEDBACK: self._on_poll, cg.T_ENABLE: self._on_enable, cg.T_STOP: self._on_stop,
@@ -191,6 +195,8 @@ class CyberGear(EmulatedDevice):
             cg.T_PARAM_READ: self._on_read, cg.T_PARAM_WRITE: self._on_write,
             cg.T_FAULT_WARN: self._on_fault_poll, cg.T_SET_BAUD: self._on_set_baud,
             cg.T_BRAKE: self._on_brake, cg.T_CALIBRATE: self._on_calibrate,
+            cg.T_PARAM_TABLE: self._on_table, cg.T_CONFIG_READ: self._on_config_read,
+            cg.T_CONFIG_WRITE: self._on_config_write,
         }
         self._fixed_dlc = {cg.T_MOTION, cg.T_SET_ZERO, cg.T_PARAM_READ, cg.T_PARAM_WRITE, cg.T_SET_BAUD}
 
@@ -397,6 +403,25 @@ class CyberGear(EmulatedDevice):
             name, _, write_codec, _ = entry
             self._write_param(name, write_codec.decode_raw(data)[name], write_codec.signals[name])
         return [self._feedback_frame(self.last_host, now_s)]
+
+    def _on_table(self, can_id: int, data: bytes, now_s: float) -> list[can.Message]:
+        return self.table.dump(data, self.uid, self._live_table(), self.motor_id, self.last_host, now_s)
+
+    def _on_config_read(self, can_id: int, data: bytes, now_s: float) -> list[can.Message]:
+        return self.table.read(data, self._live_table(), self.motor_id, self.last_host, now_s)
+
+    def _on_config_write(self, can_id: int, data: bytes, now_s: float) -> list[can.Message]:
+        self.table.write(data)
+        return []
+
+    def _live_table(self) -> dict:
+        """Stored-table entries that are the motor's own state (docs/protocols.md, parameter table)."""
+        iq_a = self.firmware_torque() / D.CG_TORQUE_CONSTANT_NM_PER_A
+        return {"CAN_ID": self.motor_id, "CAN_MASTER": self.host_id,
+                "motorTemp": round(self.temperature_c * 10), "vBus_mv": round(self.vbus_v * 1000),
+                "VBUS": self.vbus_v, "v_bus": self.vbus_v, "rotation": self._read_param("rotation"),
+                "mechPos": self.mech_pos, "mechVel": self.shaft.speed, "iqf": iq_a, "iq": iq_a,
+                "torque_fdb": self.firmware_torque()}
 
     def _on_fault_poll(self, can_id: int, data: bytes, now_s: float) -> list[can.Message]:
         raw = {s: 0 for s in self._lay.fault_warn.signals}
