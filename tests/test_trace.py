@@ -167,6 +167,10 @@ def test_schemas_are_valid_and_every_message_validates(trace_path):
         reader = make_reader(f, validate_crcs=True)
         validators = {}
         for schema, channel, message in reader.iter_messages():
+            seen.add(channel.topic)
+            if channel.topic.startswith("/can/"):  # binary: tests/test_trace.py::test_can_records_*
+                assert (schema.encoding, channel.message_encoding) == ("ros2msg", "cdr")
+                continue
             assert schema.encoding == "jsonschema" and channel.message_encoding == "json"
             if schema.id not in validators:
                 body = json.loads(schema.data)
@@ -174,14 +178,25 @@ def test_schemas_are_valid_and_every_message_validates(trace_path):
                 jsonschema.Draft7Validator.check_schema(body)
                 validators[schema.id] = jsonschema.Draft202012Validator(body)
             validators[schema.id].validate(json.loads(message.data))
-            seen.add(channel.topic)
     assert {"/can/can1", "/can/can2", "/sim/state", "/scenario/events", "/controller/debug",
             "/decoded/can2/CG_Feedback", "/decoded/can1/Heartbeat"} <= seen
 
 
+def test_can_records_decode_with_mcaps_ros2_decoder_to_the_frames_written(trace_path):
+    """Foxglove and mcap-ros2-support read /can/ by its ros2msg schema: numbers, not text."""
+    decoder = pytest.importorskip("mcap_ros2.decoder").DecoderFactory()
+    with open(trace_path, "rb") as f:
+        got = []
+        for schema, channel, message in make_reader(f).iter_messages(topics=["/can/can1", "/can/can2"]):
+            m = decoder.decoder_for(channel.message_encoding, schema)(message.data)
+            got.append((message.log_time, channel.topic[5:], m.id, m.extended, bytes(m.data), m.dlc, m.error))
+    written = [(f.t_ns, f.channel, f.arbitration_id, f.is_extended, f.data, f.dlc, f.is_error) for f in _frames()]
+    assert sorted(got) == sorted(written) and len(got) > 10
+
+
 def test_schema_rejects_a_wrong_record():
     import jsonschema  # noqa: PLC0415 (dev extra)
-    validator = jsonschema.Draft202012Validator(schemas.CAN_FRAME)
+    validator = jsonschema.Draft202012Validator(schemas.CAN_FRAME_JSON)
     good = {"id": 0x123, "extended": False, "dlc": 2, "data": "0aff", "error": False}
     assert validator.is_valid(good)
     for bad in ({**good, "data": "0AF"}, {**good, "id": -1}, {**good, "extra": 1},
@@ -368,9 +383,10 @@ def test_a_corrupt_chunk_ends_the_read_there(tmp_path):
     _write(path, _frames(), compression="", chunk_size=1_500, flush_interval_s=None)
     blob = bytearray(path.read_bytes())
     reference = list(TraceReader(path).frames("can1"))
-    marker = b'"id":513'  # a C620 feedback frame on can1, inside some chunk near the middle
+    # a C620 feedback frame (id 0x201) on can1's binary /can/ channel, inside some chunk near the middle
+    marker = schemas.CDR_LE + (0x201).to_bytes(4, "little")
     at = blob.index(marker, len(blob) // 2)
-    blob[at + 6] = ord("9")  # still valid JSON, but the chunk's CRC no longer matches
+    blob[at + 4] = 0x09  # still a valid record (id 0x209), but the chunk's CRC no longer matches
     path.write_bytes(bytes(blob))
     reader = TraceReader(path)
     assert reader.truncated and "CRC" in reader.scan.error

@@ -1,35 +1,58 @@
-"""Benchmark (not a test): real-time factor of a lockstep run and where the time goes.
+"""Benchmark (not a test): how fast a lockstep run goes, against MuJoCo alone, and where the time goes.
 
-    python -m tools.bench [SCENARIO] [--duration S] [--no-decode]
+    python -m tools.bench [SCENARIO] [--duration S] [--no-decode] [--no-profile] [--no-check]
 
-First a plain run gives the real-time factor (simulated s / wall s, one
-process, one core). Then the same run under cProfile attributes the time of
-every function to a part of the rig by the file it lives in; profiling slows
-everything, so only the shares are reported from it, not absolute times.
+Printed, all from one process in one go (the machine is shared: compare the
+ratios, which share the load, more than the absolute figures):
+
+1. the rig's real-time factor (simulated s / wall s) and its CPU time;
+2. MuJoCo alone stepping the same model for the same simulated time
+   (``mj_step`` in a loop, no devices, controller, bus or recording), and the
+   rig's speed as a share of it;
+3. microseconds per control tick in each phase of the lockstep schedule
+   (``PHASES``: the rig's public steps as the schedule calls them, and the
+   plant's physics step; recording happens inside them, as frames pass);
+4. under cProfile, each part of the rig's share of the run (profiling slows
+   everything, so only shares are reported from it);
+5. the candump log of each reference run (``REFERENCES``: the logs committed
+   in tests/traces/) made again and compared byte for byte: the bench exits 1
+   and prints the first differing line when a speed change changed behaviour.
 """
 from __future__ import annotations
 
 import argparse
 import cProfile
+import gzip
 import pstats
 import tempfile
 import time
 from dataclasses import replace
 from pathlib import Path
 
+import mujoco
+
+from wheelleg.emulators.physics import Physics
 from wheelleg.hil import scenarios
 from wheelleg.hil.run.rig import Rig, RigConfig
+
+TRACES = Path(__file__).resolve().parents[1] / "tests" / "traces"
+# (scenario, duration s or None for the scenario's own, committed log): how each was made
+# is in tests/traces/README.md; a deliberate behaviour change re-records them there.
+REFERENCES = (("balance", 1.0, "balance-1s.log.gz"), ("stand-up", 2.0, "stand-up-2s.log.gz"),
+              ("motor-fault", None, "motor-fault.log.gz"))
 
 PARTS = (  # (part, path fragments), first match wins
     ("physics (MuJoCo)", ("mujoco", "emulators/physics.py", "emulators/terrain.py")),
     ("emulators", ("emulators/",)),
     ("controller", ("controller/",)),
-    ("recording (MCAP, candump, bus load)", ("hil/trace", "hil/mcap_chunks", "hil/candump", "hil/recorder",
-                                            "hil/busload", "hil/schemas", "orjson", "zstandard", "/mcap/")),
-    ("bus (python-can, queues)", ("/can/", "hil/transport", "queue.py", "threading.py")),
+    ("recording (MCAP, candump, bus load)", ("hil/record/", "hil/bus/recorder", "hil/bus/busload",
+                                            "orjson", "zstandard", "/mcap/")),
+    ("bus (python-can, queues)", ("/can/", "hil/bus/", "queue.py", "threading.py")),
     ("codecs (cantools, dbc)", ("cantools", "bitstruct", "/dbc/")),
     ("rig (lockstep, scenario)", ("hil/",)),
 )
+# the rig's steps a lockstep tick is made of (wheelleg.hil.run.schedule.Lockstep.step_tick)
+PHASES = ("apply_actions", "send_sync", "service_controller", "serve_plant", "record_debug", "record_state")
 
 
 def part_of(filename: str) -> str:
@@ -39,28 +62,106 @@ def part_of(filename: str) -> str:
     return "other (Python runtime, numpy)"
 
 
-def timed_run(scenario, decode: bool, out: Path) -> tuple[float, float]:
+class Timed:
+    """Stands in for ``owner``: its ``methods`` add their wall time to ``seconds[prefix + name]``.
+
+    ``parts`` (attribute -> method names) are stood in for the same way (the
+    rig's ``plant``, whose ``step`` the schedule calls); every other attribute
+    is the owner's.
+    """
+
+    def __init__(self, owner, methods, seconds: dict, prefix: str = "", parts: dict | None = None):
+        self._owner = owner
+        for name in methods:
+            seconds[prefix + name] = 0.0
+            setattr(self, name, _timer(getattr(owner, name), seconds, prefix + name))
+        for attribute, names in (parts or {}).items():
+            setattr(self, attribute, Timed(getattr(owner, attribute), names, seconds, f"{attribute}."))
+
+    def __getattr__(self, name):
+        return getattr(self._owner, name)
+
+
+def _timer(method, seconds: dict, key: str):
+    def timed(*args):
+        t0 = time.perf_counter()
+        try:
+            return method(*args)
+        finally:
+            seconds[key] += time.perf_counter() - t0
+    return timed
+
+
+def timed_run(scenario, decode: bool, out: Path) -> dict:
+    """One lockstep run: simulated s, wall s, CPU s, ticks and seconds per phase."""
     rig = Rig(scenario, RigConfig(decode=decode), out)
-    t0 = time.perf_counter()
-    outcome = rig.run()
-    return outcome.sim_s, time.perf_counter() - t0
+    ticks = round(scenario.duration_s / rig.config.period_s)
+    seconds: dict[str, float] = {}
+    phases = Timed(rig, PHASES, seconds, parts={"plant": ("step",)})
+    wall0, cpu0 = time.perf_counter(), time.process_time()
+    try:
+        rig.schedule.run(phases, ticks)
+    finally:
+        rig.close()
+    return {"sim_s": ticks * rig.config.period_s, "wall_s": time.perf_counter() - wall0,
+            "cpu_s": time.process_time() - cpu0, "ticks": ticks, "phases": seconds}
 
 
-def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("scenario", nargs="?", default="balance")
-    parser.add_argument("--duration", type=float, default=5.0, help="simulated seconds (default 5)")
-    parser.add_argument("--no-decode", action="store_true", help="record raw frames only (no /decoded/)")
-    args = parser.parse_args(argv)
-    scenario = replace(scenarios.get(args.scenario), duration_s=args.duration)
-    with tempfile.TemporaryDirectory() as tmp:
-        sim_s, wall_s = timed_run(scenario, not args.no_decode, Path(tmp) / "plain")
-        print(f"{scenario.name}: {sim_s:.1f} s simulated in {wall_s:.2f} s wall: "
-              f"real-time factor {sim_s / wall_s:.2f}x (lockstep, virtual bus, decode={not args.no_decode})")
-        profiler = cProfile.Profile()
-        profiler.enable()
-        timed_run(scenario, not args.no_decode, Path(tmp) / "profiled")
-        profiler.disable()
+def mujoco_only(scenario, sim_s: float) -> dict:
+    """MuJoCo stepping the scenario's model (same terrain, same timestep) for ``sim_s``, nothing else."""
+    physics = Physics(terrain=scenario.terrain, timestep_s=RigConfig.physics_dt_s)
+    scenario.start(physics)
+    model, data = physics.model, physics.data
+    steps = round(sim_s / model.opt.timestep)
+    wall0, cpu0 = time.perf_counter(), time.process_time()
+    for _ in range(steps):
+        mujoco.mj_step(model, data)
+    return {"sim_s": sim_s, "wall_s": time.perf_counter() - wall0, "cpu_s": time.process_time() - cpu0,
+            "us_per_step": 1e6 * (time.perf_counter() - wall0) / steps}
+
+
+def first_difference(new: list[bytes], ref: list[bytes]) -> str | None:
+    """'line N: expected ... got ...' for the first line where two logs differ, None when equal."""
+    for n, (a, b) in enumerate(zip(ref, new), start=1):
+        if a != b:
+            return f"line {n}: expected {a.decode(errors='replace')!r}, got {b.decode(errors='replace')!r}"
+    if len(new) != len(ref):
+        return f"line {min(len(new), len(ref)) + 1}: expected {len(ref)} lines, got {len(new)}"
+    return None
+
+
+def check_references(tmp: Path) -> list[str]:
+    """Each reference run made again; one message per candump log that differs from its committed copy."""
+    failures = []
+    for name, duration_s, file in REFERENCES:
+        scenario = scenarios.get(name)
+        if duration_s is not None:
+            scenario = replace(scenario, duration_s=duration_s)
+        outcome = Rig(scenario, RigConfig(), tmp / f"ref-{name}").run()
+        diff = first_difference(outcome.log_path.read_bytes().splitlines(),
+                                gzip.decompress((TRACES / file).read_bytes()).splitlines())
+        print(f"  {name}: {'identical to' if diff is None else 'DIFFERS from'} tests/traces/{file}")
+        if diff is not None:
+            failures.append(f"{name}: candump log differs from tests/traces/{file}, {diff}")
+    return failures
+
+
+def report_speed(scenario, run: dict, alone: dict) -> None:
+    rtf, rtf_alone = run["sim_s"] / run["wall_s"], alone["sim_s"] / alone["wall_s"]
+    cpu, cpu_alone = run["sim_s"] / run["cpu_s"], alone["sim_s"] / alone["cpu_s"]
+    print(f"{scenario.name}: {run['sim_s']:.1f} s simulated in {run['wall_s']:.2f} s wall "
+          f"({run['cpu_s']:.2f} s CPU): real-time factor {rtf:.2f}x ({cpu:.2f}x on CPU time)")
+    print(f"MuJoCo alone, same model: {rtf_alone:.1f}x real time ({cpu_alone:.1f}x on CPU time, "
+          f"{alone['us_per_step']:.1f} us per step); the rig runs at {100 * rtf / rtf_alone:.1f} % of it "
+          f"({100 * cpu / cpu_alone:.1f} % on CPU time)")
+    print(f"per control tick ({run['ticks']} ticks), wall us:")
+    total = 1e6 * run["wall_s"] / run["ticks"]
+    for name, seconds in run["phases"].items():
+        print(f"  {name:<20} {1e6 * seconds / run['ticks']:8.1f}")
+    print(f"  {'whole tick':<20} {total:8.1f}")
+
+
+def report_profile(profiler: cProfile.Profile) -> None:
     shares: dict[str, float] = {}
     for (filename, _, _), row in pstats.Stats(profiler).stats.items():
         shares[part_of(filename)] = shares.get(part_of(filename), 0.0) + row[2]  # tottime
@@ -68,7 +169,30 @@ def main(argv=None) -> int:
     print("where the time goes (share of profiled run time):")
     for part, seconds in sorted(shares.items(), key=lambda kv: -kv[1]):
         print(f"  {part:<40} {100 * seconds / total:5.1f} %")
-    return 0
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("scenario", nargs="?", default="balance")
+    parser.add_argument("--duration", type=float, default=5.0, help="simulated seconds (default 5)")
+    parser.add_argument("--no-decode", action="store_true", help="record raw frames only (no /decoded/)")
+    parser.add_argument("--no-profile", action="store_true", help="skip the cProfile run")
+    parser.add_argument("--no-check", action="store_true", help="skip the candump reference check")
+    args = parser.parse_args(argv)
+    scenario = replace(scenarios.get(args.scenario), duration_s=args.duration)
+    with tempfile.TemporaryDirectory() as tmp:
+        run = timed_run(scenario, not args.no_decode, Path(tmp) / "plain")
+        report_speed(scenario, run, mujoco_only(scenario, run["sim_s"]))
+        if not args.no_profile:
+            profiler = cProfile.Profile()
+            profiler.enable()
+            timed_run(scenario, not args.no_decode, Path(tmp) / "profiled")
+            profiler.disable()
+            report_profile(profiler)
+        failures = [] if args.no_check else check_references(Path(tmp))
+    for failure in failures:
+        print(f"FAIL {failure}")
+    return 1 if failures else 0
 
 
 if __name__ == "__main__":

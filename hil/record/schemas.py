@@ -1,11 +1,12 @@
-"""JSON Schemas of the trace's channels (MCAP schema encoding ``jsonschema``).
+"""Schemas of the trace's channels: ``/can/`` binary (ros2msg/CDR), the rest JSON Schema.
 
 Foxglove reads these to list and plot fields, so every numeric field is a
 JSON number and carries its unit in ``description``. Values that are not
 finite (NaN, inf) are written as ``null``: JSON has no NaN.
 
 Topics (the trace contract, docs/design.md):
-- ``/can/<channel>``: one message per frame (``CAN_FRAME``).
+- ``/can/<channel>``: one binary message per frame (``CAN_FRAME_MSG``; older traces:
+  JSON, ``CAN_FRAME_JSON``).
 - ``/decoded/<channel>/<Message>``: the DBC signals of one frame
   (``decoded_schema``), plus the CyberGear fields that live in the 29-bit id.
 - ``/sim/state``: simulation ground truth each control period (``sim_state_schema``).
@@ -16,11 +17,31 @@ Topics (the trace contract, docs/design.md):
 from __future__ import annotations
 
 import json
+import struct
 from typing import Any
 
 NUMBER_OR_NULL = ["number", "null"]
 
-CAN_FRAME: dict = {
+# /can/<channel>: binary, ROS 2 message definition (schema encoding "ros2msg",
+# message encoding "cdr"), so Foxglove plots ``data[i]`` as numbers and mcap's
+# ROS 2 decoder (mcap-ros2-support) reads it. A record is 16 bytes + the payload
+# (``CAN_FRAME_HEAD``): the 4-byte CDR header (little endian), id, extended,
+# dlc, error, one byte of padding, the payload's length, the payload.
+CAN_FRAME_NAME = "wheelleg/msg/CanFrame"
+CAN_FRAME_ENCODING, CAN_FRAME_MESSAGE_ENCODING = "ros2msg", "cdr"
+CAN_FRAME_MSG = """\
+# One CAN frame as it crossed the bus; log time = bus time (ns).
+uint32 id  # arbitration id (11 or 29 bit); error class bits for error frames
+bool extended  # 29-bit identifier
+uint8 dlc  # data length code
+bool error  # error frame
+uint8[] data  # payload
+"""
+CAN_FRAME_HEAD = struct.Struct("<4sIBBBxI")  # CDR header, id, extended, dlc, error, pad, len(data)
+CDR_LE = b"\x00\x01\x00\x00"
+
+# /can/<channel> of traces recorded before the binary records (JSON, read back by TraceReader).
+CAN_FRAME_JSON: dict = {
     "title": "wheelleg.CanFrame",
     "description": "One CAN frame as it crossed the bus; log time = bus time (ns).",
     "type": "object",

@@ -1,0 +1,15 @@
+"""tools/bench.py's reference check: it names the first line where a candump log differs."""
+from tools.bench import first_difference
+
+
+def test_equal_logs_have_no_difference():
+    assert first_difference([b"a", b"b"], [b"a", b"b"]) is None
+
+
+def test_the_first_differing_line_is_named_with_both_texts():
+    message = first_difference([b"a", b"x", b"y"], [b"a", b"b", b"c"])
+    assert message.startswith("line 2:") and "'b'" in message and "'x'" in message
+
+
+def test_a_shorter_log_differs_where_it_ends():
+    assert first_difference([b"a"], [b"a", b"b"]) == "line 2: expected 2 lines, got 1"
