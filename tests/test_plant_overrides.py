@@ -206,7 +206,7 @@ def test_command_delay_holds_controller_frames_back():
 def _run(out, plant: list[str]):
     from wheelleg.hil.commands.run import execute
 
-    args = argparse.Namespace(scenario="balance", out=out, interface="virtual", channels="vcan0,vcan1", seed=3,
+    args = argparse.Namespace(scenario="balance", out=out, interface="virtual", channel=["vcan0", "vcan1"], seed=3,
                               duration=0.4, realtime=False, external_controller=False, no_plot=True, plant=plant)
     outcome, _, _ = execute(args)
     return outcome
