@@ -42,9 +42,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--log", default=None, help="candump-format log of every frame seen and sent")
 
 
-def open_bus(choice: BusChoice, channel: str) -> can.BusABC:
+def open_bus(choice: BusChoice, index: int) -> can.BusABC:
+    """Bus ``index`` (0: CAN1, 1: CAN2) of ``choice``; SystemExit with the reason when it cannot be had."""
+    channel = choice.channels[index]
     try:
-        return can.Bus(interface=choice.interface, channel=channel, receive_own_messages=False, **choice.kwargs)
+        return can.Bus(interface=choice.interface, channel=channel, receive_own_messages=False,
+                       **choice.kwargs_of(index))
     except (can.CanError, OSError, ValueError, ImportError) as exc:
         raise SystemExit(f"cannot open {choice.interface} channel {channel!r}: {exc}") from exc
 
@@ -81,8 +84,7 @@ def main(args: argparse.Namespace) -> int:
     except ValueError as exc:
         print(f"controller: {exc}", file=sys.stderr)
         return 2
-    wheels = open_bus(choice, choice.channels[0])
-    joints = open_bus(choice, choice.channels[1])
+    wheels, joints = open_bus(choice, 0), open_bus(choice, 1)
     writer = can.CanutilsLogWriter(args.log) if args.log else None
     names = {CAN1: choice.channels[0], CAN2: choice.channels[1]}
     listener = log_listener(writer, names) if writer is not None else None

@@ -22,7 +22,9 @@ from dataclasses import dataclass, field
 import can
 import can.util
 
-BUS_NAMES = ("CAN1 (wheels)", "CAN2 (joints)")
+UDP_MULTICAST_PORT = 43113  # python-can's udp_multicast default port
+
+
 
 
 @dataclass(frozen=True)
@@ -32,6 +34,24 @@ class BusChoice:
     interface: str
     channels: tuple  # (CAN1 channel, CAN2 channel)
     kwargs: dict = field(default_factory=dict)
+
+    def kwargs_of(self, index: int) -> dict:
+        """Bus ``index``'s (0: CAN1, 1: CAN2) keyword arguments; see ``per_bus_kwargs``."""
+        return per_bus_kwargs(self.interface, self.kwargs, index)
+
+
+def per_bus_kwargs(interface: str, kwargs: dict, index: int) -> dict:
+    """The keyword arguments of bus ``index`` (0: CAN1, 1: CAN2).
+
+    python-can's ``udp_multicast`` joins a group on one UDP port, and a socket
+    bound to that port receives every group's datagrams on it: two groups on one
+    port are one bus. So CAN2 takes the next port (``port`` + 1, from 43113 by
+    default); every process on the rig's buses (``wheelleg run``, ``wheelleg
+    controller``) reckons the same way.
+    """
+    if interface != "udp_multicast":
+        return dict(kwargs)
+    return {**kwargs, "port": int(kwargs.get("port", UDP_MULTICAST_PORT)) + index}
 
 
 def _kwarg(text: str) -> tuple[str, object]:
@@ -77,6 +97,8 @@ def bus_choice(args: argparse.Namespace, default_interface: str,
     for index, alias in enumerate((getattr(args, "wheels", None), getattr(args, "joints", None))):
         if alias is not None:
             channels[index] = alias
+    if channels[0] == channels[1]:
+        raise ValueError(f"CAN1 and CAN2 are one channel ({channels[0]!r}): the rig's two buses need two")
     config = configured()
     interface = getattr(args, "interface", None) or config.get("interface") or default_interface
     kwargs = {k: v for k, v in config.items() if k not in ("interface", "channel")} \

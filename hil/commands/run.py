@@ -13,6 +13,7 @@ from wheelleg.hil.run.loop_timing import describe, describe_plant
 from wheelleg.hil.analyze.plot import plot_run
 from wheelleg.hil.run.progress import RunProgress
 from wheelleg.hil.run.rig import Rig, RigConfig
+from wheelleg.hil.run.schedule import CONTACT_S, NoController
 from wheelleg.hil.record.rundata import load_run
 from wheelleg.hil.bus.transport import BusOpenError
 
@@ -77,6 +78,9 @@ def execute(args: argparse.Namespace):
         plant = plant_config(getattr(args, "plant", None) or [])
     except ValueError as exc:
         raise UsageError(str(exc)) from exc
+    if args.external_controller and buses.interface == "virtual":
+        raise UsageError("--external-controller needs a bus another process can join (-i socketcan, "
+                         "udp_multicast, ...): python-can's virtual bus lives inside this process")
     config = RigConfig(interface=buses.interface, channels=buses.channels, bus_kwargs=buses.kwargs,
                        seed=args.seed, realtime=args.realtime, in_process_controller=not args.external_controller,
                        decode=not getattr(args, "no_decode", False), plant=plant)
@@ -87,8 +91,15 @@ def execute(args: argparse.Namespace):
         raise SystemExit(f"run: {exc}") from exc
     except OSError as exc:  # the output directory (or a file in it) cannot be written
         raise UsageError(f"cannot write to {args.out}: {exc.strerror or exc}") from exc
+    if args.external_controller:
+        limit = "" if args.realtime else f"; giving up after {CONTACT_S:g} s without a heartbeat"
+        print(f"run: waiting for the controller on {buses.interface} {'/'.join(buses.channels)} "
+              f"(`wheelleg controller{'' if args.realtime else ' --sync'} -i {buses.interface} "
+              f"-c {' -c '.join(buses.channels)}`){limit}", file=sys.stderr, flush=True)
     try:
         outcome = rig.run()
+    except NoController as exc:
+        raise SystemExit(f"run: {exc}") from exc
     finally:
         progress.close()
     run = load_run(outcome.trace_path)

@@ -17,6 +17,7 @@ import can
 import numpy as np
 
 from wheelleg.controller import params as P
+from wheelleg.controller.bus_args import per_bus_kwargs
 from wheelleg.controller.node import ControllerNode
 from wheelleg.dbc import CAN1, CAN2, all_dbc_files, load_bus
 from wheelleg.emulators.physics import MODEL_DIR, Physics
@@ -61,7 +62,8 @@ class RunOutcome:
     timing: dict | None = None  # real-time mode: {"controller": ..., "plant": ...} (hil/run/loop_timing.py)
 
 def _open_bus(config: RigConfig, channel: str) -> can.BusABC:
-    return open_bus(config.interface, channel, **config.bus_kwargs)
+    index = config.channels.index(channel)  # 0: CAN1, 1: CAN2
+    return open_bus(config.interface, channel, **per_bus_kwargs(config.interface, config.bus_kwargs, index))
 
 
 def _schedule(config: RigConfig):
