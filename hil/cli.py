@@ -16,7 +16,7 @@ import importlib.metadata
 import os
 import sys
 
-SUBCOMMANDS = ("run", "list", "campaign", "emulate", "controller", "replay", "inspect", "vcan")
+SUBCOMMANDS = ("run", "list", "campaign", "emulate", "controller", "replay", "inspect", "recover", "vcan")
 
 
 def build_parser() -> argparse.ArgumentParser:
