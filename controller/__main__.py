@@ -1,6 +1,9 @@
 """The controller as the robot runs it: ``python -m wheelleg.controller``.
 
-    python -m wheelleg.controller --interface socketcan --wheels can0 --joints can1
+    python -m wheelleg.controller -i socketcan -c can0 -c can1
+
+The bus flags are python-can's (``controller/bus_args.py``): without ``-i``
+the interface comes from ``CAN_INTERFACE`` or ``~/.canrc``, else socketcan.
 
 Free-runs on its own 2 ms timer (``--sync`` ticks on the rig's SYNC frames
 instead). SIGINT and SIGTERM stop every motor before it exits. ``--log FILE``
@@ -18,8 +21,12 @@ import time
 import can
 
 from wheelleg.controller import params as P
+from wheelleg.controller.bus_args import BusChoice, add_bus_arguments, bus_choice
 from wheelleg.controller.node import ControllerNode
 from wheelleg.dbc import CAN1, CAN2
+
+
+DEFAULT_INTERFACE, DEFAULT_CHANNELS = "socketcan", ("can0", "can1")  # the robot's
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -29,19 +36,20 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("-i", "--interface", default="socketcan", help="python-can interface (socketcan)")
-    parser.add_argument("--wheels", default="can0", help="CAN1 channel: wheel ESCs, IMU, remote (can0)")
-    parser.add_argument("--joints", default="can1", help="CAN2 channel: CyberGear joints (can1)")
+    add_bus_arguments(parser, DEFAULT_INTERFACE, DEFAULT_CHANNELS)
     parser.add_argument("--sync", action="store_true", help="tick on the rig's SYNC frames (lockstep)")
     parser.add_argument("--period", type=float, default=P.CONTROL_PERIOD, help="control period (s)")
     parser.add_argument("--log", default=None, help="candump-format log of every frame seen and sent")
 
 
-def open_bus(interface: str, channel: str) -> can.BusABC:
+def open_bus(choice: BusChoice, index: int) -> can.BusABC:
+    """Bus ``index`` (0: CAN1, 1: CAN2) of ``choice``; SystemExit with the reason when it cannot be had."""
+    channel = choice.channels[index]
     try:
-        return can.Bus(interface=interface, channel=channel, receive_own_messages=False)
-    except (can.CanError, OSError, ValueError) as exc:
-        raise SystemExit(f"cannot open {interface} channel {channel!r}: {exc}") from exc
+        return can.Bus(interface=choice.interface, channel=channel, receive_own_messages=False,
+                       **choice.kwargs_of(index))
+    except (can.CanError, OSError, ValueError, ImportError) as exc:
+        raise SystemExit(f"cannot open {choice.interface} channel {channel!r}: {exc}") from exc
 
 
 def log_copy(msg: can.Message, channel: str, sent: bool) -> can.Message:
@@ -71,9 +79,14 @@ def stop_on_signals(stop: threading.Event) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
-    wheels, joints = open_bus(args.interface, args.wheels), open_bus(args.interface, args.joints)
+    try:
+        choice = bus_choice(args, DEFAULT_INTERFACE, DEFAULT_CHANNELS)
+    except ValueError as exc:
+        print(f"controller: {exc}", file=sys.stderr)
+        return 2
+    wheels, joints = open_bus(choice, 0), open_bus(choice, 1)
     writer = can.CanutilsLogWriter(args.log) if args.log else None
-    names = {CAN1: args.wheels, CAN2: args.joints}
+    names = {CAN1: choice.channels[0], CAN2: choice.channels[1]}
     listener = log_listener(writer, names) if writer is not None else None
     node = ControllerNode(wheels, joints, sync=args.sync, period_s=args.period, listener=listener)
     stop = threading.Event()

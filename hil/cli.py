@@ -2,18 +2,26 @@
 
 Each module in ``hil/commands/`` exposes ``NAME``, ``HELP``, ``add_arguments``
 and ``run(args) -> int`` (cantools' layout); the table below wires them in.
+
+Exit status, the same for every subcommand: 0 done (every check passed),
+1 failed (a check, a comparison, a bus that cannot be opened), 2 bad input
+(usage: an unknown name, a bad value, an output that cannot be written),
+130 interrupted, 141 the reader of the output went away (``| head``).
 """
 from __future__ import annotations
 
 import argparse
 import importlib
+import importlib.metadata
+import os
 import sys
 
-SUBCOMMANDS = ("run", "list", "campaign", "emulate", "controller", "replay", "inspect", "vcan")
+SUBCOMMANDS = ("run", "list", "campaign", "emulate", "controller", "replay", "inspect", "recover", "vcan")
 
 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="wheelleg", description=__doc__.splitlines()[0])
+    parser.add_argument("--version", action="version", version=f"%(prog)s {version()}")
     sub = parser.add_subparsers(dest="command", required=True)
     for name in SUBCOMMANDS:
         try:
@@ -28,12 +36,26 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def version() -> str:
+    """The installed distribution's version (``wheelleg-hil``)."""
+    try:
+        return importlib.metadata.version("wheelleg-hil")
+    except importlib.metadata.PackageNotFoundError:  # run from a source tree that was never installed
+        return "unknown (not installed)"
+
+
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
-        return int(args.func(args) or 0)
+        status = int(args.func(args) or 0)
+        sys.stdout.flush()  # a closed pipe shows here, inside the handler, not at interpreter exit
+        return status
     except KeyboardInterrupt:
         return 130
+    except BrokenPipeError:  # `wheelleg ... | head -1`: the reader left; the files are written already
+        # Python would complain again flushing stdout at exit: point it at /dev/null first.
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 141
 
 
 if __name__ == "__main__":

@@ -142,8 +142,9 @@ class _RunCache:
         plant = [f"{k}={v!r}" for k, v in overrides]
         label = re.sub(r"[^A-Za-z0-9_.-]", "_", "-".join([f"{scenario}-seed{seed}-{duration or 'full'}s", *plant]))
         args = argparse.Namespace(scenario=scenario, out=self.out_dir / label, interface=self.interface,
-                                  channels=",".join(self.channels), seed=seed, duration=duration,
-                                  realtime=False, external_controller=False, no_plot=True, plant=plant)
+                                  channel=list(self.channels),
+                                  seed=seed, duration=duration, realtime=False, external_controller=False,
+                                  no_plot=True, quiet=True, plant=plant)
         outcome, results, data = execute(args)
         self.executed += 1
         return RigRun(**vars(data), trace_path=outcome.trace_path, log_path=outcome.log_path,

@@ -101,7 +101,7 @@ def _frames_after_last_heartbeat(frames: list[can.Message]) -> list[can.Message]
 
 
 def _start_controller(interface: str, wheels: str, joints: str, log: Path | None = None):
-    argv = [sys.executable, "-m", "controller", "--interface", interface, "--wheels", wheels, "--joints", joints]
+    argv = [sys.executable, "-m", "controller", "--interface", interface, "-c", wheels, "-c", joints]
     if log is not None:
         argv += ["--log", str(log)]
     return subprocess.Popen(argv, cwd=REPO, stderr=subprocess.PIPE, text=True)

@@ -206,7 +206,7 @@ def test_command_delay_holds_controller_frames_back():
 def _run(out, plant: list[str]):
     from wheelleg.hil.commands.run import execute
 
-    args = argparse.Namespace(scenario="balance", out=out, interface="virtual", channels="vcan0,vcan1", seed=3,
+    args = argparse.Namespace(scenario="balance", out=out, interface="virtual", channel=["vcan0", "vcan1"], seed=3,
                               duration=0.4, realtime=False, external_controller=False, no_plot=True, plant=plant)
     outcome, _, _ = execute(args)
     return outcome
@@ -235,6 +235,10 @@ def test_a_run_records_its_overrides_and_replays_identically(tmp_path):
     assert again.log_path.read_bytes() == changed.log_path.read_bytes()
 
 
-def test_run_rejects_a_bad_override_in_one_line(tmp_path):
-    with pytest.raises(SystemExit, match=r"^run: unknown plant override 'mass'; known: body_mass_scale"):
-        _run(tmp_path, ["mass=2"])
+def test_run_rejects_a_bad_override_in_one_line(tmp_path, capsys):
+    from wheelleg.hil.cli import main
+
+    assert main(["run", "balance", "--plant", "mass=2", "--out", str(tmp_path), "--no-plot"]) == 2  # usage
+    err = capsys.readouterr().err
+    assert err.startswith("wheelleg run: unknown plant override 'mass'; known: body_mass_scale")
+    assert err.count("\n") == 1

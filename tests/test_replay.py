@@ -367,7 +367,7 @@ def rig_trace(tmp_path_factory):
     import argparse
     from wheelleg.hil.commands.run import execute
     out = tmp_path_factory.mktemp("rig")
-    args = argparse.Namespace(scenario="balance", out=out, interface="virtual", channels="vcan0,vcan1",
+    args = argparse.Namespace(scenario="balance", out=out, interface="virtual", channel=["vcan0", "vcan1"],
                               seed=3, duration=0.3, realtime=False, external_controller=False, no_plot=True)
     outcome, _, _ = execute(args)
     return outcome.trace_path, outcome.log_path

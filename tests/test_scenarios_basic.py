@@ -10,7 +10,7 @@ BASIC = ("balance", "stand-up", "drive", "turn", "height")
 
 
 def run_scenario(name: str, out: Path, seed: int = 0, duration=None):
-    args = argparse.Namespace(scenario=name, out=out, interface="virtual", channels="vcan0,vcan1",
+    args = argparse.Namespace(scenario=name, out=out, interface="virtual", channel=["vcan0", "vcan1"],
                               seed=seed, duration=duration, realtime=False, external_controller=False,
                               no_plot=True)
     outcome, results, _ = execute(args)

@@ -55,7 +55,7 @@ def test_overload_shows_the_load_before_and_during(rig_run):
 
 def test_the_same_seed_gives_the_same_lost_frames(tmp_path):
     def log(out, seed):
-        args = argparse.Namespace(scenario="frame-loss", out=out, interface="virtual", channels="vcan0,vcan1",
+        args = argparse.Namespace(scenario="frame-loss", out=out, interface="virtual", channel=["vcan0", "vcan1"],
                                   seed=seed, duration=0.7, realtime=False, external_controller=False,
                                   no_plot=True)
         return execute(args)[0].log_path.read_bytes()
@@ -75,7 +75,7 @@ def test_a_controller_exception_is_an_event_and_fails_the_alive_check(tmp_path, 
         return real_tick(self, n, now_s)
 
     monkeypatch.setattr(Controller, "tick", tick)
-    args = argparse.Namespace(scenario="offline-joint", out=tmp_path, interface="virtual", channels="vcan0,vcan1",
+    args = argparse.Namespace(scenario="offline-joint", out=tmp_path, interface="virtual", channel=["vcan0", "vcan1"],
                               seed=0, duration=0.3, realtime=False, external_controller=False, no_plot=True)
     outcome, results, _ = execute(args)
     crash = load_run(outcome.trace_path).events_of("controller_exception")

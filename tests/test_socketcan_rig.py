@@ -15,7 +15,7 @@ DURATION_S = 2.0  # balance's pitch check starts at 1 s: 2 s gives it a window
 
 
 def _run(interface: str, out):
-    args = argparse.Namespace(scenario="balance", out=out, interface=interface, channels="vcan0,vcan1",
+    args = argparse.Namespace(scenario="balance", out=out, interface=interface, channel=["vcan0", "vcan1"],
                               seed=0, duration=DURATION_S, realtime=False, external_controller=False,
                               no_plot=True)
     return execute(args)

@@ -102,14 +102,14 @@ def test_run_on_a_missing_channel_exits_with_the_reason_and_writes_nothing(tmp_p
 
     out = tmp_path / "out"
     with pytest.raises(SystemExit) as exc:
-        main(["run", "balance", "--interface", "socketcan", "--channels", "wlnone8,wlnone9",
+        main(["run", "balance", "--interface", "socketcan", "-c", "wlnone8", "-c", "wlnone9",
               "--out", str(out), "--no-plot"])
     assert "cannot open socketcan channel 'wlnone8'" in str(exc.value.code)
     assert not out.exists() or not any(out.iterdir())
 
 
 def test_status_command_fails_for_a_missing_channel(capsys):
-    assert _run_command(["status", "--channels", "wlnone9"]) == 1
+    assert _run_command(["status", "-c", "wlnone9"]) == 1
     assert "wlnone9 does not exist" in capsys.readouterr().out
 
 

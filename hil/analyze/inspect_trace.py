@@ -27,6 +27,7 @@ from wheelleg.hil.record.frame import Frame
 from wheelleg.hil.record.sources import (CAN1, DBS, HEARTBEAT, Recording, is_heartbeat, is_sync,
                               open_recording, sync_tick)
 
+KIND_NAMES = {"mcap": "MCAP trace", "candump": "candump log", "python-can": "log read by python-can"}
 _FAULT_PREFIXES = ("Fault", "Warn")
 
 
@@ -277,7 +278,9 @@ def _notes(source: Recording) -> list[str]:
         notes.append(f"{source.comments} comment line(s)")
     if source.truncated:
         notes.append("the trace was not closed (writer killed): it ends at its last complete "
-                     + ("line" if source.kind == "candump" else "chunk"))
+                     + ("line" if source.kind == "candump" else
+                        f"chunk; `wheelleg recover {source.path}` writes an indexed copy that mcap's indexed "
+                        "readers and Foxglove open"))
     unknown = sorted({f.channel for f in source.frames} - set(source.channels.values()))
     if unknown:
         notes.append(f"interfaces of unknown role (not decoded): {', '.join(unknown)}")
@@ -288,7 +291,7 @@ def _notes(source: Recording) -> list[str]:
 def format_summary(s: TraceSummary, *, signals: bool = True, max_findings: int = 30) -> str:
     """The report ``wheelleg inspect`` prints."""
     run = s.run
-    head = f"{s.path} ({'MCAP trace' if s.kind == 'mcap' else 'candump log'})"
+    head = f"{s.path} ({KIND_NAMES.get(s.kind, s.kind)})"
     if run:
         head += (f": scenario {run.get('scenario', '?')}, seed {run.get('seed', '?')}, "
                  f"revision {run.get('git_revision', '?')[:12]}")

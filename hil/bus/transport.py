@@ -79,9 +79,15 @@ def open_bus(interface: str, channel: str, **kwargs) -> can.BusABC:
     try:
         if interface == "virtual":
             return LockstepVirtualBus(channel=channel, preserve_timestamps=True, **kwargs)
+        if interface == "udp_multicast":
+            from wheelleg.hil.bus.udp import EchoFreeUdpMulticastBus  # noqa: PLC0415 (needs msgpack)
+
+            return EchoFreeUdpMulticastBus(channel=channel, **kwargs)
         return can.Bus(interface=interface, channel=channel, **kwargs)
     except (can.CanError, OSError, ValueError, ImportError) as exc:
         hint = ""
+        if isinstance(exc, ImportError) and exc.name == "msgpack":
+            hint = " (pip install 'wheelleg-hil[udp]')"
         if interface == "socketcan":
             hint = " (no such interface? `wheelleg vcan up`, or run inside `bash ci/uml-vcan.sh ...`)"
         raise BusOpenError(f"cannot open {interface} channel {channel!r}: {exc}{hint}") from exc

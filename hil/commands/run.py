@@ -2,30 +2,46 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
+from wheelleg.controller.bus_args import add_bus_arguments, bus_choice
 from wheelleg.emulators.overrides import help_text, parse_assignment
 from wheelleg.emulators.plant import PlantConfig
 from wheelleg.hil import scenarios
 from wheelleg.hil.run.loop_timing import describe, describe_plant
 from wheelleg.hil.analyze.plot import plot_run
+from wheelleg.hil.run.progress import RunProgress
 from wheelleg.hil.run.rig import Rig, RigConfig
+from wheelleg.hil.run.schedule import CONTACT_S, NoController
 from wheelleg.hil.record.rundata import load_run
 from wheelleg.hil.bus.transport import BusOpenError
 
 NAME = "run"
 HELP = "run a scenario in the rig; writes DIR/SCENARIO.mcap, .log and .png and checks the run"
+DEFAULT_INTERFACE, DEFAULT_CHANNELS = "virtual", ("vcan0", "vcan1")
+
+
+class UsageError(ValueError):
+    """Bad input on the command line: one line, exit status 2 (``wheelleg.hil.cli``)."""
+
+
+def positive_seconds(text: str) -> float:
+    """argparse type: a duration > 0 s."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number of seconds: {text!r}") from None
+    if not value > 0:
+        raise argparse.ArgumentTypeError(f"must be > 0 s, got {text}")
+    return value
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("scenario", help="scenario name (see `wheelleg list`)")
     parser.add_argument("--out", type=Path, default=Path("out"), help="output directory (default out/)")
-    parser.add_argument("--interface", default="virtual",
-                        help="python-can interface: virtual (default, in-process), socketcan, ...")
-    parser.add_argument("--channels", default="vcan0,vcan1",
-                        help="CAN1 (wheels) and CAN2 (joints) channel names, comma separated")
     parser.add_argument("--seed", type=int, default=0, help="random seed (noise, faults)")
-    parser.add_argument("--duration", type=float, default=None, help="override the duration (s)")
+    parser.add_argument("--duration", type=positive_seconds, default=None, help="override the duration (s)")
     parser.add_argument("--realtime", action="store_true",
                         help="plant at wall-clock pace, controller free-running on its own timer in its own "
                              "thread; prints the control loop's period statistics")
@@ -35,11 +51,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="do not start the controller in-process: another process answers on the buses "
                              "(lockstep: `wheelleg controller --sync`; with --realtime: `wheelleg controller`)")
     parser.add_argument("--no-plot", action="store_true", help="skip the PNG")
+    parser.add_argument("-q", "--quiet", action="store_true", help="no progress line on stderr")
     parser.add_argument("--plant", action="append", default=[], metavar="KEY=VALUE",
                         help="change the plant's truth for this run (the controller keeps its belief); "
                              "repeatable; the keys are listed below")
+    add_bus_arguments(parser, DEFAULT_INTERFACE, DEFAULT_CHANNELS)
     parser.formatter_class = argparse.RawDescriptionHelpFormatter
-    parser.epilog = "plant overrides (--plant KEY=VALUE):\n" + help_text()
+    parser.epilog = ("plant overrides (--plant KEY=VALUE):\n" + help_text()
+                     + "\n\nexit status: 0 every check passed, 1 a check failed (or the buses could not be "
+                       "opened), 2 bad input")
 
 
 def plant_config(assignments: list[str]) -> PlantConfig:
@@ -53,21 +73,35 @@ def execute(args: argparse.Namespace):
     if args.duration is not None:
         from dataclasses import replace
         scenario = replace(scenario, duration_s=args.duration)
-    channels = tuple(c.strip() for c in args.channels.split(","))
-    if len(channels) != 2:
-        raise SystemExit("--channels needs two names: CAN1 (wheels),CAN2 (joints)")
     try:
+        buses = bus_choice(args, DEFAULT_INTERFACE, DEFAULT_CHANNELS)
         plant = plant_config(getattr(args, "plant", None) or [])
     except ValueError as exc:
-        raise SystemExit(f"run: {exc}") from exc
-    config = RigConfig(interface=args.interface, channels=channels, seed=args.seed,
-                       realtime=args.realtime, in_process_controller=not args.external_controller,
+        raise UsageError(str(exc)) from exc
+    if args.external_controller and buses.interface == "virtual":
+        raise UsageError("--external-controller needs a bus another process can join (-i socketcan, "
+                         "udp_multicast, ...): python-can's virtual bus lives inside this process")
+    config = RigConfig(interface=buses.interface, channels=buses.channels, bus_kwargs=buses.kwargs,
+                       seed=args.seed, realtime=args.realtime, in_process_controller=not args.external_controller,
                        decode=not getattr(args, "no_decode", False), plant=plant)
+    progress = RunProgress(scenario.name, scenario.duration_s, enabled=not getattr(args, "quiet", True))
     try:
-        rig = Rig(scenario, config, args.out)
+        rig = Rig(scenario, config, args.out, progress=progress)
     except BusOpenError as exc:
         raise SystemExit(f"run: {exc}") from exc
-    outcome = rig.run()
+    except OSError as exc:  # the output directory (or a file in it) cannot be written
+        raise UsageError(f"cannot write to {args.out}: {exc.strerror or exc}") from exc
+    if args.external_controller:
+        limit = "" if args.realtime else f"; giving up after {CONTACT_S:g} s without a heartbeat"
+        print(f"run: waiting for the controller on {buses.interface} {'/'.join(buses.channels)} "
+              f"(`wheelleg controller{'' if args.realtime else ' --sync'} -i {buses.interface} "
+              f"-c {' -c '.join(buses.channels)}`){limit}", file=sys.stderr, flush=True)
+    try:
+        outcome = rig.run()
+    except NoController as exc:
+        raise SystemExit(f"run: {exc}") from exc
+    finally:
+        progress.close()
     run = load_run(outcome.trace_path)
     results = [check(run) for check in scenario.checks]
     if not args.no_plot:
@@ -79,7 +113,10 @@ def run(args: argparse.Namespace) -> int:
     try:
         outcome, results, data = execute(args)
     except KeyError as exc:
-        print(exc.args[0])
+        print(f"wheelleg run: {exc.args[0]}", file=sys.stderr)
+        return 2
+    except UsageError as exc:
+        print(f"wheelleg run: {exc}", file=sys.stderr)
         return 2
     rtf = outcome.sim_s / outcome.wall_s if outcome.wall_s > 0 else float("inf")
     print(f"{args.scenario}: {outcome.sim_s:.2f} s simulated in {outcome.wall_s:.2f} s "

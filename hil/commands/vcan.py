@@ -13,14 +13,15 @@ HELP = ("create (up) or remove (down) the vcan0/vcan1 SocketCAN links, txqueuele
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("action", choices=("up", "down", "status"))
-    parser.add_argument("--channels", nargs="+", default=list(vcan.CHANNELS), metavar="IF",
-                        help="interfaces (default: %(default)s)")
+    parser.add_argument("-c", "--channel", action="append", default=None, metavar="IF",
+                        help="an interface, repeatable as python-can's -c "
+                             f"(default: -c {' -c '.join(vcan.CHANNELS)})")
     parser.add_argument("--txqueuelen", type=int, default=vcan.TXQUEUELEN, metavar="FRAMES",
                         help="transmit queue length for 'up' (default: %(default)s)")
 
 
 def run(args: argparse.Namespace) -> int:
-    channels = tuple(args.channels)
+    channels = tuple(args.channel or vcan.CHANNELS)
     if args.action == "status":
         reason = vcan.unavailable_reason(channels)
         print(reason or f"{', '.join(channels)}: up, python-can opens them")

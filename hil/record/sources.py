@@ -1,4 +1,5 @@
-"""One view of a recorded run, from either file: the rig's MCAP trace or a candump log.
+"""One view of a recorded run, from any file: the rig's MCAP trace, a candump log,
+or any other log python-can's ``can.LogReader`` reads (.asc, .blf, .trc, .csv, ...).
 
 ``open_recording(path)`` gives a ``Recording``: every frame in order with its bus
 role (``can1`` = wheels/IMU/remote, ``can2`` = CyberGear joints), plus what the
@@ -54,7 +55,7 @@ class Recording:
     """
 
     path: Path
-    kind: str  # "mcap" | "candump"
+    kind: str  # "mcap" | "candump" | "python-can" (another format can.LogReader reads)
     channels: dict[str, str] = field(default_factory=dict)  # role -> interface name
     metadata: dict[str, dict[str, str]] = field(default_factory=dict)
     attachments: dict[str, bytes] = field(default_factory=dict)
@@ -236,7 +237,12 @@ def open_recording(path, channels: dict | None = None, *, strict: bool = True) -
         raise TraceError(f"{path}: no such file")
     with open(path, "rb") as f:
         head = f.read(len(MCAP_MAGIC))
-    recording = _open_mcap(path) if head == MCAP_MAGIC else _open_candump(path)
+    if head == MCAP_MAGIC:
+        recording = _open_mcap(path)
+    elif python_can_format(path):
+        recording = _open_python_can_log(path)
+    else:
+        recording = _open_candump(path)
     recording.keep_unknown = not strict
     recording.channels = _resolve_channels(recording, channels, strict)
     if recording.trace is not None:  # decode on reading what was recorded without /decoded/
@@ -253,6 +259,33 @@ def _open_mcap(path: Path) -> Recording:
         raise TraceError(f"{path}: not a readable MCAP trace: {exc}") from exc
     return Recording(path, "mcap", metadata=reader.metadata, attachments=dict(reader.attachments),
                      events=reader.events(), truncated=reader.truncated, trace=reader)
+
+
+def python_can_format(path: Path) -> str | None:
+    """The suffix (".asc", ".blf", ...) when python-can's ``LogReader`` reads ``path`` and the rig's
+    own readers do not (the rig reads candump ``.log`` and MCAP itself); None otherwise."""
+    import can.io.player  # noqa: PLC0415
+
+    suffixes = [s.lower() for s in path.suffixes]
+    if suffixes and suffixes[-1] == ".gz":
+        suffixes.pop()
+    suffix = suffixes[-1] if suffixes else ""
+    return suffix if suffix in can.io.player.MESSAGE_READERS and suffix not in (".log", ".mcap") else None
+
+
+def _open_python_can_log(path: Path) -> Recording:
+    """A log in a format python-can reads; channels named as python-can gives them ("1", "can0", ...)."""
+    import can  # noqa: PLC0415
+
+    try:
+        with can.LogReader(path) as reader:
+            frames = [Frame.of(msg, "can" if msg.channel is None else str(msg.channel), round(msg.timestamp * 1e9))
+                      for msg in reader]
+    except Exception as exc:  # noqa: BLE001 - any reader's complaint, in one line
+        raise TraceError(f"{path}: python-can cannot read it as {python_can_format(path)}: {exc}") from exc
+    if not frames:
+        raise TraceError(f"{path}: no CAN frames")
+    return Recording(path, "python-can", raw_frames=frames)
 
 
 def _open_candump(path: Path) -> Recording:

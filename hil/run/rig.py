@@ -17,6 +17,7 @@ import can
 import numpy as np
 
 from wheelleg.controller import params as P
+from wheelleg.controller.bus_args import per_bus_kwargs
 from wheelleg.controller.node import ControllerNode
 from wheelleg.dbc import CAN1, CAN2, all_dbc_files, load_bus
 from wheelleg.emulators.physics import MODEL_DIR, Physics
@@ -47,6 +48,7 @@ class RigConfig:
     realtime: bool = False  # plant at wall-clock pace, controller on its own timer (hil/run/realtime.py)
     record_debug: bool = True  # the in-process controller's internals on /controller/debug
     decode: bool = True  # also write /decoded/ channels (raw frames are always recorded)
+    bus_kwargs: dict = field(default_factory=dict)  # more keyword arguments for python-can's bus
     plant: PlantConfig = field(default_factory=PlantConfig)
 
 @dataclass
@@ -60,7 +62,8 @@ class RunOutcome:
     timing: dict | None = None  # real-time mode: {"controller": ..., "plant": ...} (hil/run/loop_timing.py)
 
 def _open_bus(config: RigConfig, channel: str) -> can.BusABC:
-    return open_bus(config.interface, channel)
+    index = config.channels.index(channel)  # 0: CAN1, 1: CAN2
+    return open_bus(config.interface, channel, **per_bus_kwargs(config.interface, config.bus_kwargs, index))
 
 
 def _schedule(config: RigConfig):
@@ -78,8 +81,10 @@ def _schedule(config: RigConfig):
 class Rig:
     """One scenario run: build everything, step it, record it."""
 
-    def __init__(self, scenario: Scenario, config: RigConfig, out_dir: Path):
+    def __init__(self, scenario: Scenario, config: RigConfig, out_dir: Path, progress=None):
+        """``progress(t_s)``, if given, is called once per tick (hil/run/progress.py)."""
         self.scenario, self.config = scenario, config
+        self.progress = progress
         out_dir.mkdir(parents=True, exist_ok=True)
         self.trace_path = out_dir / f"{scenario.name}.mcap"
         self.log_path = out_dir / f"{scenario.name}.log"
@@ -180,6 +185,8 @@ class Rig:
     # -- scenario actions ------------------------------------------------------
     def apply_actions(self, t_s: float) -> None:
         """The scenario's actions due by ``t_s``, each an event at the clock's time."""
+        if self.progress is not None:
+            self.progress(t_s)
         pending = self._pending
         while pending and pending[0].t_s <= t_s + 1e-9:
             action = pending.pop(0)

@@ -19,6 +19,13 @@ class CheckResult:
     detail: str  # the measured figure against its bound, in words
 
 
+class NotJudged(Exception):
+    """A check found nothing to judge (its window holds no samples: the run was too short)."""
+
+
+NOT_JUDGED = "not judged"  # the detail's first words when a check had nothing to judge
+
+
 @dataclass(frozen=True)
 class Check:
     """A named judgement of a run: ``fn(run) -> (passed, detail)``."""
@@ -29,9 +36,18 @@ class Check:
     def __call__(self, run: "RunData") -> CheckResult:
         try:
             passed, detail = self.fn(run)
+        except NotJudged as exc:  # too short a run fails the check, saying why
+            return CheckResult(self.name, False, f"{NOT_JUDGED}: {exc} ({_run_length(run)})")
         except Exception as exc:  # a check that cannot compute has failed, loudly
             return CheckResult(self.name, False, f"check raised {type(exc).__name__}: {exc}")
+        if "nan" in detail.split():  # a NaN figure judges nothing; never print it as a measurement
+            return CheckResult(self.name, False, f"{NOT_JUDGED}: no samples to judge ({_run_length(run)})")
         return CheckResult(self.name, bool(passed), detail)
+
+
+def _run_length(run) -> str:
+    t = run.state.get("t", ())
+    return f"the run ends at {float(t[-1]):.2f} s" if len(t) else "the run recorded no state"
 
 
 @dataclass(frozen=True)

@@ -30,6 +30,11 @@ from wheelleg.hil.bus.plant_bus import SimClock
 
 _HEARTBEAT = load_bus(CAN1).get_message_by_name("Heartbeat")
 POLL_S = 0.00005  # s between polls while the heartbeats of an external controller are awaited
+CONTACT_S = 3.0  # s of wall time an external controller has to send its first heartbeat
+
+
+class NoController(RuntimeError):
+    """An external controller never answered: no heartbeat within ``CONTACT_S`` of the start."""
 
 
 class HeartbeatWatch:
@@ -61,6 +66,8 @@ class Lockstep:
         self.period_s, self.physics_dt_s, self.deadline_s = period_s, physics_dt_s, deadline_s
         self.clock = SimClock()
         self.watches: dict[str, HeartbeatWatch] = {}
+        self.silent_s = 0.0  # wall time an external controller has been silent from the start (s)
+        self.heard = False  # a heartbeat came: the controller is there
 
     def bus_end(self, bus: str, end: can.BusABC):
         """The transport end the plant reads ``bus`` through, and its lockstep watch."""
@@ -77,8 +84,12 @@ class Lockstep:
         rig.apply_actions(t_s)
         rig.send_sync(tick, t_s)
         rig.service_controller()
-        if not self.await_heartbeats(rig, tick, t_s):
+        waited = time.monotonic()
+        if self.await_heartbeats(rig, tick, t_s):
+            self.heard = True
+        else:
             rig.deadline_miss(tick)
+            self.check_contact(rig, time.monotonic() - waited)
         rig.record_debug()
         substeps = round(self.period_s / self.physics_dt_s)
         for k in range(substeps):
@@ -87,6 +98,15 @@ class Lockstep:
             self.clock.set_s(now + self.physics_dt_s)
             rig.serve_plant(now + self.physics_dt_s)
         rig.record_state()
+
+    def check_contact(self, rig, waited_s: float) -> None:
+        """``NoController`` once an external controller has been silent ``CONTACT_S`` from the start."""
+        if rig.controller is not None or self.heard:
+            return
+        self.silent_s += waited_s
+        if self.silent_s >= CONTACT_S:
+            raise NoController(f"no heartbeat from an external controller in {self.silent_s:.1f} s on "
+                               f"{'/'.join(rig.names.values())}: is `wheelleg controller --sync` running there?")
 
     def heartbeats_in(self, tick: int) -> bool:
         return all(w.tick == tick for w in self.watches.values())

@@ -16,7 +16,7 @@ import numpy as np
 from wheelleg.controller import params as P
 from wheelleg.controller.modes import Mode
 from wheelleg.emulators.physics import TerrainFeature
-from wheelleg.hil.run.scenario import Check, RunData, Scenario
+from wheelleg.hil.run.scenario import Check, NotJudged, RunData, Scenario
 from wheelleg.hil.scenarios.common import (CURRENT_OFF_A, DEG, TORQUE_OFF_NM, no_deadline_miss, push, remote, stand,
                                   torque_after)
 
@@ -54,7 +54,9 @@ def airborne_spans(run: RunData) -> list[tuple[float, float]]:
 def peak_clearance(run: RunData, t0: float = 0.0) -> float:
     """Highest clearance (m) of the lower wheel's bottom above the ground below it, after t0."""
     low = np.minimum(run.window("left_wheel_clearance", t0), run.window("right_wheel_clearance", t0))
-    return float(np.max(low)) if len(low) else float("nan")
+    if not len(low):
+        raise NotJudged(f"no wheel clearance samples after {t0:g} s")
+    return float(np.max(low))
 
 
 # -- checks --------------------------------------------------------------------------

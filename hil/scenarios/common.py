@@ -5,7 +5,7 @@ import math
 
 import numpy as np
 
-from wheelleg.hil.run.scenario import Action, Check, RunData
+from wheelleg.hil.run.scenario import Action, Check, NotJudged, RunData
 
 DEG = math.pi / 180
 
@@ -41,14 +41,16 @@ def push(t_s: float, force_n, duration_s: float, point=(0.0, 0.0, 0.0)) -> list:
 
 
 # -- checks --------------------------------------------------------------------
-def max_abs(values) -> float:
-    """Largest |value| of ``values`` (n,), NaN when empty."""
-    return float(np.max(np.abs(values))) if len(values) else float("nan")
+def max_abs(values, what: str = "the check's window") -> float:
+    """Largest |value| of ``values`` (n,); ``NotJudged`` when empty."""
+    if not len(values):
+        raise NotJudged(f"no samples in {what}")
+    return float(np.max(np.abs(values)))
 
 
 def pitch_below(limit_rad: float, after_s: float, until_s: float = np.inf) -> Check:
     def fn(run: RunData):
-        worst = max_abs(run.window("pitch", after_s, until_s))
+        worst = max_abs(run.window("pitch", after_s, until_s), f"pitch after {after_s:g} s")
         return worst < limit_rad, f"max |pitch| {worst / DEG:.2f} deg after {after_s:g} s (limit {limit_rad / DEG:g})"
 
     return Check(f"|pitch| < {limit_rad / DEG:g} deg after {after_s:g} s", fn)

@@ -15,7 +15,7 @@ from wheelleg.controller import detect
 from wheelleg.controller import params as P
 from wheelleg.controller.modes import Mode
 from wheelleg.hil.run import faults
-from wheelleg.hil.run.scenario import Check, RunData, Scenario
+from wheelleg.hil.run.scenario import Check, NotJudged, RunData, Scenario
 from wheelleg.hil.scenarios.basic import standing
 from wheelleg.hil.scenarios.common import DEG, pitch_below, push, remote, stand
 
@@ -241,7 +241,9 @@ def bus_load_at_least(bus: str, load: float, t0: float, t1: float) -> Check:
     def fn(run: RunData):
         t, series = run.bus_load[bus]
         window = series[(t > t0 + 0.1) & (t <= t1)]  # windows that lie wholly inside
-        worst = float(np.min(window)) if len(window) else float("nan")
+        if not len(window):
+            raise NotJudged(f"no whole 100 ms load window in {t0:g}-{t1:g} s")
+        worst = float(np.min(window))
         return worst >= load, f"{bus} load {worst * 100:.1f} % at least over {t0:g}-{t1:g} s (bound {load * 100:g} %)"
 
     return Check(f"{bus} load >= {load * 100:g} % during the overload", fn)

@@ -1,0 +1,42 @@
+"""python-can's ``udp_multicast`` without its own echo.
+
+A multicast socket hears what it sends (the host loops the group back to
+every member, the sender included) and python-can's ``UdpMulticastBus`` cannot
+turn that off (``receive_own_messages=True`` is "not yet implemented", False
+still echoes). The rig's plant would record each of its frames twice and
+count it twice in the bus load. This bus remembers what it sent, in order,
+and drops the first received frame equal to the oldest one not yet echoed
+back (the loopback keeps the sender's order). Only this bus's frames are
+dropped: the rig's two sides never send the same identifier.
+"""
+from __future__ import annotations
+
+from collections import deque
+
+import can
+from can.interfaces.udp_multicast import UdpMulticastBus
+
+MAX_PENDING = 4096  # own frames awaiting their echo; beyond this the oldest is forgotten (a lost datagram)
+
+
+def _key(msg: can.Message) -> tuple:
+    return msg.arbitration_id, msg.is_extended_id, msg.is_remote_frame, bytes(msg.data)
+
+
+class EchoFreeUdpMulticastBus(UdpMulticastBus):
+    """``UdpMulticastBus`` that does not receive the frames it sent itself."""
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.pending = deque(maxlen=MAX_PENDING)  # keys of frames sent and not yet heard back
+
+    def send(self, msg: can.Message, timeout: float | None = None) -> None:
+        super().send(msg, timeout)
+        self.pending.append(_key(msg))
+
+    def _recv_internal(self, timeout: float | None) -> tuple[can.Message | None, bool]:
+        msg, filtered = super()._recv_internal(timeout)
+        if msg is not None and self.pending and _key(msg) == self.pending[0]:
+            self.pending.popleft()
+            return None, filtered  # our own frame come back
+        return msg, filtered

@@ -1,0 +1,42 @@
+"""``wheelleg recover TRACE [-o OUT]``: an indexed copy of a killed run's trace."""
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+NAME = "recover"
+HELP = ("write an indexed copy of a trace whose run was killed (no summary: mcap's indexed readers "
+        "and Foxglove's seek fail on it); default OUT: TRACE with .recovered.mcap")
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("trace", type=Path, help="the rig's MCAP trace, complete or cut off")
+    parser.add_argument("-o", "--out", type=Path, default=None, help="the copy (default: TRACE.recovered.mcap)")
+
+
+def default_out(trace: Path) -> Path:
+    return trace.with_suffix(".recovered.mcap")
+
+
+def run(args: argparse.Namespace) -> int:
+    from wheelleg.hil.analyze.recover import recover
+    from wheelleg.hil.record.sources import MCAP_MAGIC
+
+    out = args.out or default_out(args.trace)
+    try:
+        with open(args.trace, "rb") as f:
+            if f.read(len(MCAP_MAGIC)) != MCAP_MAGIC:
+                print(f"recover: {args.trace}: not an MCAP trace", file=sys.stderr)
+                return 2
+        if out.resolve() == args.trace.resolve():
+            print(f"recover: {out}: the copy would overwrite the trace; give another -o", file=sys.stderr)
+            return 2
+        done = recover(args.trace, out)
+    except OSError as exc:
+        print(f"recover: {exc.filename or args.trace}: {exc.strerror or exc}", file=sys.stderr)
+        return 2
+    state = "complete" if done.was_complete else f"cut off ({done.stopped_at or 'ends mid-record'})"
+    print(f"recover: {args.trace} ({state}) -> {done.out}: {done.messages} messages on {done.channels} "
+          f"channels, {done.metadata} metadata, {done.attachments} attachments, indexed")
+    return 0

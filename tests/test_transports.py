@@ -1,0 +1,93 @@
+"""Transports: udp_multicast buses that do not cross, msgpack declared, an external controller
+refused where none can join and given up on where none answers."""
+import time
+import tomllib
+from pathlib import Path
+
+import can
+import pytest
+
+from wheelleg.controller.bus_args import BusChoice
+from wheelleg.hil.bus.transport import open_bus
+from wheelleg.hil.cli import main
+from wheelleg.hil.run.rig import Rig, RigConfig
+
+REPO = Path(__file__).resolve().parent.parent
+
+
+def _udp_pair(config: RigConfig):
+    try:
+        pytest.importorskip("msgpack")
+        return [open_bus(config.interface, ch, **BusChoice(config.interface, config.channels,
+                                                           config.bus_kwargs).kwargs_of(i))
+                for i, ch in enumerate(config.channels)]
+    except Exception as exc:  # noqa: BLE001 - a host without multicast
+        pytest.skip(f"udp_multicast unavailable here: {exc}")
+
+
+def test_udp_multicast_buses_do_not_cross():
+    """Two groups on one UDP port are one bus; CAN2 takes the next port, so a frame on CAN1 stays there."""
+    config = RigConfig(interface="udp_multicast", channels=("239.74.163.2", "239.74.163.3"),
+                       bus_kwargs={"port": 43213})
+    can1, can2 = _udp_pair(config)
+    listener = can.Bus(interface="udp_multicast", channel="239.74.163.2", port=43213, receive_own_messages=False)
+    try:
+        can1.send(can.Message(arbitration_id=0x201, data=b"\x01", is_extended_id=False))
+        got = listener.recv(2.0)
+        assert got is not None and got.arbitration_id == 0x201  # multicast works on this host
+        assert can2.recv(0.5) is None  # ... and CAN2 did not hear CAN1
+    finally:
+        for bus in (can1, can2, listener):
+            bus.shutdown()
+
+
+def test_the_two_buses_on_one_channel_are_refused(capsys):
+    assert main(["run", "balance", "-c", "vcan0", "-c", "vcan0", "--no-plot"]) == 2
+    assert "CAN1 and CAN2 are one channel ('vcan0')" in capsys.readouterr().err
+
+
+def test_msgpack_is_declared_for_udp_multicast():
+    project = tomllib.loads((REPO / "pyproject.toml").read_text())["project"]
+    declared = project["dependencies"] + [d for ds in project["optional-dependencies"].values() for d in ds]
+    assert any(d.split(">")[0].split("=")[0].strip() == "msgpack" for d in declared)
+
+
+def test_external_controller_on_the_virtual_bus_is_refused_at_once(tmp_path, capsys):
+    start = time.monotonic()
+    assert main(["run", "balance", "--external-controller", "--out", str(tmp_path), "--no-plot"]) == 2
+    assert time.monotonic() - start < 30  # no rig was started (it would wait per tick)
+    err = capsys.readouterr().err
+    assert "--external-controller needs a bus another process can join" in err
+    assert not any(tmp_path.iterdir())
+
+
+def test_a_silent_external_controller_is_given_up_on(tmp_path, monkeypatch):
+    """Elsewhere the rig waits a few seconds for the first heartbeat, then stops with the reason."""
+    from wheelleg.hil import scenarios
+    from wheelleg.hil.run import schedule
+
+    monkeypatch.setattr(schedule, "CONTACT_S", 0.3)
+    config = RigConfig(channels=("wl-silent-0", "wl-silent-1"), in_process_controller=False, deadline_s=0.05)
+    rig = Rig(scenarios.get("balance"), config, tmp_path)
+    start = time.monotonic()
+    with pytest.raises(schedule.NoController, match="no heartbeat from an external controller"):
+        rig.run()
+    assert time.monotonic() - start < 20
+    assert rig.tick < 20  # it stopped near the start, not after the whole scenario
+    assert (tmp_path / "balance.mcap").stat().st_size > 0  # the trace is closed and kept
+
+
+def test_a_udp_multicast_run_logs_the_bytes_of_a_virtual_run(tmp_path):
+    """No crossing, no own echo: the same frames, order and times as on the in-process bus."""
+    pytest.importorskip("msgpack")
+    groups = ("239.74.163.4", "239.74.163.5")
+    common = ["run", "balance", "--duration", "0.2", "--no-plot", "-q"]
+    try:
+        main([*common, "-i", "udp_multicast", "-c", groups[0], "-c", groups[1], "--bus-kwargs", "port=43223",
+              "--out", str(tmp_path / "udp")])
+    except SystemExit as exc:
+        pytest.skip(f"udp_multicast unavailable here: {exc.code}")
+    main([*common, "--out", str(tmp_path / "virtual")])
+    udp = (tmp_path / "udp" / "balance.log").read_text()
+    udp = udp.replace(f" {groups[0]} ", " vcan0 ").replace(f" {groups[1]} ", " vcan1 ")
+    assert udp == (tmp_path / "virtual" / "balance.log").read_text()
