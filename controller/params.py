@@ -79,6 +79,10 @@ REENABLE_WINDOW_S = 0.05  # s
 # balancing (+-0.7 A peak in place); 10 ms (5 ticks) rides out one late feedback frame.
 ESC_CURRENT_TOLERANCE_A = 1.0  # A
 ESC_MISMATCH_S = 0.010  # s
+# The feedback answers a command sent 1 tick ago, or 2 when a frame is late (2 ms of
+# feedback latency): the reported current is checked against the range of this many
+# last commands, so a fast current ramp seen late is no fault.
+ESC_COMMAND_WINDOW = 2
 ESC_BACK_EMF_FRACTION = 0.8  # above 0.8 x no-load speed, driving, the current may be capped
 
 # --- support force and off-ground detection (controller/support.py) ------------------
