@@ -15,6 +15,11 @@ import importlib
 import importlib.metadata
 import os
 import sys
+import time
+
+# The command's clock starts when this module loads: importing the rig (MuJoCo, numpy,
+# cantools) and building the model count as the run's start-up (`wheelleg run` prints it).
+STARTED_S = time.perf_counter()
 
 SUBCOMMANDS = ("run", "list", "campaign", "emulate", "controller", "replay", "inspect", "recover", "vcan")
 

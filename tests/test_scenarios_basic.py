@@ -49,3 +49,17 @@ def test_a_run_trace_carries_its_model_and_dbc_files(tmp_path):
     names = set(TraceReader(outcome.trace_path).attachments)
     assert {"robot.xml", "scene.xml"} <= names
     assert {p.name for p in all_dbc_files()} <= names
+
+
+def test_the_run_prints_its_start_up_and_the_factor_to_the_verdict(tmp_path, capsys):
+    """The speed figures a user sees: start-up, and real time counted through the checks."""
+    import argparse as _argparse
+    from wheelleg.hil.commands.run import run
+
+    args = _argparse.Namespace(scenario="balance", out=tmp_path, interface="virtual", channel=["vcan0", "vcan1"],
+                               seed=0, duration=0.2, realtime=False, external_controller=False, no_plot=True,
+                               quiet=True, plant=[])
+    run(args)
+    out = capsys.readouterr().out
+    assert "start-up" in out and "(imports, model build)" in out
+    assert "x real time from the first tick to the checks' verdict" in out

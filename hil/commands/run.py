@@ -3,12 +3,14 @@ from __future__ import annotations
 
 import argparse
 import sys
+import time
+from dataclasses import replace
 from pathlib import Path
 
 from wheelleg.controller.bus_args import add_bus_arguments, bus_choice
 from wheelleg.emulators.overrides import help_text, parse_assignment
 from wheelleg.emulators.plant import PlantConfig
-from wheelleg.hil import scenarios
+from wheelleg.hil import cli, scenarios
 from wheelleg.hil.run.loop_timing import describe, describe_plant
 from wheelleg.hil.analyze.plot import plot_run
 from wheelleg.hil.run.progress import RunProgress
@@ -67,11 +69,15 @@ def plant_config(assignments: list[str]) -> PlantConfig:
     return PlantConfig.from_overrides(dict(parse_assignment(text) for text in assignments))
 
 
-def execute(args: argparse.Namespace):
-    """Run and check; returns (outcome, results) for callers such as the pytest plugin."""
+def execute(args: argparse.Namespace, started_s: float | None = None):
+    """Run and check; returns (outcome, results, run data) for callers such as the pytest plugin.
+
+    ``started_s``: ``time.perf_counter()`` when the command started (default: now), so
+    the outcome's ``startup_s`` includes the imports that came before.
+    """
+    started_s = time.perf_counter() if started_s is None else started_s
     scenario = scenarios.get(args.scenario)
     if args.duration is not None:
-        from dataclasses import replace
         scenario = replace(scenario, duration_s=args.duration)
     try:
         buses = bus_choice(args, DEFAULT_INTERFACE, DEFAULT_CHANNELS)
@@ -96,6 +102,7 @@ def execute(args: argparse.Namespace):
         print(f"run: waiting for the controller on {buses.interface} {'/'.join(buses.channels)} "
               f"(`wheelleg controller{'' if args.realtime else ' --sync'} -i {buses.interface} "
               f"-c {' -c '.join(buses.channels)}`){limit}", file=sys.stderr, flush=True)
+    first_tick_s = time.perf_counter()
     try:
         outcome = rig.run()
     except NoController as exc:
@@ -104,6 +111,8 @@ def execute(args: argparse.Namespace):
         progress.close()
     run = load_run(outcome.trace_path)
     results = [check(run) for check in scenario.checks]
+    outcome = replace(outcome, startup_s=first_tick_s - started_s,
+                      verdict_wall_s=time.perf_counter() - first_tick_s)
     if not args.no_plot:
         plot_run(run, args.out / f"{scenario.name}.png", title=f"{scenario.name}: {scenario.summary}")
     return outcome, results, run
@@ -111,7 +120,7 @@ def execute(args: argparse.Namespace):
 
 def run(args: argparse.Namespace) -> int:
     try:
-        outcome, results, data = execute(args)
+        outcome, results, data = execute(args, started_s=cli.STARTED_S)
     except KeyError as exc:
         print(f"wheelleg run: {exc.args[0]}", file=sys.stderr)
         return 2
@@ -121,6 +130,9 @@ def run(args: argparse.Namespace) -> int:
     rtf = outcome.sim_s / outcome.wall_s if outcome.wall_s > 0 else float("inf")
     print(f"{args.scenario}: {outcome.sim_s:.2f} s simulated in {outcome.wall_s:.2f} s "
           f"({rtf:.1f}x real time), {outcome.ticks} ticks, {outcome.deadline_misses} deadline misses")
+    verdict_rtf = outcome.sim_s / outcome.verdict_wall_s if outcome.verdict_wall_s else float("inf")
+    print(f"  start-up {outcome.startup_s:.2f} s (imports, model build); "
+          f"{verdict_rtf:.2f}x real time from the first tick to the checks' verdict")
     if outcome.timing is not None:
         if "controller" in outcome.timing:
             print(f"  {describe(outcome.timing['controller'])}")

@@ -60,6 +60,8 @@ class RunOutcome:
     wall_s: float
     sim_s: float
     timing: dict | None = None  # real-time mode: {"controller": ..., "plant": ...} (hil/run/loop_timing.py)
+    startup_s: float | None = None  # wall s from the command's start (imports, model build) to the first tick
+    verdict_wall_s: float | None = None  # wall s from the first tick to the checks' verdict (trace read back)
 
 def _open_bus(config: RigConfig, channel: str) -> can.BusABC:
     index = config.channels.index(channel)  # 0: CAN1, 1: CAN2
