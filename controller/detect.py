@@ -7,6 +7,7 @@ All devices start offline, as in detect_device_init().
 """
 from __future__ import annotations
 
+import collections
 from dataclasses import dataclass
 
 from wheelleg.controller import constants as C
@@ -90,37 +91,47 @@ class ReenableRequest:
         self._until_s = float("-inf")
 
 
-def esc_follows(commanded_a: float, reported_a: float, speed_rad_s: float, tolerance_a: float,
+def esc_follows(commanded_a, reported_a: float, speed_rad_s: float, tolerance_a: float,
                 back_emf_fraction: float) -> bool:
-    """Whether a C620's reported current (A) is its command (A) within ``tolerance_a``.
+    """Whether a C620's reported current (A) is what it was told within ``tolerance_a``.
 
-    Driving near the no-load speed the back-EMF caps the current the ESC can
-    reach, so there (same sign as the speed, above ``back_emf_fraction`` of
-    the no-load speed, rad/s) any current counts as following.
+    ``commanded_a`` is the recent commands (A, newest last) the feedback may be
+    answering (feedback latency): the report must lie within their range widened
+    by the tolerance. Driving near the no-load speed the back-EMF caps the
+    current the ESC can reach, so there (same sign as the speed, above
+    ``back_emf_fraction`` of the no-load speed, rad/s) any current counts as following.
     """
-    if commanded_a * speed_rad_s > 0.0 and abs(speed_rad_s) > back_emf_fraction * C.M3508_NO_LOAD_SPEED:
+    low, high = min(commanded_a), max(commanded_a)
+    if abs(speed_rad_s) > back_emf_fraction * C.M3508_NO_LOAD_SPEED and (
+            commanded_a[-1] * speed_rad_s > 0.0):
         return True
-    return abs(reported_a - commanded_a) <= tolerance_a
+    return low - tolerance_a <= reported_a <= high + tolerance_a
 
 
 class EscWatch:
     """A C620 that does not do what it is told (hung, holding its last current): a latched fault.
 
-    ``update`` compares the current reported now with the command of the tick
-    before (the one the feedback answers); a mismatch that lasts ``hold_s``
-    latches the fault, as a CyberGear latches its fault bits: a hung ESC
-    spinning its wheel up to no-load speed reports no current (back-EMF) and
-    would look well again. ``clear`` (the operator's Reenable) unlatches it.
+    ``update`` compares the current reported now with the commands of the last
+    ``window`` ticks (the feedback answers the one before, or an earlier one when
+    it is late); a mismatch that lasts ``hold_s`` latches the fault, as a CyberGear
+    latches its fault bits: a hung ESC spinning its wheel up to no-load speed
+    reports no current (back-EMF) and would look well again. ``clear`` (the
+    operator's Reenable) unlatches it.
     """
 
-    def __init__(self, tolerance_a: float, hold_s: float, back_emf_fraction: float):
+    def __init__(self, tolerance_a: float, hold_s: float, back_emf_fraction: float, window: int = 1):
         self.tolerance_a, self.hold_s, self.back_emf_fraction = tolerance_a, hold_s, back_emf_fraction
+        self._commands: collections.deque = collections.deque([0.0], maxlen=max(1, window))
         self._since_s: float | None = None
         self.latched = False
 
-    def update(self, commanded_a: float, reported_a: float, speed_rad_s: float, now_s: float) -> bool:
+    def commanded(self, current_a: float) -> None:
+        """The current (A) sent this tick: the feedback of the next ticks answers it."""
+        self._commands.append(current_a)
+
+    def update(self, reported_a: float, speed_rad_s: float, now_s: float) -> bool:
         """True while the fault is latched."""
-        if esc_follows(commanded_a, reported_a, speed_rad_s, self.tolerance_a, self.back_emf_fraction):
+        if esc_follows(tuple(self._commands), reported_a, speed_rad_s, self.tolerance_a, self.back_emf_fraction):
             self._since_s = None
         else:
             self._since_s = now_s if self._since_s is None else self._since_s

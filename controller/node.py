@@ -80,8 +80,8 @@ class Controller:
         self._jump_forward = False  # the jump asked for is JumpForward
         self.reenable = detect.ReenableRequest(P.REENABLE_WINDOW_S)
         self.esc_watch = {w.esc_id: detect.EscWatch(P.ESC_CURRENT_TOLERANCE_A, P.ESC_MISMATCH_S,
-                                                    P.ESC_BACK_EMF_FRACTION) for w in C.WHEELS}
-        self._wheel_command_a: dict = {}  # esc id -> A sent last tick (what the feedback answers)
+                                                    P.ESC_BACK_EMF_FRACTION, P.ESC_COMMAND_WINDOW)
+                          for w in C.WHEELS}
 
     def on_frame(self, msg: can.Message, bus: str, now_s: float) -> int | None:
         """Take one received frame; returns the SYNC tick counter if it is a SYNC."""
@@ -134,14 +134,14 @@ class Controller:
                 watch.clear()
             fb = self.bus.wheels[esc_id]
             fresh = now_s - fb.received_s <= 2 * self.period_s  # stale feedback is detect's business
-            commanded = self._wheel_command_a.get(esc_id, 0.0)
-            if fresh and watch.update(commanded, fb.current, fb.speed, now_s):
+            if fresh and watch.update(fb.current, fb.speed, now_s):
                 faulted.add(_DEVICE_OF_WHEEL[esc_id])
         return faulted
 
     def _wheel_frame(self, currents_a: dict, now_s: float) -> can.Message:
         """The C620 current frame; remembers what it asked (clamped as sent) for the ESC watch."""
-        self._wheel_command_a = {esc: messages.esc_current(a) for esc, a in currents_a.items()}
+        for esc, watch in self.esc_watch.items():
+            watch.commanded(messages.esc_current(currents_a.get(esc, 0.0)))
         return messages.wheel_currents(currents_a, t_s=now_s)
 
     # -- mode inputs -----------------------------------------------------------

@@ -14,8 +14,9 @@ CONTROL_PERIOD = 0.002  # s
 # --- LQR design (controller/design/lqr.py reads these) ------------------------
 LQR_Q = (1.0, 10.0, 100.0, 20.0, 1000.0, 1.0)  # theta, theta_dot, x, x_dot, phi, phi_dot (Skythinker/LJW0401)
 # ix, the position error's integral (m s): the weight sets how fast a constant
-# disturbance (CoM off the axis, IMU tilt) is trimmed out. Tuned with the CoM
-# 3 cm off (balance drift < 5 cm) against the nominal stop distance of `drive`.
+# disturbance (CoM off the axis, IMU tilt) is trimmed out. Tuned with the CoM 3 cm
+# off: 1000 leaves no creep (10.8 cm in the first second, then back); 20000 keeps that
+# under 4.1 cm but its stiffer position/speed gains saturate the wheel in `push` (FALLEN).
 LQR_Q_INTEGRAL = 1000.0
 LQR_R = (1.0, 1.0)  # T (wheel), Tp (virtual hip)
 LEG_LENGTH_MIN = 0.12  # m, lower end of the K(L0) fit and of leg commands
@@ -101,6 +102,10 @@ REENABLE_WINDOW_S = 0.05  # s
 # balancing (+-0.7 A peak in place); 10 ms (5 ticks) rides out one late feedback frame.
 ESC_CURRENT_TOLERANCE_A = 1.0  # A
 ESC_MISMATCH_S = 0.010  # s
+# The feedback answers a command sent 1 tick ago, or 2 when a frame is late (2 ms of
+# feedback latency): the reported current is checked against the range of this many
+# last commands, so a fast current ramp seen late is no fault.
+ESC_COMMAND_WINDOW = 2
 ESC_BACK_EMF_FRACTION = 0.8  # above 0.8 x no-load speed, driving, the current may be capped
 
 # --- support force and off-ground detection (controller/support.py) ------------------

@@ -60,20 +60,46 @@ def test_a_reenable_press_is_remembered_only_while_the_motors_are_off():
 
 def test_an_esc_follows_its_command_within_the_tolerance_or_when_back_emf_caps_it():
     fast = 0.9 * C.M3508_NO_LOAD_SPEED
-    assert detect.esc_follows(3.0, 2.5, 0.0, 1.0, 0.8) and not detect.esc_follows(3.0, 1.5, 0.0, 1.0, 0.8)
-    assert detect.esc_follows(3.0, 0.0, fast, 1.0, 0.8)  # driving near no-load: the current is capped
-    assert not detect.esc_follows(-3.0, 0.0, fast, 1.0, 0.8)  # braking is never capped
+    assert detect.esc_follows((3.0,), 2.5, 0.0, 1.0, 0.8) and not detect.esc_follows((3.0,), 1.5, 0.0, 1.0, 0.8)
+    assert detect.esc_follows((3.0,), 0.0, fast, 1.0, 0.8)  # driving near no-load: the current is capped
+    assert not detect.esc_follows((-3.0,), 0.0, fast, 1.0, 0.8)  # braking is never capped
+
+
+def test_a_late_feedback_within_the_recent_commands_follows():
+    """A ramp 0 -> 6 A reported one tick late is inside the range of the last two commands."""
+    assert detect.esc_follows((0.0, 6.0), 0.2, 0.0, 1.0, 0.8)
+    assert detect.esc_follows((0.0, 6.0), 3.0, 0.0, 1.0, 0.8)
+    assert not detect.esc_follows((0.0, 6.0), 7.5, 0.0, 1.0, 0.8)
+    assert not detect.esc_follows((0.0, 6.0), -1.5, 0.0, 1.0, 0.8)
+
+
+def _watch_run(watch, commands, reported, t0=0.0):
+    """Feed (command sent, current reported next tick) pairs; True if it latched."""
+    latched = False
+    for k, (cmd, rep) in enumerate(zip(commands, reported)):
+        latched = watch.update(rep, 0.0, t0 + k * P.CONTROL_PERIOD)
+        watch.commanded(cmd)
+    return latched
+
+
+def test_an_esc_watch_rides_out_one_tick_of_feedback_latency_but_not_a_held_current():
+    ramp = [1.5 * min(k % 24, 24 - k % 24) - 9.0 for k in range(48)]  # +-9 A triangle, 1.5 A a tick
+    late = [0.0, 0.0] + ramp[:-2]  # answered two ticks after being sent (one tick late)
+    assert _watch_run(detect.EscWatch(1.0, 0.010, 0.8, window=1), ramp, late)  # the old watch: false fault
+    assert not _watch_run(detect.EscWatch(1.0, 0.010, 0.8, window=2), ramp, late)
+    held = [4.3] * 40
+    assert _watch_run(detect.EscWatch(1.0, 0.010, 0.8, window=2), ramp, held)
 
 
 def test_an_esc_watch_latches_after_a_lasting_mismatch_and_clears_on_command():
     watch = detect.EscWatch(1.0, 0.010, 0.8)
-    assert not any(watch.update(0.0, 4.0, 0.0, k * 0.002) for k in range(5))  # 8 ms: not yet
-    assert watch.update(0.0, 4.0, 0.0, 0.010)
-    assert watch.update(0.0, 0.0, 0.0, 0.012)  # looks well again: still latched
+    assert not any(watch.update(4.0, 0.0, k * 0.002) for k in range(5))  # 8 ms: not yet
+    assert watch.update(4.0, 0.0, 0.010)
+    assert watch.update(0.0, 0.0, 0.012)  # looks well again: still latched
     watch.clear()
-    assert not watch.update(0.0, 0.0, 0.0, 0.014)
-    watch.update(0.0, 4.0, 0.0, 0.016)
-    assert not watch.update(0.0, 0.5, 0.0, 0.018) and not watch.update(0.0, 4.0, 0.0, 0.026)  # the run restarted
+    assert not watch.update(0.0, 0.0, 0.014)
+    watch.update(4.0, 0.0, 0.016)
+    assert not watch.update(0.5, 0.0, 0.018) and not watch.update(4.0, 0.0, 0.026)  # the run restarted
 
 
 # -- the controller's reaction ---------------------------------------------------------------
