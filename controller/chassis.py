@@ -306,18 +306,18 @@ class ChassisController:
 
         A constant disturbance (the CoM off the axle, an IMU mounted tilted, a
         drive's torque constant) is held by this integral instead of a standing
-        position error. Standing, the position error integrates as the LQR
-        sees it (clamped); moving, the speed error integrates scaled
-        by TRIM_SPEED_S. Frozen when ``cmd.trim`` is off (in the air, jumping,
-        standing up), bounded by POSITION_INTEGRAL_LIMIT (anti-windup).
+        position error. Standing, the position error integrates while it is
+        inside the LQR's clamp (pushed away or overshooting a stop, the robot walks
+        back on the clamp and the integral keeps what it had: integrating there wound
+        it up to 0.3 m s and `drive` then missed its reverse speed); moving it is frozen (the speed error integrated there,
+        0.5 s x 0.5 s^-1, made `drive` miss its speed by 0.23 m/s), as when
+        ``cmd.trim`` is off (in the air, jumping, standing up); bounded by
+        POSITION_INTEGRAL_LIMIT (anti-windup). The trim found standing holds moving.
         """
-        if not cmd.trim:
+        error = self.x - self.x_ref
+        if not cmd.trim or self.speed_ref != 0.0 or abs(error) >= P.POSITION_ERROR_LIMIT:
             return
-        if self.speed_ref != 0.0:
-            rate = P.TRIM_SPEED_S * (speed - self.speed_ref)
-        else:
-            rate = _clamp(self.x - self.x_ref, P.POSITION_ERROR_LIMIT)
-        self.x_integral = _clamp(self.x_integral + rate * self.dt, P.POSITION_INTEGRAL_LIMIT)
+        self.x_integral = _clamp(self.x_integral + error * self.dt, P.POSITION_INTEGRAL_LIMIT)
 
     def roll_set_point(self, cmd: Command) -> float:
         """Roll set point (rad, > 0 left side up): the command plus the lean into a turn."""

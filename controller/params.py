@@ -68,9 +68,6 @@ POSITION_ERROR_LIMIT = 0.15  # m, position error fed to the LQR is clamped (Skyt
 # m s, bound of the position error's integral (the LQR's ix state, anti-windup): holds
 # a CoM ~5 cm off the axle (3 cm needs ~0.6 m s with the designed gains)
 POSITION_INTEGRAL_LIMIT = 1.0
-# s, moving: the speed error integrates into ix scaled by this (a lag of the position
-# the speed set point asks for), so a CoM offset leaves no steady speed error either
-TRIM_SPEED_S = 0.5
 YAW_RATE_LIMIT = 4.0  # rad/s
 # N m per wheel, largest LQR wheel torque for the travel (position, speed, their integral),
 # limited before the balance terms are added: a 5 N s push asks for far more there, and
