@@ -19,6 +19,7 @@ import can
 
 from wheelleg.controller import params as P
 from wheelleg.controller.node import ControllerNode
+from wheelleg.dbc import CAN1, CAN2
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -72,7 +73,7 @@ def stop_on_signals(stop: threading.Event) -> None:
 def main(args: argparse.Namespace) -> int:
     wheels, joints = open_bus(args.interface, args.wheels), open_bus(args.interface, args.joints)
     writer = can.CanutilsLogWriter(args.log) if args.log else None
-    names = {"can1": args.wheels, "can2": args.joints}
+    names = {CAN1: args.wheels, CAN2: args.joints}
     listener = log_listener(writer, names) if writer is not None else None
     node = ControllerNode(wheels, joints, sync=args.sync, period_s=args.period, listener=listener)
     stop = threading.Event()

@@ -9,10 +9,10 @@ import can
 
 from wheelleg.controller import constants as C
 from wheelleg.dbc import cybergear as cg
-from wheelleg.dbc import load_bus, truncating_raw
+from wheelleg.dbc import CAN1, CAN2, load_bus, truncating_raw
 
-_CAN1 = load_bus("can1")
-_CAN2 = load_bus("can2")
+_CAN1 = load_bus(CAN1)
+_CAN2 = load_bus(CAN2)
 _MOTION = _CAN2.get_message_by_name("CG_MotionCmd")
 _STOP = _CAN2.get_message_by_name("CG_Stop")
 _ENABLE = _CAN2.get_message_by_name("CG_Enable")

@@ -16,9 +16,8 @@ import can
 
 from wheelleg.controller import constants as C
 from wheelleg.dbc import cybergear as cg
-from wheelleg.dbc import load_bus
+from wheelleg.dbc import CAN1, CAN2, load_bus
 
-CAN1, CAN2 = "can1", "can2"
 _DBS = {CAN1: load_bus(CAN1), CAN2: load_bus(CAN2)}
 _SYNC_ID = _DBS[CAN1].get_message_by_name("SYNC").frame_id
 _JOINT_BY_ID = {j.motor_id: j for j in C.JOINTS}

@@ -6,8 +6,11 @@ them (through cantools) and adds what a DBC cannot say by itself: the
 CyberGear fields that live in the 29-bit identifier (``wheelleg.dbc.cybergear``) and
 the manual's truncating float-to-uint encoder.
 
-Buses (docs/protocols.md): CAN1 carries the wheel ESCs, the IMU, the remote, SYNC and
-heartbeat; CAN2 carries the four CyberGear joint motors, SYNC and heartbeat.
+Buses (docs/protocols.md): CAN1 (``CAN1 = "can1"``) carries the wheel ESCs,
+the IMU, the remote, SYNC and heartbeat; CAN2 (``CAN2 = "can2"``) carries the
+four CyberGear joint motors, SYNC and heartbeat. These two names are the
+buses' names everywhere in the project (controller, emulators, traces),
+defined here only.
 """
 from __future__ import annotations
 
@@ -21,9 +24,11 @@ import cantools
 from wheelleg.dbc.codec import truncate
 
 DBC_DIR = Path(__file__).resolve().parent
+CAN1, CAN2 = "can1", "can2"  # wheels, IMU, remote | CyberGear joints
+BUSES = (CAN1, CAN2)
 BUS_FILES = {
-    "can1": ("c620.dbc", "rig.dbc"),
-    "can2": ("cybergear.dbc", "rig.dbc"),
+    CAN1: ("c620.dbc", "rig.dbc"),
+    CAN2: ("cybergear.dbc", "rig.dbc"),
 }
 CYBERGEAR_FILES = {"12.5": "cybergear.dbc", "4pi": "cybergear_4pi.dbc"}
 

@@ -123,6 +123,17 @@ def reply_id(ctype: int, motor: int, host: int, mode: int = 0, faults=()) -> int
     return word
 
 
+def is_reply(can_id: int, host_id: int) -> bool:
+    """True for a motor->host frame, False for a request (host->motor).
+
+    A reply's last byte addresses the host (``host_id``, or 0xFE for the
+    device-id answers to types 0, 7 and 22); a request's addresses a motor
+    (0..127). Types 0, 17 and 21 go both ways with the same type, so only
+    this byte tells them apart.
+    """
+    return target(can_id) in (host_id, DEVICE_ID_TARGET)
+
+
 def reply_motor(can_id: int) -> int:
     """The sending motor's id in a motor->host identifier (bits 15..8)."""
     return _REP["MotorId"].get(can_id)

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import can
 import numpy as np
 
-from wheelleg.dbc import load_bus
+from wheelleg.dbc import CAN1, load_bus
 from wheelleg.dbc.codec import MessageCodec
 from wheelleg.emulators.device import EmulatedDevice, PeriodicSchedule, frame
 from wheelleg.emulators.robot import description as D
@@ -78,7 +78,7 @@ class Imu(EmulatedDevice):
         self.rng = rng if rng is not None else np.random.default_rng(0)
         self.period_s = period_s
         self._schedule = PeriodicSchedule(period_s)
-        db = load_bus("can1")
+        db = load_bus(CAN1)
         self._codecs = [MessageCodec.of(db.get_message_by_name(name)) for name in FRAMES]
         self._fields = [tuple(codec.signals[name] for name in names)
                         for codec, names in zip(self._codecs, FRAMES.values())]

@@ -107,7 +107,7 @@ class Physics:
         spec.option.timestep = timestep_s
         self.terrain_names = add_to_spec(spec, self.terrain)
         override_model(spec, overrides or {})
-        self.spec = spec  # what was compiled (the trace attaches its XML when overridden)
+        self.spec = spec  # what was compiled (a rig trace attaches its XML when the plant is overridden)
         self.model = spec.compile()
         self.data = mujoco.MjData(self.model)
         self._scratch = mujoco.MjData(self.model)  # for readings that must not touch self.data

@@ -18,6 +18,7 @@ from typing import Mapping
 import can
 import numpy as np
 
+from wheelleg.dbc import CAN1, CAN2
 from wheelleg.emulators.c620 import C620
 from wheelleg.emulators.cybergear import CyberGear
 from wheelleg.emulators.imu import Imu, ImuNoise
@@ -28,8 +29,6 @@ from wheelleg.emulators.remote import Remote
 from wheelleg.emulators.robot import description as D
 
 __all__ = ["CAN1", "CAN2", "OVERRIDES", "Plant", "PlantConfig"]
-
-CAN1, CAN2 = "can1", "can2"
 
 
 @dataclass

@@ -8,10 +8,10 @@ from __future__ import annotations
 
 import can
 
-from wheelleg.dbc import load_bus
+from wheelleg.dbc import CAN1, load_bus
 from wheelleg.emulators.device import EmulatedDevice, PeriodicSchedule
 
-_OPERATOR = load_bus("can1").get_message_by_name("Operator")
+_OPERATOR = load_bus(CAN1).get_message_by_name("Operator")
 
 
 class Remote(EmulatedDevice):

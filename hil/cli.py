@@ -9,7 +9,7 @@ import argparse
 import importlib
 import sys
 
-SUBCOMMANDS = ("run", "list", "emulate", "controller", "replay", "inspect", "vcan")
+SUBCOMMANDS = ("run", "list", "campaign", "emulate", "controller", "replay", "inspect", "vcan")
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -15,6 +15,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from wheelleg import dbc
 from wheelleg.dbc import all_dbc_files, load_bus, load_file, truncating_raw
 from wheelleg.dbc import cybergear as cg
 from wheelleg.dbc.codec import MessageCodec
@@ -244,6 +245,24 @@ def test_request_ids_put_host_in_15_8_and_motor_in_7_0():
     assert cg.reply_id(cg.T_DEVICE_ID, 0x7F, cg.DEVICE_ID_TARGET) == 0x00007FFE
     assert cg.reply_id(cg.T_PARAM_READ, 0x01, 0xFD) == 0x110001FD
     assert cg.reply_id(cg.T_FAULT_WARN, 0x01, 0xFD) == 0x150001FD
+
+
+def test_replies_and_requests_are_told_apart_by_the_last_byte():
+    host = 0xFD
+    motors = (0x01, 0x7F)
+    for motor in motors:
+        for ctype in (cg.T_FEEDBACK, cg.T_PARAM_READ, cg.T_FAULT_WARN):  # 17 and 21 go both ways
+            assert cg.is_reply(cg.reply_id(ctype, motor, host, mode=2), host)
+            assert not cg.is_reply(cg.request_id(ctype, host, motor), host)
+        assert cg.is_reply(cg.reply_id(cg.T_DEVICE_ID, motor, cg.DEVICE_ID_TARGET), host)
+        assert not cg.is_reply(cg.request_id(cg.T_DEVICE_ID, host, motor), host)
+        assert not cg.is_reply(cg.motion_id(-3.0, motor), host)
+        assert not cg.is_reply(cg.set_id_id(0x05, host, motor), host)
+    assert not cg.is_reply(cg.reply_id(cg.T_FEEDBACK, 0x01, 0x00), host)  # a reply to another host
+
+
+def test_bus_names_are_the_dbc_packages():
+    assert dbc.BUSES == (dbc.CAN1, dbc.CAN2) == tuple(dbc.BUS_FILES) == ("can1", "can2")
 
 
 def test_type17_18_payload_is_little_endian():

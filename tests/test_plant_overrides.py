@@ -219,7 +219,10 @@ def test_a_run_records_its_overrides_and_replays_identically(tmp_path):
     changed = _run(tmp_path / "changed", ["com_x_m=0.02", "feedback_delay_s=0.002", "supply_voltage_v=24"])
     nominal = _run(tmp_path / "nominal", [])
     assert changed.log_path.read_bytes() != nominal.log_path.read_bytes()  # the plant did change
-    run = open_trace(changed.trace_path).run
+    source = open_trace(changed.trace_path)
+    run = source.run
+    assert b'<inertial pos="0.02 0 0"' in source.attachments["plant_model.xml"]
+    assert "plant_model.xml" not in open_trace(nominal.trace_path).attachments
     assert plant_overrides(run) == {"com_x_m": 0.02, "feedback_delay_s": 0.002}  # defaults left out
     assert plant_overrides(open_trace(nominal.trace_path).run) == {}
     assert rerun_command(run) == ("wheelleg run balance --seed 3 --duration 0.4 "

@@ -17,12 +17,11 @@ import numpy as np
 
 from wheelleg.controller import constants as C
 from wheelleg.dbc import cybergear as cg
-from wheelleg.dbc import load_bus
+from wheelleg.dbc import BUSES, CAN1, CAN2, load_bus
 from wheelleg.hil.bus.busload import frame_bits, wire_ns
 
-_RIG = load_bus("can1")
+_RIG = load_bus(CAN1)
 LOCKSTEP_IDS = frozenset(_RIG.get_message_by_name(n).frame_id for n in ("SYNC", "Heartbeat"))
-BUSES = ("can1", "can2")  # CAN1 = wheels, IMU, remote; CAN2 = joints
 TO_CONTROLLER, TO_DEVICES, BOTH = "to_controller", "to_devices", "both"
 # SocketCAN error class: protocol violation, bus error (linux/can/error.h)
 ERROR_FRAME_ID = 0x00000008 | 0x00000080
@@ -191,7 +190,7 @@ class Garbage(FrameFault):
         db = load_bus(bus)
         self.known = [(m.frame_id, m.is_extended_frame, m.length) for m in db.messages
                       if m.frame_id not in LOCKSTEP_IDS]
-        if bus == "can2":  # CyberGear feedback to our host, as the controller parses it
+        if bus == CAN2:  # CyberGear feedback to our host, as the controller parses it
             self.known += [(cg.reply_id(cg.T_FEEDBACK, j.motor_id, C.CG_HOST_ID, 2), True, 8) for j in C.JOINTS]
         self._ids = {(fid, ext) for fid, ext, _ in self.known} | {(fid, False) for fid in LOCKSTEP_IDS}
 

@@ -35,8 +35,6 @@ _TORQUE_UNIT = dbc.load_file("cybergear.dbc").get_message_by_name("CG_Id_Motion"
 # shifts inline instead of calling cg.comm_type (3 calls, ~0.4 us).
 _TYPE_SIGNAL = dbc.load_file("cybergear.dbc").get_message_by_name("CG_Id_Request").get_signal_by_name("Type")
 _TYPE_SHIFT, _TYPE_MASK = _TYPE_SIGNAL.start, (1 << _TYPE_SIGNAL.length) - 1
-# Replies end in the host's address (type 0: 0xFE), requests in a motor id (< 0x80).
-_REPLY_TARGETS = frozenset((CG_HOST_ID, cg.DEVICE_ID_TARGET))
 
 
 # -- CyberGear identifier fields -------------------------------------------------
@@ -66,7 +64,7 @@ def _reply_fields(can_id: int) -> dict:
 
 def _either_fields(can_id: int) -> dict:
     """Types 0, 17, 21 are both requests and replies: the last byte tells which."""
-    if cg.target(can_id) in _REPLY_TARGETS:
+    if cg.is_reply(can_id, CG_HOST_ID):
         return _reply_fields(can_id)
     return _request_fields(can_id)
 

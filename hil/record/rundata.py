@@ -7,8 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from wheelleg.dbc import cybergear as cg
-from wheelleg.dbc import load_bus
-from wheelleg.emulators.plant import CAN1, CAN2
+from wheelleg.dbc import CAN1, CAN2, load_bus
 from wheelleg.hil.bus.busload import LOAD_TOPIC
 from wheelleg.hil.run.scenario import RunData
 from wheelleg.hil.record.trace import DECODED_PREFIX, TraceReader
@@ -48,7 +47,7 @@ def load_run(path: Path | str) -> RunData:
         wheel_current=_currents(reader, can1),
         events=reader.events(),
         meta=dict(run_meta, truncated=reader.truncated),
-        bus_load=_bus_load(reader, {can1: "can1", can2: "can2"}),
+        bus_load=_bus_load(reader, {can1: CAN1, can2: CAN2}),
     )
 
 

@@ -27,16 +27,15 @@ import can
 
 from wheelleg import dbc
 from wheelleg.controller.constants import CG_HOST_ID
+from wheelleg.dbc import CAN1, CAN2
 from wheelleg.dbc import cybergear as cg
 from wheelleg.hil.record.candump import CandumpReader, DropNotice, LogFormatError
 
-CAN1, CAN2 = "can1", "can2"
-ROLES = (CAN1, CAN2)
+ROLES = dbc.BUSES
 CONTROLLER_NODES = frozenset({"HOST", "CONTROLLER"})  # DBC node names of the controller
 DBS = {role: dbc.load_bus(role) for role in ROLES}
 HEARTBEAT = DBS[CAN1].get_message_by_name("Heartbeat")
 SYNC = DBS[CAN1].get_message_by_name("SYNC")
-_REPLY_TARGETS = frozenset({CG_HOST_ID, cg.DEVICE_ID_TARGET})
 MCAP_MAGIC = b"\x89MCAP"
 
 
@@ -120,7 +119,7 @@ def sent_by_controller(frame: BusFrame) -> bool:
     message = dbc_message(frame.bus, frame.arbitration_id, frame.is_extended)
     if message is None or not CONTROLLER_NODES.intersection(message.senders or ()):
         return False
-    return not (frame.is_extended and cg.target(frame.arbitration_id) in _REPLY_TARGETS)
+    return not (frame.is_extended and cg.is_reply(frame.arbitration_id, CG_HOST_ID))
 
 
 def is_heartbeat(frame: BusFrame) -> bool:

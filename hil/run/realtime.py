@@ -30,7 +30,7 @@ import time
 from contextlib import contextmanager
 
 from wheelleg.controller.node import ControllerNode
-from wheelleg.emulators.plant import CAN1, CAN2
+from wheelleg.dbc import CAN1, CAN2
 from wheelleg.hil.record import schemas
 from wheelleg.hil.run.loop_timing import loop_timing, per_tick, plant_timing
 from wheelleg.hil.bus.transport import open_bus

@@ -29,9 +29,9 @@ import numpy as np
 
 from wheelleg.controller import params as P
 from wheelleg.controller.node import ControllerNode
-from wheelleg.dbc import all_dbc_files, load_bus
+from wheelleg.dbc import CAN1, CAN2, all_dbc_files, load_bus
 from wheelleg.emulators.physics import MODEL_DIR, Physics
-from wheelleg.emulators.plant import CAN1, CAN2, Plant, PlantConfig
+from wheelleg.emulators.plant import Plant, PlantConfig
 from wheelleg.hil.record.candump import CandumpWriter
 from wheelleg.hil.bus.held_bus import HeldBus
 from wheelleg.hil.bus.recorder import Recorder, RecordingBus
@@ -95,8 +95,11 @@ class Rig:
         scenario.start(self.physics)
         # the buses first: a missing vcan fails before any file is written
         self._raw = {k: _open_bus(config, ch) for k, ch in self.names.items()}
+        attachments = self._attachments()
+        if config.plant.overrides_dict():  # the model this run compiled; its overrides are in the metadata
+            attachments.append(("plant_model.xml", self.physics.spec.to_xml().encode(), "application/xml"))
         self.trace = TraceWriter(self.trace_path, metadata=self._metadata(),
-                                 attachments=self._attachments(),
+                                 attachments=attachments,
                                  dbs={self.names[CAN1]: load_bus(CAN1), self.names[CAN2]: load_bus(CAN2)},
                                  decode=config.decode)
         self.log = CandumpWriter(self.log_path)

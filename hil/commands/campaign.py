@@ -1,0 +1,116 @@
+"""``wheelleg campaign SCENARIO...``: many runs over drawn plant overrides, on a Dask cluster.
+
+Each sample draws plant overrides (uniform in the ``--vary`` ranges and the
+``--preset``'s), runs every scenario with them and a seed of its own, and
+appends a row to DIR/results.jsonl; the same command resumes an interrupted
+campaign. DIR/report.md says where the failures cluster (hil/campaign/).
+"""
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from wheelleg.hil import scenarios
+from wheelleg.hil.campaign import analysis, execution, journal, report, sampling
+from wheelleg.hil.campaign.progress import Progress
+
+NAME = "campaign"
+HELP = ("run scenarios over many drawn plant overrides (all local cores, or --address's Dask cluster); "
+        "writes DIR/results.jsonl, DIR/report.md and the failing runs' traces")
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("scenarios", nargs="+", metavar="SCENARIO", help="scenario names (see `wheelleg list`)")
+    parser.add_argument("--samples", type=int, default=10, help="samples per scenario (default 10)")
+    parser.add_argument("--seed", type=int, default=0, help="campaign seed: draws and run seeds (default 0)")
+    parser.add_argument("--vary", action="append", default=[], metavar="KEY=LOW..HIGH",
+                        help="draw plant override KEY uniformly in [LOW, HIGH] (repeatable; "
+                             "keys as `wheelleg run --plant`)")
+    parser.add_argument("--preset", default=None,
+                        help=f"a named box of overrides: {', '.join(sorted(sampling.PRESETS))} (--vary adds or wins)")
+    parser.add_argument("--duration", type=float, default=None, help="every run's duration (s), for quick campaigns")
+    parser.add_argument("--out", type=Path, required=True, help="campaign directory (the same one resumes)")
+    parser.add_argument("--workers", type=int, default=None, help="local worker processes (default: all cores)")
+    parser.add_argument("--address", default=None,
+                        help="join an existing Dask scheduler (tcp://HOST:8786) instead of a local cluster")
+    parser.add_argument("--keep-passing", action="store_true", help="keep passing runs' traces and logs too")
+    parser.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+
+
+def canonical_command(args: argparse.Namespace) -> str:
+    """The command that gives (or resumes) this campaign, as the report shows it."""
+    words = ["wheelleg", "campaign", *args.scenarios, "--samples", str(args.samples), "--seed", str(args.seed)]
+    if args.preset:
+        words += ["--preset", args.preset]
+    for text in args.vary:
+        words += ["--vary", text]
+    if args.duration is not None:
+        words += ["--duration", f"{args.duration:g}"]
+    return " ".join(words + ["--out", str(args.out)])
+
+
+def campaign_spec(args: argparse.Namespace) -> dict:
+    """What makes this campaign (checked on resume); ValueError (one line) on bad input."""
+    for name in args.scenarios:
+        try:
+            scenarios.get(name)
+        except KeyError as exc:
+            raise ValueError(exc.args[0]) from None
+    if len(set(args.scenarios)) != len(args.scenarios):
+        raise ValueError("a scenario is named twice")
+    if args.samples < 1:
+        raise ValueError(f"--samples {args.samples}: need at least 1")
+    if args.duration is not None and not args.duration > 0:
+        raise ValueError(f"--duration {args.duration:g}: must be > 0 s")
+    if args.workers is not None and args.workers < 1:
+        raise ValueError(f"--workers {args.workers}: need at least 1")
+    ranges = sampling.campaign_ranges(args.preset, args.vary)
+    execution.check_ranges(ranges)
+    return {"scenarios": list(args.scenarios), "seed": args.seed, "duration_s": args.duration,
+            "ranges": {k: list(v) for k, v in ranges.items()}}
+
+
+def run(args: argparse.Namespace, runner: execution.Runner = execution.run_job, processes: bool = True) -> int:
+    """The campaign; ``runner`` and ``processes`` let tests run a fake rig in threads."""
+    try:
+        spec = campaign_spec(args)
+        journal.check_spec(args.out, spec)
+    except ValueError as exc:
+        print(f"campaign: {exc}")
+        return 2
+    log = journal.Journal(args.out)
+    jobs = sampling.plan(args.scenarios, args.samples, args.seed, spec["ranges"])
+    todo = [job for job in jobs if not log.finished((job.scenario, job.sample))]
+    settings = execution.RunSettings(args.out.resolve(), args.duration, args.keep_passing)  # workers may run elsewhere
+    if len(todo) < len(jobs):
+        print(f"campaign: resuming, {len(jobs) - len(todo)} of {len(jobs)} runs already judged in {log.path}")
+    try:
+        run_jobs(args, todo, settings, log, runner, processes, done=len(jobs) - len(todo), total=len(jobs))
+    except KeyboardInterrupt:
+        print(f"\ncampaign: interrupted; {len(log.rows)} runs kept in {log.path}; "
+              "the same command resumes")
+        return 130
+    except OSError as exc:  # e.g. --address cannot be reached
+        print(f"campaign: {exc}".splitlines()[0])
+        return 2
+    log.rewrite(args.scenarios)
+    rows = [r for r in log.ordered(args.scenarios) if r["sample"] < args.samples]
+    path = report.write_report(args.out, rows, spec, canonical_command(args))
+    for rate in analysis.pass_rates(rows):
+        print(f"{rate.scenario}: {rate.passed}/{rate.runs} passed ({rate.rate:.1%})")
+    print(f"report {path}")
+    return 0 if all(r["passed"] for r in rows) else 1
+
+
+def run_jobs(args, todo, settings, log, runner, processes, done: int, total: int) -> None:
+    """Run ``todo`` on the engine, journalling each row as it comes."""
+    if not todo:
+        return
+    bar = Progress(total, done, enabled=not args.quiet)
+    try:
+        with execution.Engine(args.address, args.workers, processes) as engine:
+            for row in engine.map(runner, todo, settings):
+                log.append(row)
+                bar.update(row["passed"])
+    finally:
+        bar.close()
