@@ -189,6 +189,7 @@ class ChassisController:
         self.lean = 0.0  # rad, roll set point into a turn, lagging the command (TURN_LEAN_TAU)
         self.leg_integral = {leg: 0.0 for leg in LEGS}  # N
         self.x_integral = 0.0  # m s, integral of the position error (the LQR's ix state)
+        self.trim_hold_s = 0.0  # s left before the integral may move again after a stop (TRIM_SETTLE_S)
         self.u_prev = {leg: (0.0, 0.0) for leg in LEGS}  # (T, Tp) N m sent last period (the LQR's delay states)
         self.gyro = estimate.GyroBiasObserver(dt, P.GYRO_BIAS_OMEGA, P.GYRO_BIAS_LIMIT)
 
@@ -204,7 +205,7 @@ class ChassisController:
     def reset(self, bus: BusState) -> None:
         """Take the present pose as the reference (on enable, after a fall)."""
         att = self.attitude(bus)
-        self.x = self.x_ref = self.x_integral = 0.0
+        self.x = self.x_ref = self.x_integral = self.trim_hold_s = 0.0
         self.u_prev = {leg: (0.0, 0.0) for leg in LEGS}
         self.speed_ref = 0.0
         self.lean = 0.0
@@ -306,16 +307,24 @@ class ChassisController:
 
         A constant disturbance (the CoM off the axle, an IMU mounted tilted, a
         drive's torque constant) is held by this integral instead of a standing
-        position error. Standing, the position error integrates while it is
-        inside the LQR's clamp (pushed away or overshooting a stop, the robot walks
-        back on the clamp and the integral keeps what it had: integrating there wound
-        it up to 0.3 m s and `drive` then missed its reverse speed); moving it is frozen (the speed error integrated there,
-        0.5 s x 0.5 s^-1, made `drive` miss its speed by 0.23 m/s), as when
-        ``cmd.trim`` is off (in the air, jumping, standing up); bounded by
-        POSITION_INTEGRAL_LIMIT (anti-windup). The trim found standing holds moving.
+        position error; the trim found standing holds moving. It integrates only
+        standing still and settled, inside the LQR's position clamp:
+        - moving (speed set point not 0) it is frozen: the speed error integrated
+          there, 0.5 s x 0.5 s^-1, made `drive` miss its speed by 0.23 m/s;
+        - for TRIM_SETTLE_S after a stop it stays frozen: the overshoot past the
+          stop and the walk back are the braking's, not a disturbance's (integrated
+          they left 0.04 m s, and `drive` then missed its reverse speed by 0.07 m/s);
+        - outside the clamp (pushed away) the robot walks back on the clamp and the
+          integral keeps what it had (integrating there wound it up to 0.3 m s);
+        - with ``cmd.trim`` off (in the air, jumping, standing up).
+        Bounded by POSITION_INTEGRAL_LIMIT (anti-windup).
         """
+        if self.speed_ref != 0.0:
+            self.trim_hold_s = P.TRIM_SETTLE_S
+            return
+        self.trim_hold_s = max(0.0, self.trim_hold_s - self.dt)
         error = self.x - self.x_ref
-        if not cmd.trim or self.speed_ref != 0.0 or abs(error) >= P.POSITION_ERROR_LIMIT:
+        if not cmd.trim or self.trim_hold_s > 0.0 or abs(error) >= P.POSITION_ERROR_LIMIT:
             return
         self.x_integral = _clamp(self.x_integral + error * self.dt, P.POSITION_INTEGRAL_LIMIT)
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 CONTROL_PERIOD = 0.002  # s
 
 # --- LQR design (controller/design/lqr.py reads these) ------------------------
-LQR_Q = (1.0, 10.0, 100.0, 20.0, 1000.0, 1.0)  # theta, theta_dot, x, x_dot, phi, phi_dot (Skythinker/LJW0401)
+LQR_Q = (1.0, 3.0, 100.0, 20.0, 1000.0, 1.0)  # theta, theta_dot, x, x_dot, phi, phi_dot (Skythinker/LJW0401; theta_dot 10 -> 3, below)
 # ix, the position error's integral (m s): the weight sets how fast a constant
 # disturbance (CoM off the axis, IMU tilt) is trimmed out. Tuned with the CoM 3 cm
 # off: 1000 leaves no creep (10.8 cm in the first second, then back); 20000 keeps that
@@ -68,6 +68,9 @@ POSITION_ERROR_LIMIT = 0.15  # m, position error fed to the LQR is clamped (Skyt
 # m s, bound of the position error's integral (the LQR's ix state, anti-windup): holds
 # a CoM ~5 cm off the axle (3 cm needs ~0.6 m s with the designed gains)
 POSITION_INTEGRAL_LIMIT = 1.0
+# s after the speed set point returns to 0 before the position integral moves again:
+# the stop's overshoot and the walk back (~1.5 s from 1 m/s in `drive`) are left out
+TRIM_SETTLE_S = 2.0
 YAW_RATE_LIMIT = 4.0  # rad/s
 # N m per wheel, largest LQR wheel torque for the travel (position, speed, their integral),
 # limited before the balance terms are added: a 5 N s push asks for far more there, and
