@@ -12,12 +12,15 @@ from __future__ import annotations
 CONTROL_PERIOD = 0.002  # s
 
 # --- LQR design (controller/design/lqr.py reads these) ------------------------
-LQR_Q = (1.0, 3.0, 100.0, 20.0, 1000.0, 1.0)  # theta, theta_dot, x, x_dot, phi, phi_dot (Skythinker/LJW0401; theta_dot 10 -> 3, below)
+LQR_Q = (1.0, 5.0, 100.0, 20.0, 1000.0, 1.0)  # theta, theta_dot, x, x_dot, phi, phi_dot (Skythinker/LJW0401; theta_dot 10 -> 5, below)
 # ix, the position error's integral (m s): the weight sets how fast a constant
 # disturbance (CoM off the axis, IMU tilt) is trimmed out. Tuned with the CoM 3 cm
 # off: 1000 leaves no creep (10.8 cm in the first second, then back); 20000 keeps that
 # under 4.1 cm but its stiffer position/speed gains saturate the wheel in `push` (FALLEN).
 LQR_Q_INTEGRAL = 1000.0
+# theta_dot 10 -> 5: with the integral in the design the leg's rate weight slowed the
+# lean back that brakes a stop ( `drive` travelled 0.502 m past its stop command, limit
+# 0.5; 0.474 m with 5, 0.454 m with 3; a linear model of the stop gives 0.563/0.536/0.518)
 LQR_R = (1.0, 1.0)  # T (wheel), Tp (virtual hip)
 LEG_LENGTH_MIN = 0.12  # m, lower end of the K(L0) fit and of leg commands
 LEG_LENGTH_MAX = 0.26  # m, upper end (geometric max 0.28, singular at 0.2865)
