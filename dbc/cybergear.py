@@ -23,8 +23,10 @@ FAULT_NAMES = ("FaultUnderVoltage", "FaultOverCurrent", "FaultOverTemp",
 
 # communication types (docs/protocols.md)
 T_DEVICE_ID, T_MOTION, T_FEEDBACK, T_ENABLE, T_STOP = 0, 1, 2, 3, 4
-T_SET_ZERO, T_SET_ID, T_PARAM_READ, T_PARAM_WRITE = 6, 7, 17, 18
-T_FAULT_WARN, T_SET_BAUD = 21, 22
+T_CALIBRATE, T_SET_ZERO, T_SET_ID, T_PARAM_READ, T_PARAM_WRITE = 5, 6, 7, 17, 18
+T_PARAM_TABLE, T_BRAKE, T_FAULT_WARN, T_SET_BAUD = 19, 20, 21, 22
+T_CONFIG_WRITE, T_CONFIG_READ = 8, 9  # the stored table 0x2000-0x302F, one entry
+MAX_MOTOR_ID = 127  # parameter CAN_ID 0x200A: a motor's address is 0..127
 
 
 @dataclass(frozen=True)
@@ -48,6 +50,7 @@ _REQ = _fields("CG_Id_Request")
 _MOT = _fields("CG_Id_Motion")
 _REP = _fields("CG_Id_Reply")
 _SET = _fields("CG_Id_SetId")
+_TAB = _fields("CG_Id_ParamTable")
 _TORQUE_SIGNAL = load_file("cybergear.dbc").get_message_by_name("CG_Id_Motion").get_signal_by_name("TorqueRef")
 _FAULT_FIELDS = [(name, _REP[name]) for name in FAULT_NAMES]
 
@@ -123,6 +126,17 @@ def reply_id(ctype: int, motor: int, host: int, mode: int = 0, faults=()) -> int
     return word
 
 
+def table_id(fragment: int, motor: int, host: int) -> int:
+    """Id of a type-19 parameter-table answer: the fragment number in bits 23..16."""
+    return (_TAB["Type"].put(T_PARAM_TABLE) | _TAB["Fragment"].put(fragment)
+            | _TAB["MotorId"].put(motor) | _TAB["Host"].put(host))
+
+
+def table_fragment(can_id: int) -> int:
+    """Fragment number (bits 23..16) of a type-19 answer: 4 a number, 0 a string's start, 6..8 its parts."""
+    return _TAB["Fragment"].get(can_id)
+
+
 def is_reply(can_id: int, host_id: int) -> bool:
     """True for a motor->host frame, False for a request (host->motor).
 
@@ -132,6 +146,19 @@ def is_reply(can_id: int, host_id: int) -> bool:
     this byte tells them apart.
     """
     return target(can_id) in (host_id, DEVICE_ID_TARGET)
+
+
+def sent_by_host(can_id: int, host_id: int) -> bool:
+    """True when bits 15..8 of a request may name a host rather than a motor.
+
+    A motor's frames carry its own id (0..127) there; a host's carry the host
+    id. So an id above 127 (0xFD, 0xFE: no motor can have it) is always a
+    host, and one in 0..127 is a host only when it is ``host_id`` (the
+    motor's CAN_MASTER): the rule that keeps a motor from answering another
+    motor's reply.
+    """
+    sender = request_host(can_id)
+    return sender == host_id or sender > MAX_MOTOR_ID
 
 
 def reply_motor(can_id: int) -> int:

@@ -1,8 +1,12 @@
 """Xiaomi CyberGear micro-motor, frame for frame (docs/protocols.md).
 
 Reply rules (docs/protocols.md, how the emulated CyberGear answers): every accepted host->motor frame of types 0, 1, 2 (a
-poll), 3, 4, 6, 7, 17, 18, 21 and 22 gets exactly one reply; the motor sends
-nothing on its own. Types 0/7/22 answer with a type-0 device-id frame to
+poll), 3, 4, 5, 6, 7, 9, 17, 18, 20 (brake), 21 and 22 gets exactly one reply, a
+type-19 table request the whole table, a type-8 config write none (the stored
+table: ``cybergear_config``); the
+motor sends nothing on its own but the type-5 calibration result. A sender
+(bits 15..8) in 0..127 other than ``host_id`` is another motor: never answered;
+the echo of a frame the motor sent to its own id is dropped (no reply storms). Types 0/7/22 answer with a type-0 device-id frame to
 0xFE, 17 with a type-17 frame, 21 with a type-21 fault/warning frame and
 everything else with a type-2 feedback frame. Replies go to the host id in
 bits 15..8 of the request; type 1 carries none and is answered to the last
@@ -10,10 +14,11 @@ host seen (initially 0x00, CAN_MASTER's example value).
 
 Choices where the sources are silent (docs/protocols.md), made once here:
 
-* DLC: types whose payload the motor reads (1, 4, 6, 17, 18, 22) need DLC 8,
+* DLC: types whose payload the motor reads (1, 6, 17, 18, 22) need DLC 8 (a
+  stop of any length stops),
   otherwise silence; types whose payload it ignores (0, 2, 3, 7, 21) accept
   any DLC (the debugger sends type 0 with DLC 1).
-* Undocumented types (5, 8-16, 19, 20, 23-31), remote/error/FD frames,
+* Types 10-16 and 23-31, remote/error/FD frames,
   standard ids and frames for other targets: silence.
 * Type 17 of an index outside 0x7005-0x7020's table: silence (the manual
   does not say; a driver then times out, which it must handle anyway).
@@ -44,18 +49,27 @@ the firmware believes it makes.
 from __future__ import annotations
 
 import math
+from collections import deque
 
 import can
 
 from wheelleg.dbc import CYBERGEAR_FILES, load_file
 from wheelleg.dbc import cybergear as cg
 from wheelleg.dbc.codec import MessageCodec
+from wheelleg.emulators.cybergear_config import StoredTable
 from wheelleg.emulators.device import EmulatedDevice, Shaft, frame, is_data_frame
 from wheelleg.emulators.robot import description as D
 
-MODE_RESET, MODE_CALI, MODE_RUN = 0, 1, 2
-RUN_MODES = (0, 1, 2, 3)  # operation (motion), position, speed, current
-MAX_MOTOR_ID = 127  # parameter CAN_ID 0x200A range
+MODE_RESET, MODE_CALI, MODE_RUN, MODE_BRAKE = 0, 1, 2, 3
+RUN_OPERATION, RUN_POSITION, RUN_SPEED, RUN_CURRENT, RUN_ZERO, RUN_QUICK_MOVE = 0, 1, 2, 3, 4, 7
+RUN_MODES = (0, 1, 2, 3, 4, 7)  # 4 zero return and 7 quick move: public driver and debugger traffic
+SPEED_LOOP_MODES = (RUN_POSITION, RUN_SPEED, RUN_ZERO, RUN_QUICK_MOVE)  # speed loop under the current loop
+# Encoder calibration (type 5): the public driver says "a few seconds" and waits up to 30 s;
+# the emulator takes CALIBRATION_S and reports ELEC_OFFSET_RAD (any value in -pi..pi would do).
+CALIBRATION_S = 2.0
+ELEC_OFFSET_RAD = 0.4537
+MAX_MOTOR_ID = cg.MAX_MOTOR_ID  # parameter CAN_ID 0x200A range
+ECHO_MEMORY = 16  # own frames remembered to recognise their echo (docs/protocols.md, reply storms)
 CURRENT_LIMIT_A = 23.0  # peak phase current; iq_ref / limit_cur range
 FULL_DLC = 8
 
@@ -116,8 +130,10 @@ class _Layouts:
         self.set_zero = MessageCodec.of(msg("CG_SetZero"))
         self.set_baud = MessageCodec.of(msg("CG_SetBaud"))
         self.fault_warn = MessageCodec.of(msg("CG_FaultWarn"))
+        self.calibration = MessageCodec.of(msg("CG_Calibration"))
         write, read = msg("CG_ParamWrite"), msg("CG_ParamRead")
         self.index = MessageCodec(write, [write.get_signal_by_name("Index")])
+        self.quick_move = MessageCodec.of(msg("CG_QuickMove"))  # a type-18 write of run_mode 7
         self.params = {}  # index -> (name, index, write codec, read-reply codec)
         for sig in write.signals:
             for index in sig.multiplexer_ids or ():
@@ -146,7 +162,11 @@ class CyberGear(EmulatedDevice):
         self._lay = _Layouts.get(position_range)
         self.position_range = position_range
         self.motor_id = motor_id
-        self.uid = (0x4347_0000_0000_0000 | motor_id) if uid is None else uid & 0xFFFF_FFFF_FFFF_FFFF
+        if uid is not None and not 0 <= uid <= 0xFFFF_FFFF_FFFF_FFFF:
+            raise ValueError(f"CyberGear uid must fit the 64-bit MCU id of the type-0 reply, got {uid:#x}")
+        if not 0 <= host_id <= 0xFF:
+            raise ValueError(f"CyberGear host id must be 0..255, got {host_id}")
+        self.uid = (0x4347_0000_0000_0000 | motor_id) if uid is None else uid
         self.ambient_c = ambient_c
         self.temperature_c = ambient_c
         if not (vbus_v > 0.0 and kt_scale > 0.0):
@@ -154,7 +174,9 @@ class CyberGear(EmulatedDevice):
         self.vbus_v = vbus_v
         self.kt_scale = kt_scale
         self.speed_limit_rad_s = SPEED_LIMIT_RAD_S * (vbus_v / D.SUPPLY_NOMINAL_V)  # back-EMF: no drive beyond
-        self.last_host = host_id & 0xFF
+        self.host_id = host_id  # CAN_MASTER: the one host in 0..127 this motor answers
+        self.last_host = host_id
+        self._sent: deque = deque(maxlen=ECHO_MEMORY)  # (id, data) of own frames not yet heard back
         self.mode = MODE_RESET
         self.params = dict(DEFAULT_PARAMS)
         self.baud_code = 1
@@ -163,15 +185,20 @@ class CyberGear(EmulatedDevice):
         self._zero_rad = 0.0  # shaft angle that reads 0 (type 6, volatile)
         self._motion = (0.0, 0.0, 0.0, 0.0, 0.0)  # p_ref rad, v_ref rad/s, kp, kd, tau_ff N m
         self._speed_integral_a = 0.0
+        self._quick_move_rad_s = 0.0  # run_mode 7 target speed (0 when its run flag is 0)
+        self._calibration_done_s: float | None = None  # when the type-5 result is due
+        self.table = StoredTable(position_range)  # 0x0000-0x302F, types 8, 9 and 19
         self._handlers = {
             cg.T_DEVICE_ID: self._on_device_id, cg.T_MOTION: self._on_motion,
             cg.T_FEEDBACK: self._on_poll, cg.T_ENABLE: self._on_enable, cg.T_STOP: self._on_stop,
             cg.T_SET_ZERO: self._on_set_zero, cg.T_SET_ID: self._on_set_id,
             cg.T_PARAM_READ: self._on_read, cg.T_PARAM_WRITE: self._on_write,
             cg.T_FAULT_WARN: self._on_fault_poll, cg.T_SET_BAUD: self._on_set_baud,
+            cg.T_BRAKE: self._on_brake, cg.T_CALIBRATE: self._on_calibrate,
+            cg.T_PARAM_TABLE: self._on_table, cg.T_CONFIG_READ: self._on_config_read,
+            cg.T_CONFIG_WRITE: self._on_config_write,
         }
-        self._fixed_dlc = {cg.T_MOTION, cg.T_STOP, cg.T_SET_ZERO, cg.T_PARAM_READ,
-                           cg.T_PARAM_WRITE, cg.T_SET_BAUD}
+        self._fixed_dlc = {cg.T_MOTION, cg.T_SET_ZERO, cg.T_PARAM_READ, cg.T_PARAM_WRITE, cg.T_SET_BAUD}
 
     # -- state -----------------------------------------------------------------
     @property
@@ -209,7 +236,14 @@ class CyberGear(EmulatedDevice):
         return self.firmware_torque() * self.kt_scale
 
     def firmware_torque(self) -> float:
-        """N m the firmware means to make (and reports): the run mode's demand within its limits."""
+        """N m the firmware means to make (and reports): the run mode's demand within its limits.
+
+        In brake mode the windings are shorted: the back-EMF drives a current
+        that brakes the shaft, -K_EMF * speed (within +-12 N m).
+        """
+        if self.mode == MODE_BRAKE and not self._faults:
+            limit = D.CG_TORQUE_LIMIT_NM
+            return _clamp(-BACK_EMF_NM_S_PER_RAD * self.shaft.speed, -limit, limit)
         if self.mode != MODE_RUN or self._faults:
             return 0.0
         limit = min(self.params["limit_torque"], D.CG_TORQUE_LIMIT_NM)
@@ -233,14 +267,16 @@ class CyberGear(EmulatedDevice):
 
     def _speed_ref(self) -> float:
         p = self.params
-        if p["run_mode"] == 1:
-            return _clamp(p["loc_kp"] * (p["loc_ref"] - self.mech_pos), -p["limit_spd"], p["limit_spd"])
-        return _clamp(p["spd_ref"], -SPEED_LIMIT_RAD_S, SPEED_LIMIT_RAD_S)
+        if p["run_mode"] in (RUN_POSITION, RUN_ZERO):  # zero return: position mode towards 0 rad
+            target = p["loc_ref"] if p["run_mode"] == RUN_POSITION else 0.0
+            return _clamp(p["loc_kp"] * (target - self.mech_pos), -p["limit_spd"], p["limit_spd"])
+        speed = self._quick_move_rad_s if p["run_mode"] == RUN_QUICK_MOVE else p["spd_ref"]
+        return _clamp(speed, -SPEED_LIMIT_RAD_S, SPEED_LIMIT_RAD_S)
 
     def advance(self, dt_s: float, now_s: float) -> None:
         if not dt_s > 0.0:
             return
-        if self.mode == MODE_RUN and self.params["run_mode"] in (1, 2):
+        if self.mode == MODE_RUN and self.params["run_mode"] in SPEED_LOOP_MODES:
             limit = self.params["limit_cur"]
             err = self._speed_ref() - self.shaft.speed
             self._speed_integral_a = _clamp(
@@ -255,22 +291,38 @@ class CyberGear(EmulatedDevice):
     def _handle(self, msg: can.Message, now_s: float) -> list[can.Message]:
         if not msg.is_extended_id or not is_data_frame(msg):
             return []
-        can_id = msg.arbitration_id
-        if cg.target(can_id) != self.motor_id:
+        can_id, data = msg.arbitration_id, bytes(msg.data)
+        if cg.target(can_id) != self.motor_id or self._is_own_echo(can_id, data):
             return []
         ctype = cg.comm_type(can_id)
         handler = self._handlers.get(ctype)
-        if handler is None or (ctype in self._fixed_dlc and len(msg.data) != FULL_DLC):
+        if handler is None or (ctype in self._fixed_dlc and len(data) != FULL_DLC):
             return []
-        if ctype != cg.T_MOTION:
+        if ctype != cg.T_MOTION:  # type 1 has no sender field: only hosts send it
+            if not cg.sent_by_host(can_id, self.host_id):
+                return []  # another motor's reply to a host that shares this motor's id
             self.last_host = cg.request_host(can_id)
-        return handler(can_id, bytes(msg.data), now_s)
+        return self._remember(handler(can_id, data, now_s))
+
+    def _is_own_echo(self, can_id: int, data: bytes) -> bool:
+        """A frame this motor sent, heard back (an echoing transport): consumed, never answered."""
+        key = (can_id, data)
+        if key in self._sent:
+            self._sent.remove(key)
+            return True
+        return False
+
+    def _remember(self, frames: list[can.Message]) -> list[can.Message]:
+        for f in frames:
+            if cg.target(f.arbitration_id) == self.motor_id:  # only a self-addressed frame can come back as a request
+                self._sent.append((f.arbitration_id, bytes(f.data)))
+        return frames
 
     def _on_device_id(self, can_id: int, data: bytes, now_s: float) -> list[can.Message]:
         return [self._device_id_frame(now_s)]
 
     def _on_motion(self, can_id: int, data: bytes, now_s: float) -> list[can.Message]:
-        if self.mode == MODE_RUN and self.params["run_mode"] == 0:
+        if self.mode == MODE_RUN and self.params["run_mode"] == RUN_OPERATION:
             raw = self._lay.motion.decode_raw(data)
             pos, vel, kp, kd = self._lay.motion_fields
             self._motion = (pos.value(raw["PosRef"]), vel.value(raw["VelRef"]), kp.value(raw["Kp"]),
@@ -281,7 +333,7 @@ class CyberGear(EmulatedDevice):
         return [self._feedback_frame(self.last_host, now_s)]
 
     def _on_enable(self, can_id: int, data: bytes, now_s: float) -> list[can.Message]:
-        if not self._faults and self.mode != MODE_RUN:
+        if not self._faults and self.mode not in (MODE_RUN, MODE_CALI):  # brake -> run too
             self.mode = MODE_RUN
             self._motion = (0.0, 0.0, 0.0, 0.0, 0.0)
             self._speed_integral_a = 0.0
@@ -289,11 +341,34 @@ class CyberGear(EmulatedDevice):
 
     def _on_stop(self, can_id: int, data: bytes, now_s: float) -> list[can.Message]:
         self.mode = MODE_RESET
+        self._calibration_done_s = None  # a stop aborts a calibration
         self._motion = (0.0, 0.0, 0.0, 0.0, 0.0)
         self._speed_integral_a = 0.0
-        if self._lay.stop.decode_raw(data)["ClearFault"] == 1:
+        if self._lay.stop.decode_raw(data.ljust(FULL_DLC, b"\0"))["ClearFault"] == 1:
             self._faults = frozenset()
         return [self._feedback_frame(self.last_host, now_s)]
+
+    def _on_brake(self, can_id: int, data: bytes, now_s: float) -> list[can.Message]:
+        if not self._faults and self.mode in (MODE_RUN, MODE_RESET):
+            self.mode = MODE_BRAKE
+            self._speed_integral_a = 0.0
+        return [self._feedback_frame(self.last_host, now_s)]
+
+    def _on_calibrate(self, can_id: int, data: bytes, now_s: float) -> list[can.Message]:
+        if self.mode != MODE_CALI:
+            self.mode = MODE_CALI
+            self._calibration_done_s = now_s + CALIBRATION_S
+        return [self._feedback_frame(self.last_host, now_s)]
+
+    def _periodic(self, now_s: float) -> list[can.Message]:
+        """The one frame a CyberGear sends unasked: the type-5 calibration result, when it is done."""
+        if self._calibration_done_s is None or now_s < self._calibration_done_s:
+            return []
+        self._calibration_done_s = None
+        self.mode = MODE_RESET
+        self._faults = self._faults - {"FaultNotCalibrated"}
+        payload = self._lay.calibration.encode_raw({"ElecOffset": ELEC_OFFSET_RAD})
+        return [frame(cg.reply_id(cg.T_CALIBRATE, self.motor_id, self.last_host), payload, True, now_s)]
 
     def _on_set_zero(self, can_id: int, data: bytes, now_s: float) -> list[can.Message]:
         if self._lay.set_zero.decode_raw(data)["ZeroFlag"] == 1:
@@ -302,7 +377,7 @@ class CyberGear(EmulatedDevice):
 
     def _on_set_id(self, can_id: int, data: bytes, now_s: float) -> list[can.Message]:
         new_id = cg.set_id_new_id(can_id)
-        if new_id <= MAX_MOTOR_ID:
+        if new_id <= MAX_MOTOR_ID and (new_id != self.host_id or new_id == self.motor_id):
             self.motor_id = new_id
         return [self._device_id_frame(now_s)]
 
@@ -322,10 +397,31 @@ class CyberGear(EmulatedDevice):
 
     def _on_write(self, can_id: int, data: bytes, now_s: float) -> list[can.Message]:
         entry = self._lay.params.get(self._lay.index.decode_raw(data)["Index"])
-        if entry is not None and entry[0] not in READ_ONLY:
+        if entry is not None and entry[0] == "run_mode" and data[4] == RUN_QUICK_MOVE:
+            self._quick_move(self._lay.quick_move.decode(data))
+        elif entry is not None and entry[0] not in READ_ONLY:
             name, _, write_codec, _ = entry
             self._write_param(name, write_codec.decode_raw(data)[name], write_codec.signals[name])
         return [self._feedback_frame(self.last_host, now_s)]
+
+    def _on_table(self, can_id: int, data: bytes, now_s: float) -> list[can.Message]:
+        return self.table.dump(data, self.uid, self._live_table(), self.motor_id, self.last_host, now_s)
+
+    def _on_config_read(self, can_id: int, data: bytes, now_s: float) -> list[can.Message]:
+        return self.table.read(data, self._live_table(), self.motor_id, self.last_host, now_s)
+
+    def _on_config_write(self, can_id: int, data: bytes, now_s: float) -> list[can.Message]:
+        self.table.write(data)
+        return []
+
+    def _live_table(self) -> dict:
+        """Stored-table entries that are the motor's own state (docs/protocols.md, parameter table)."""
+        iq_a = self.firmware_torque() / D.CG_TORQUE_CONSTANT_NM_PER_A
+        return {"CAN_ID": self.motor_id, "CAN_MASTER": self.host_id,
+                "motorTemp": round(self.temperature_c * 10), "vBus_mv": round(self.vbus_v * 1000),
+                "VBUS": self.vbus_v, "v_bus": self.vbus_v, "rotation": self._read_param("rotation"),
+                "mechPos": self.mech_pos, "mechVel": self.shaft.speed, "iqf": iq_a, "iq": iq_a,
+                "torque_fdb": self.firmware_torque()}
 
     def _on_fault_poll(self, can_id: int, data: bytes, now_s: float) -> list[can.Message]:
         raw = {s: 0 for s in self._lay.fault_warn.signals}
@@ -335,6 +431,12 @@ class CyberGear(EmulatedDevice):
         raw["WarnOverTemp"] = int(self.warn_over_temp)
         payload = self._lay.fault_warn.encode_raw(raw)
         return [frame(cg.reply_id(cg.T_FAULT_WARN, self.motor_id, self.last_host), payload, True, now_s)]
+
+    def _quick_move(self, jog: dict) -> None:
+        """run_mode 7, the debugger's jog: taken in any mode (the public driver sends it enabled)."""
+        self.params["run_mode"] = RUN_QUICK_MOVE
+        speed = jog["Speed"] if jog["Run"] == 1 else 0.0
+        self._quick_move_rad_s = _clamp(speed, -SPEED_LIMIT_RAD_S, SPEED_LIMIT_RAD_S)
 
     # -- parameters --------------------------------------------------------------
     def _read_param(self, name: str):

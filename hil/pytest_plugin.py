@@ -138,16 +138,14 @@ class _RunCache:
             if reason:
                 pytest.skip(f"--can-interface socketcan: {reason}")
         from wheelleg.hil.commands.run import execute  # the rig (MuJoCo, emulators) only when used
-        from wheelleg.hil.record.rundata import load_run
 
         plant = [f"{k}={v!r}" for k, v in overrides]
         label = re.sub(r"[^A-Za-z0-9_.-]", "_", "-".join([f"{scenario}-seed{seed}-{duration or 'full'}s", *plant]))
         args = argparse.Namespace(scenario=scenario, out=self.out_dir / label, interface=self.interface,
                                   channels=",".join(self.channels), seed=seed, duration=duration,
                                   realtime=False, external_controller=False, no_plot=True, plant=plant)
-        outcome, results = execute(args)
+        outcome, results, data = execute(args)
         self.executed += 1
-        data = load_run(outcome.trace_path)
         return RigRun(**vars(data), trace_path=outcome.trace_path, log_path=outcome.log_path,
                       checks=list(results), scenario=scenario, ticks=outcome.ticks,
                       deadline_misses=outcome.deadline_misses)

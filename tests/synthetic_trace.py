@@ -14,7 +14,6 @@ heartbeat 500 Hz.
 """
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 
@@ -28,8 +27,10 @@ from wheelleg.controller.node import Controller, ControllerNode
 from wheelleg.dbc import cybergear as cg
 from wheelleg.dbc import truncating_raw
 from wheelleg.hil.record.candump import CandumpWriter
+from wheelleg.hil.bus.plant_bus import SimClock
 from wheelleg.hil.bus.recorder import Recorder
-from wheelleg.hil.analyze.bug_report import git_revision
+from wheelleg.hil.record.frame import Frame
+from wheelleg.hil.record.run_metadata import run_record
 from wheelleg.hil.analyze.replay import MemoryBus
 from wheelleg.hil.record.trace import TraceWriter
 
@@ -102,10 +103,8 @@ class Devices:
 
 
 def run_metadata(channels=("vcan0", "vcan1"), **extra) -> dict:
-    params = {k: v for k, v in vars(P).items() if k.isupper()}
-    run = {"scenario": "synthetic", "seed": "0", "control_period_s": repr(PERIOD),
-           "duration_s": "0", "interface": "virtual", "can1": channels[0], "can2": channels[1],
-           "git_revision": git_revision(), "controller_params": json.dumps(params, sort_keys=True, default=repr)}
+    run = run_record(scenario="synthetic", seed=0, control_period_s=PERIOD, duration_s=0,
+                     channels={"can1": channels[0], "can2": channels[1]})
     run.update(extra)
     return {"run": run}
 
@@ -119,16 +118,19 @@ class SyntheticRig:
     """Scripted devices + a real sync-mode ControllerNode, recorded at the plant side."""
 
     def __init__(self, trace_path: Path | None, log_path: Path | None, devices: Devices | None = None,
-                 channels=("vcan0", "vcan1"), metadata: dict | None = None, events: dict | None = None):
+                 channels=("vcan0", "vcan1"), metadata: dict | None = None, events: dict | None = None,
+                 trace: TraceWriter | None = None):
         self.names = {"can1": channels[0], "can2": channels[1]}
         self.devices = devices or Devices()
-        self.trace = None
+        self.trace = trace
         if trace_path is not None:
             self.trace = TraceWriter(trace_path, metadata=metadata or run_metadata(channels),
                                      attachments=attachments(),
                                      dbs={channels[0]: DB1, channels[1]: DB2}, flush_interval_s=None)
         self.log = CandumpWriter(log_path, flush_interval_s=None) if log_path is not None else None
-        self.recorder = Recorder(self.trace, self.log)
+        self.clock = SimClock()
+        self.recorder = Recorder([s for s in (self.trace, self.log) if s is not None], self.clock,
+                                 load_to=self.trace)
         self.buses = {"can1": MemoryBus("can1"), "can2": MemoryBus("can2")}
         self.node = ControllerNode(self.buses["can1"], self.buses["can2"], sync=True, period_s=PERIOD)
         self.events = events or {}  # tick -> (kind, fields)
@@ -141,10 +143,10 @@ class SyntheticRig:
 
     def step(self, tick: int) -> None:
         d, t = self.devices, tick * PERIOD
-        self.recorder.now_ns = round(t * 1e9)
+        self.clock.set_s(t)
         if tick in self.events and self.trace is not None:
             kind, fields = self.events[tick]
-            self.trace.event(self.recorder.now_ns, kind, **fields)
+            self.trace.event(self.clock.now_ns, kind, **fields)
         for msg in d.wheels(t) + d.imu(t) + d.remote(tick):
             self._put("can1", msg)
         sync = _std("SYNC", Tick=tick)
@@ -162,8 +164,8 @@ class SyntheticRig:
             for reply in d.joint_reply(msg, tick, t):
                 self._put("can2", reply)
         if self.trace is not None:
-            self.trace.sim_state(self.recorder.now_ns, _truth(d.pitch(t)))
-        self.recorder.now_ns = round((t + PERIOD / 2) * 1e9)
+            self.trace.sim_state(self.clock.now_ns, _truth(d.pitch(t)))
+        self.clock.set_s(t + PERIOD / 2)
         for msg in d.wheels(t + PERIOD / 2):  # the C620s' second feedback of the period (1 kHz)
             self._put("can1", msg)
 
@@ -232,6 +234,5 @@ def robot_log(path: Path, ticks: int, channels=("can0", "can1"), devices: Device
                 received(t_us, "can2", reply)
     with CandumpWriter(path, flush_interval_s=None) as log:
         for t_us, bus, msg in rows:
-            log.write(names[bus], t_us * 1000, msg.arbitration_id, msg.is_extended_id,
-                      bytes(msg.data[:msg.dlc]))
+            log.write(Frame.of(msg, names[bus], t_us * 1000))
     return modes

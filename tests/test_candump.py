@@ -11,7 +11,8 @@ import can.player
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from wheelleg.hil.record.candump import (CAN_ERR_BUSERROR, CAN_ERR_FLAG, CandumpWriter, LogFormatError, LogFrame,
+from wheelleg.hil.record.frame import Frame
+from wheelleg.hil.record.candump import (CAN_ERR_BUSERROR, CAN_ERR_FLAG, CandumpWriter, LogFormatError,
                          format_timestamp, read_candump)
 
 # (channel, t_ns, id, extended, data, kwargs)
@@ -33,10 +34,16 @@ EXPECTED_LINES = [
 ]
 
 
+def _frame(channel, t_ns, can_id, ext, data, is_error=False, *, is_remote=False, remote_dlc=0, is_fd=False,
+           fd_flags=0) -> Frame:
+    return Frame(t_ns, channel, can_id, ext, data, remote_dlc if is_remote else len(data), is_error=is_error,
+                 is_remote=is_remote, is_fd=is_fd, fd_flags=fd_flags)
+
+
 def _write(path, frames=FRAMES) -> None:
     with CandumpWriter(path) as log:
         for channel, t_ns, can_id, ext, data, kwargs in frames:
-            log.write(channel, t_ns, can_id, ext, data, **kwargs)
+            log.write(_frame(channel, t_ns, can_id, ext, data, **kwargs))
 
 
 def test_lines_are_candump_format(tmp_path):
@@ -126,7 +133,7 @@ def test_error_frame_without_class_gets_the_bus_error_class(tmp_path):
     """python-can only sees an error frame when CAN_ERR_BUSERROR is set."""
     path = tmp_path / "err.log"
     with CandumpWriter(path) as log:
-        log.write("can0", 0, 0, False, bytes(8), is_error=True)
+        log.write(_frame("can0", 0, 0, False, bytes(8), is_error=True))
     assert path.read_text() == "(0000000000.000000) can0 20000080#0000000000000000\n"
     assert next(iter(can.io.CanutilsLogReader(str(path)))).is_error_frame
     frame = next(iter(read_candump(path)))
@@ -185,8 +192,8 @@ def test_reader_handles_comments_dropcount_fd_error_rtr(tmp_path):
     reader = read_candump(path)
     frames = list(reader)
     assert [f.line_no for f in frames] == [2, 5, 6, 7, 8, 9, 12]
-    assert frames[0] == LogFrame(1_436_509_052_249_713_000, "can0", 0x123, False, bytes.fromhex("DEADBEEF"),
-                                 4, line_no=2)
+    assert frames[0] == Frame(1_436_509_052_249_713_000, "can0", 0x123, False, bytes.fromhex("DEADBEEF"),
+                              4, line_no=2)
     assert frames[1].is_remote and frames[1].is_extended and frames[1].dlc == 0
     assert frames[2].is_error and frames[2].arbitration_id == 4 and not frames[2].is_extended
     assert frames[3].is_fd and frames[3].fd_flags == 3 and len(frames[3].data) == 11
@@ -252,19 +259,19 @@ def test_a_last_line_cut_off_by_a_killed_writer_is_left_out(tmp_path):
 def test_writer_rejects_bad_frames(tmp_path, args, error):
     with CandumpWriter(tmp_path / "w.log") as log:
         with pytest.raises(ValueError, match=error):
-            log.write(*args)
+            log.write(_frame(*args))
     assert (tmp_path / "w.log").read_text() == ""
 
 
 def test_writer_rejects_float_time_and_bad_fd(tmp_path):
     with CandumpWriter(tmp_path / "w.log") as log:
         with pytest.raises(TypeError):
-            log.write("can0", 1.5e9, 0x100, False, b"")
+            log.write(_frame("can0", 1.5e9, 0x100, False, b""))
         with pytest.raises(ValueError, match="FD"):
-            log.write("can0", 0, 0x100, False, bytes(65), is_fd=True)
+            log.write(_frame("can0", 0, 0x100, False, bytes(65), is_fd=True))
         with pytest.raises(ValueError, match="remote"):
-            log.write("can0", 0, 0x100, False, b"", is_remote=True, remote_dlc=9)
-        log.write("can0", 0, 0x100, False, b"")
+            log.write(_frame("can0", 0, 0x100, False, b"", is_remote=True, remote_dlc=9))
+        log.write(_frame("can0", 0, 0x100, False, b""))
     with pytest.raises(ValueError, match="closed"):
-        log.write("can0", 0, 0x100, False, b"")
+        log.write(_frame("can0", 0, 0x100, False, b""))
     assert CAN_ERR_FLAG == 0x20000000

@@ -24,8 +24,9 @@ from wheelleg.emulators.c620 import C620
 from wheelleg.emulators.cybergear import CyberGear
 from wheelleg.emulators.imu import Imu
 
-REPLY_TYPE = {0: 0, 1: 2, 2: 2, 3: 2, 4: 2, 6: 2, 7: 0, 17: 17, 18: 2, 21: 21, 22: 0}  # docs/protocols.md, how the emulated CyberGear answers
-REPLY_MESSAGE = {0: "CG_DeviceId", 2: "CG_Feedback", 17: "CG_ParamRead", 21: "CG_FaultWarn"}
+REPLY_TYPE = {0: 0, 1: 2, 2: 2, 3: 2, 4: 2, 5: 2, 6: 2, 7: 0, 17: 17, 18: 2, 20: 2, 21: 21, 22: 0}  # docs/protocols.md, how the emulated CyberGear answers
+REPLY_MESSAGE = {0: "CG_DeviceId", 2: "CG_Feedback", 5: "CG_Calibration", 17: "CG_ParamRead", 21: "CG_FaultWarn"}
+UNASKED_TYPE = 5  # the only frame a CyberGear sends on its own: the calibration result
 PARAM_INDICES = sorted({i for s in load_file("cybergear.dbc").get_message_by_name("CG_ParamWrite").signals
                         for i in (s.multiplexer_ids or ())})
 NASTY_FLOATS = [math.nan, math.inf, -math.inf, 1e30, -1e30, 0.0, -0.0, 5e-324]
@@ -63,7 +64,8 @@ def random_frame(rng: random.Random, device) -> can.Message:
     return msg
 
 
-def check_reply(device, request: can.Message, reply: can.Message, now_s: float) -> None:
+def check_reply(device, request: can.Message | None, reply: can.Message, now_s: float) -> None:
+    """``request`` None: a frame the device sent on its own."""
     assert isinstance(reply, can.Message)
     assert reply.timestamp == now_s and not reply.is_rx
     assert not (reply.is_remote_frame or reply.is_error_frame or reply.is_fd)
@@ -71,7 +73,7 @@ def check_reply(device, request: can.Message, reply: can.Message, now_s: float) 
     if isinstance(device, CyberGear):
         assert reply.is_extended_id and 0 <= reply.arbitration_id < (1 << 29) and reply.dlc == 8
         parsed = cg.parse_reply_id(reply.arbitration_id)
-        assert parsed.ctype == REPLY_TYPE[cg.comm_type(request.arbitration_id)]
+        assert parsed.ctype == (UNASKED_TYPE if request is None else REPLY_TYPE[cg.comm_type(request.arbitration_id)])
         assert parsed.motor_id == device.motor_id
         db = load_file("cybergear_4pi.dbc" if device.position_range == "4pi" else "cybergear.dbc")
         db.get_message_by_name(REPLY_MESSAGE[parsed.ctype]).decode(reply.data)
@@ -98,7 +100,7 @@ def exercise(device, frames, dt_s: float = 0.0005) -> int:
         device.step_alone(dt_s, now + dt_s)
         now += dt_s
         for out in device.periodic(now):
-            check_reply(device, request, out, now)
+            check_reply(device, None if isinstance(device, CyberGear) else request, out, now)
         assert math.isfinite(device.shaft.angle) and math.isfinite(device.shaft.speed)
         assert math.isfinite(device.output_torque(now))
     assert device.internal_errors == 0

@@ -16,19 +16,12 @@ from wheelleg.emulators.imu import Imu, ImuNoise
 from wheelleg.emulators.remote import Remote
 from wheelleg.hil.run import faults
 from wheelleg.hil.bus.busload import frame_bits
+from wheelleg.hil.bus.frame_faults import BusFaults
+from wheelleg.hil.bus.plant_bus import SimClock
 
 DB1 = load_bus("can1")
 SYNC = DB1.get_message_by_name("SYNC")
 HEARTBEAT = DB1.get_message_by_name("Heartbeat")
-
-
-class StubBus:
-    """What BusFaults needs of a RecordingBus: ``hook`` and ``outbox_filter``."""
-
-    def __init__(self):
-        self.seen = []
-        self.hook = lambda channel, msg: self.seen.append(msg) or True
-        self.outbox_filter = None
 
 
 def fake_rig(seed: int = 0):
@@ -38,8 +31,9 @@ def fake_rig(seed: int = 0):
     devices["imu"] = Imu(noise=ImuNoise.none(), rng=np.random.default_rng(1))
     devices["remote"] = Remote()
     plant = SimpleNamespace(devices=devices, imu=devices["imu"])
-    return SimpleNamespace(plant=plant, plant_buses={"can1": StubBus(), "can2": StubBus()},
-                           recorder=SimpleNamespace(now_ns=0), config=SimpleNamespace(seed=seed))
+    clock = SimClock()
+    return SimpleNamespace(plant=plant, clock=clock, bus_faults={"can1": BusFaults(clock), "can2": BusFaults(clock)},
+                           config=SimpleNamespace(seed=seed))
 
 
 def apply(rig, actions, kind="start"):
@@ -57,8 +51,8 @@ def sync(t_s: float = 0.0) -> can.Message:
 
 
 def send(rig, bus: str, msg: can.Message, t_s: float) -> list:
-    rig.recorder.now_ns = round(t_s * 1e9)
-    return faults.BusFaults.of(rig, bus).outbound(msg)
+    rig.clock.set_s(t_s)
+    return rig.bus_faults[bus].outbound([msg])
 
 
 # -- device faults --------------------------------------------------------------------------
@@ -211,10 +205,10 @@ def test_frame_loss_per_id_spares_other_frames():
 def test_frame_loss_towards_the_devices_swallows_controller_frames():
     rig = fake_rig()
     apply(rig, faults.frame_loss("can1", 0.0, None, 1.0, direction=faults.TO_DEVICES))
-    layer = faults.BusFaults.of(rig, "can1")
-    assert layer.inbound("vcan0", std(0x200)) is False
+    layer = rig.bus_faults["can1"]
+    assert layer.inbound(std(0x200)) is False
     hb = std(HEARTBEAT.frame_id)
-    assert layer.inbound("vcan0", hb) is True  # the rig still sees the heartbeat
+    assert layer.inbound(hb) is True  # the rig still sees the heartbeat
     assert len(send(rig, "can1", std(0x201), 0.0)) == 1  # the other way is untouched
 
 
@@ -260,14 +254,14 @@ def test_bus_off_stops_everything_but_the_lockstep_both_ways():
     rig = fake_rig()
     acts = faults.bus_off("can2", 1.0, 0.1)
     assert apply(rig, acts)["bus"] == "can2"
-    layer = faults.BusFaults.of(rig, "can2")
+    layer = rig.bus_faults["can2"]
     assert send(rig, "can2", std(0x201), 1.0) == []
-    assert layer.inbound("vcan1", can.Message(arbitration_id=0x0100_0001, is_extended_id=True)) is False
+    assert layer.inbound(can.Message(arbitration_id=0x0100_0001, is_extended_id=True)) is False
     assert len(send(rig, "can2", sync(), 1.0)) == 1
     apply(rig, acts, "end")
     assert len(send(rig, "can2", std(0x201), 1.2)) == 1
     with pytest.raises(ValueError):
-        faults.BusFaults.of(rig, "can3")
+        faults.bus_off("can3", 1.0, 0.1)
 
 
 def test_babble_offers_its_share_of_the_bus():
@@ -282,8 +276,8 @@ def test_babble_offers_its_share_of_the_bus():
 def test_arbitration_sends_in_priority_order_and_drops_what_waits_too_long():
     rig = fake_rig()
     apply(rig, faults.arbitration("can1", 0.0, None, max_wait_s=0.001))
-    layer = faults.BusFaults.of(rig, "can1")
-    layer.inbound("vcan0", std(0x200))  # the controller's frame holds the wire first
+    layer = rig.bus_faults["can1"]
+    layer.inbound(std(0x200))  # the controller's frame holds the wire first
     assert send(rig, "can1", std(0x300, 0.0), 0.0) == []
     assert send(rig, "can1", std(0x100, 0.0), 0.0) == []
     out = send(rig, "can1", sync(0.0005), 0.0005)

@@ -9,7 +9,7 @@ from wheelleg.hil.record.candump import CandumpWriter
 from wheelleg.hil.cli import main
 from wheelleg.hil.analyze.inspect_trace import summarize
 from wheelleg.hil.analyze.replay import build_schedule
-from wheelleg.hil.record.sources import open_trace
+from wheelleg.hil.record.sources import open_recording
 from synthetic_trace import PERIOD, POSE, REMOTE_EVERY, Devices, SyntheticRig, robot_log
 
 TICKS = 200
@@ -102,14 +102,14 @@ def test_robot_log_late_and_skipped_ticks(tmp_path):
     path = tmp_path / "robot.log"
     robot_log(path, 80)
     assert summarize(path).deadline_misses == []
-    source = open_trace(path)
+    source = open_recording(path)
     step = build_schedule(source).steps[40]
     assert step.tick == 40
     skipped = set(step.expected["can1"] + step.expected["can2"])  # the controller skipped tick 40
     with CandumpWriter(path) as log:
         for i, f in enumerate(source.frames):
             if i not in skipped:
-                log.write(f.channel, f.t_ns, f.arbitration_id, f.is_extended, f.data)
+                log.write(f)
     misses = summarize(path).deadline_misses
     assert len(misses) == 1 and "tick 41 came" in misses[0].text and "(1 skipped)" in misses[0].text
 

@@ -63,7 +63,8 @@ import numpy as np  # noqa: E402
 from wheelleg.dbc import load_file  # noqa: E402
 from wheelleg.emulators import cybergear  # noqa: E402
 from wheelleg.emulators.physics import Physics, euler_zyx  # noqa: E402
-from wheelleg.emulators.plant import CAN1, CAN2, Plant  # noqa: E402
+from wheelleg.dbc import CAN1, CAN2  # noqa: E402
+from wheelleg.emulators.plant import Plant  # noqa: E402
 from wheelleg.emulators.robot import description as D  # noqa: E402
 
 C620_DB = load_file("c620.dbc")
@@ -207,14 +208,14 @@ def _run(out, plant: list[str]):
 
     args = argparse.Namespace(scenario="balance", out=out, interface="virtual", channels="vcan0,vcan1", seed=3,
                               duration=0.4, realtime=False, external_controller=False, no_plot=True, plant=plant)
-    outcome, _ = execute(args)
+    outcome, _, _ = execute(args)
     return outcome
 
 
 def test_a_run_records_its_overrides_and_replays_identically(tmp_path):
     from wheelleg.hil.analyze.bug_report import plant_overrides, rerun_command
     from wheelleg.hil.analyze.replay import replay
-    from wheelleg.hil.record.sources import open_trace
+    from wheelleg.hil.record.sources import open_recording as open_trace
 
     changed = _run(tmp_path / "changed", ["com_x_m=0.02", "feedback_delay_s=0.002", "supply_voltage_v=24"])
     nominal = _run(tmp_path / "nominal", [])

@@ -20,7 +20,7 @@ from wheelleg.hil.analyze.bug_report import bug_report_gaps, environment_warning
 from wheelleg.hil.analyze.replay import MemoryBus, default_tolerances, parse_tolerance, replay
 from wheelleg.hil.analyze.update import write_reference
 from wheelleg.hil.record.trace import TraceReader, TraceWriter
-from wheelleg.hil.record.sources import open_trace, sent_by_controller
+from wheelleg.hil.record.sources import open_recording, sent_by_controller
 from synthetic_trace import SyntheticRig, attachments, robot_log, run_metadata
 
 TICKS = 150
@@ -92,7 +92,7 @@ def test_robot_log_replays_identical_in_free_run(robot, capsys):
 
 
 def test_controller_frames_come_from_dbc_senders(rig):
-    source = open_trace(rig[1])
+    source = open_recording(rig[1])
     ours = [f for f in source.frames if sent_by_controller(f)]
     assert {f.arbitration_id for f in ours if not f.is_extended} == {0x200, 0x710}
     assert {cg.comm_type(f.arbitration_id) for f in ours if f.is_extended} <= {
@@ -217,10 +217,9 @@ def test_log_cut_inside_a_tick_replays_up_to_the_cut(robot, tmp_path, capsys):
 
 def test_killed_trace_replays_what_it_holds(tmp_path, capsys):
     path = tmp_path / "killed.mcap"
-    rig = SyntheticRig(None, None)
-    rig.trace = TraceWriter(path, metadata=run_metadata(), attachments=attachments(), chunk_span_s=0.02,
-                            dbs={"vcan0": dbc.load_bus("can1"), "vcan1": dbc.load_bus("can2")})
-    rig.recorder.trace = rig.trace
+    trace = TraceWriter(path, metadata=run_metadata(), attachments=attachments(), chunk_span_s=0.02,
+                        dbs={"vcan0": dbc.load_bus("can1"), "vcan1": dbc.load_bus("can2")})
+    rig = SyntheticRig(None, None, trace=trace)
     rig.run(100)
     data = path.read_bytes()
     path.write_bytes(data[:len(data) * 2 // 3])  # what a killed writer leaves: no summary, no footer
@@ -251,9 +250,9 @@ def test_unknown_channel_needs_explicit_channels(robot, tmp_path, capsys):
 def test_log_without_controller_frames(robot, tmp_path, capsys):
     path = tmp_path / "inputs.log"
     with CandumpWriter(path) as log:
-        for f in open_trace(robot).frames:
+        for f in open_recording(robot).frames:
             if not sent_by_controller(f):
-                log.write(f.channel, f.t_ns, f.arbitration_id, f.is_extended, f.data)
+                log.write(f)
     assert main(["replay", str(path)]) == 2
     assert "no controller frames" in capsys.readouterr().err
 
@@ -307,7 +306,7 @@ def test_update_writes_a_reference_the_changed_controller_matches(rig, which, tm
         assert main(["replay", str(out)]) == 0
     assert main(["replay", str(out)]) == 1  # the original controller no longer matches the new reference
     capsys.readouterr()
-    old, new = open_trace(path), open_trace(out)
+    old, new = open_recording(path), open_recording(out)
     assert len(new.frames) == len(old.frames)
     inputs = lambda src: [(f.bus, f.arbitration_id, f.data) for f in src.frames if not sent_by_controller(f)]
     assert inputs(new) == inputs(old)
@@ -326,8 +325,8 @@ def test_update_needs_kept_frames(rig, tmp_path):
 
 # -- the trace as a bug report -----------------------------------------------------------------------
 def test_rig_trace_carries_what_replay_needs(rig, robot):
-    assert bug_report_gaps(open_trace(rig[1])) == []
-    assert "candump log carries no DBC" in bug_report_gaps(open_trace(robot))[0]
+    assert bug_report_gaps(open_recording(rig[1])) == []
+    assert "candump log carries no DBC" in bug_report_gaps(open_recording(robot))[0]
 
 
 def test_replay_warns_about_dbc_revision_and_parameter_differences(tmp_path, monkeypatch, capsys):
@@ -335,15 +334,14 @@ def test_replay_warns_about_dbc_revision_and_parameter_differences(tmp_path, mon
     del meta["run"]["seed"]
     files = [(n, d + b"\n" if n == "rig.dbc" else d, t) for n, d, t in attachments() if n != "robot.xml"]
     path = tmp_path / "old.mcap"
-    rig = SyntheticRig(None, None)
-    rig.trace = TraceWriter(path, metadata=meta, attachments=files,
-                            dbs={"vcan0": dbc.load_bus("can1"), "vcan1": dbc.load_bus("can2")})
-    rig.recorder.trace = rig.trace
+    trace = TraceWriter(path, metadata=meta, attachments=files,
+                        dbs={"vcan0": dbc.load_bus("can1"), "vcan1": dbc.load_bus("can2")})
+    rig = SyntheticRig(None, None, trace=trace)
     rig.run(40)
-    gaps = bug_report_gaps(open_trace(path))
+    gaps = bug_report_gaps(open_recording(path))
     assert "run metadata 'seed'" in gaps and "MJCF attachment (*.xml)" in gaps
     monkeypatch.setattr(P, "ROLL_KD", P.ROLL_KD + 1.0)
-    warnings = "\n".join(environment_warnings(open_trace(path)))
+    warnings = "\n".join(environment_warnings(open_recording(path)))
     assert "rig.dbc differs from the installed dbc/rig.dbc" in warnings
     assert "0123456789ab" in warnings and "ROLL_KD" in warnings
     assert main(["replay", str(path)]) in (0, 1)
@@ -371,7 +369,7 @@ def rig_trace(tmp_path_factory):
     out = tmp_path_factory.mktemp("rig")
     args = argparse.Namespace(scenario="balance", out=out, interface="virtual", channels="vcan0,vcan1",
                               seed=3, duration=0.3, realtime=False, external_controller=False, no_plot=True)
-    outcome, _ = execute(args)
+    outcome, _, _ = execute(args)
     return outcome.trace_path, outcome.log_path
 
 

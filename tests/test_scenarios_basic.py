@@ -13,7 +13,8 @@ def run_scenario(name: str, out: Path, seed: int = 0, duration=None):
     args = argparse.Namespace(scenario=name, out=out, interface="virtual", channels="vcan0,vcan1",
                               seed=seed, duration=duration, realtime=False, external_controller=False,
                               no_plot=True)
-    return execute(args)
+    outcome, results, _ = execute(args)
+    return outcome, results
 
 
 @pytest.mark.parametrize("name", BASIC)

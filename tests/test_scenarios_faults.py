@@ -77,7 +77,7 @@ def test_a_controller_exception_is_an_event_and_fails_the_alive_check(tmp_path, 
     monkeypatch.setattr(Controller, "tick", tick)
     args = argparse.Namespace(scenario="offline-joint", out=tmp_path, interface="virtual", channels="vcan0,vcan1",
                               seed=0, duration=0.3, realtime=False, external_controller=False, no_plot=True)
-    outcome, results = execute(args)
+    outcome, results, _ = execute(args)
     crash = load_run(outcome.trace_path).events_of("controller_exception")
     assert len(crash) == 1 and crash[0]["tick"] == 100 and "ZeroDivisionError: injected" in crash[0]["error"]
     assert outcome.deadline_misses == 150 - 100

@@ -26,8 +26,8 @@ def test_balance_over_vcan_logs_the_same_bytes_as_over_virtual(tmp_path):
     reason = vcan.unavailable_reason()
     if reason is not None:
         pytest.fail(reason)
-    virtual, virtual_checks = _run("virtual", tmp_path / "virtual")
-    real, real_checks = _run("socketcan", tmp_path / "socketcan")
+    virtual, virtual_checks, _ = _run("virtual", tmp_path / "virtual")
+    real, real_checks, _ = _run("socketcan", tmp_path / "socketcan")
     assert real.deadline_misses == 0 and virtual.deadline_misses == 0
     expected, got = virtual.log_path.read_bytes(), real.log_path.read_bytes()
     assert len(expected) > 50_000  # ~1000 ticks of traffic, not an empty log

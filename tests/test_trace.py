@@ -17,7 +17,8 @@ from mcap.reader import make_reader
 from wheelleg import dbc
 from wheelleg.dbc import cybergear as cg
 from wheelleg.hil.record import schemas
-from wheelleg.hil.record.trace import Frame, TraceReader, TraceWriter
+from wheelleg.hil.record.frame import Frame
+from wheelleg.hil.record.trace import TraceReader, TraceWriter
 from wheelleg.hil.record.decode import FrameDecoder
 
 REPO = Path(__file__).resolve().parents[1]
@@ -58,9 +59,9 @@ def _frames() -> list[Frame]:
     ]
     for k in range(20):
         for channel, can_id, ext, data in rows:
-            out.append(Frame(channel, t, can_id, ext, len(data), data))
+            out.append(Frame(t, channel, can_id, ext, data, len(data)))
             t += 37_000 + k
-    out.append(Frame("can1", t, 0x80, False, 8, bytes(8), is_error=True))
+    out.append(Frame(t, "can1", 0x80, False, bytes(8), 8, is_error=True))
     return out
 
 
@@ -74,8 +75,7 @@ def _write(path: Path, frames, decode: bool = True, **options) -> None:
     with TraceWriter(path, metadata=METADATA, attachments=ATTACHMENTS, dbs=DBS, decode=decode,
                      **options) as trace:
         for i, f in enumerate(frames):
-            trace.frame(f.channel, f.t_ns, f.arbitration_id, f.is_extended, f.dlc, f.data,
-                        is_error=f.is_error)
+            trace.frame(f)
             if i % 10 == 0:
                 trace.sim_state(f.t_ns, _state(i))
         trace.event(5_000, "push", force_n=12.5, body="base")
@@ -254,16 +254,16 @@ def test_bad_input_gets_clear_errors(tmp_path):
     with pytest.raises(TypeError, match="pitch"):
         trace.sim_state(0, {**{k: 0.0 for k in STATE_KEYS}, "pitch": "up"})
     with pytest.raises(ValueError, match="t_ns"):
-        trace.frame("can1", -5, 0x100, False, 0, b"")
+        trace.frame(Frame(-5, "can1", 0x100, False, b"", 0))
     with pytest.raises(ValueError, match="topic"):
         trace.message("/sim/state", 0, {"a": 1}, "X")
     with pytest.raises(ValueError, match="kind"):
         trace.event(0, "")
     with pytest.raises(ValueError, match="channel"):
-        trace.frame("can 1", 0, 0x100, False, 0, b"")
+        trace.frame(Frame(0, "can 1", 0x100, False, b"", 0))
     trace.finish()
     with pytest.raises(RuntimeError, match="finished"):
-        trace.frame("can1", 0, 0x100, False, 0, b"")
+        trace.frame(Frame(0, "can1", 0x100, False, b"", 0))
     with pytest.raises(TypeError, match="seed"):
         TraceWriter(tmp_path / "m.mcap", metadata={"run": {"seed": 1}})
     assert TraceReader(tmp_path / "bad.mcap").truncated is False
@@ -271,6 +271,7 @@ def test_bad_input_gets_clear_errors(tmp_path):
 
 _KILLED_WRITER = textwrap.dedent("""
     import sys, time
+    from wheelleg.hil.record.frame import Frame
     from wheelleg.hil.record.trace import TraceWriter
     mode, path = sys.argv[1], sys.argv[2]
     if mode == "bus-time":  # bus time runs at about real time: chunks close on their span
@@ -284,7 +285,7 @@ _KILLED_WRITER = textwrap.dedent("""
     trace.start()
     t0, n = time.monotonic(), 0
     while True:
-        trace.frame("can1", n * step_ns, 0x123, False, 8, n.to_bytes(8, "little"))
+        trace.frame(Frame(n * step_ns, "can1", 0x123, False, n.to_bytes(8, "little"), 8))
         n += 1
         if n % per_report == 0:
             print(f"{n} {n * step_ns} {time.monotonic() - t0:.6f}", flush=True)

@@ -21,6 +21,7 @@ import can
 import pytest
 
 from wheelleg.hil.bus import vcan
+from wheelleg.hil.record.frame import Frame
 
 import vcan_helpers
 from wheelleg.hil.commands import vcan as vcan_command
@@ -238,7 +239,7 @@ def test_candump_capture_reads_back_as_our_own_log(real_vcan, tmp_path):
     own_log = tmp_path / "own.log"
     with candump.CandumpWriter(own_log) as writer:
         for i, msg in enumerate(sent):
-            writer.write("vcan0", i * 1000, msg.arbitration_id, msg.is_extended_id, bytes(msg.data))
+            writer.write(Frame.of(msg, "vcan0", i * 1000))
     ours = list(candump.CandumpReader(own_log))
 
     def fields(f):
@@ -260,8 +261,7 @@ def test_canplayer_replays_a_rig_log(real_vcan, tmp_path, log_channel, target):
     log = tmp_path / "rig.log"
     with candump.CandumpWriter(log) as writer:
         for i, msg in enumerate(sent):  # 1 ms apart: canplayer keeps the log's timing
-            writer.write(log_channel, 1_700_000_000_000_000_000 + i * 1_000_000,
-                         msg.arbitration_id, msg.is_extended_id, bytes(msg.data))
+            writer.write(Frame.of(msg, log_channel, 1_700_000_000_000_000_000 + i * 1_000_000))
     with vcan_helpers.open_bus(target) as rx:
         done = subprocess.run(["canplayer", "-I", str(log), f"{target}={log_channel}"],
                               capture_output=True, text=True, timeout=60)

@@ -18,7 +18,7 @@ from collections import defaultdict
 from wheelleg.dbc import cybergear as cg
 from wheelleg.dbc import load_bus
 from wheelleg.hil.bus.busload import DEFAULT_BITRATE, frame_bits
-from wheelleg.hil.record.trace import TraceReader
+from wheelleg.hil.record.sources import Recording, open_recording
 
 _DB1 = load_bus("can1")
 _SYNC_KIND = f"0x{_DB1.get_message_by_name('SYNC').frame_id:03X}"
@@ -39,17 +39,15 @@ def follows_the_loop(arbitration_id: int, is_extended: bool) -> bool:
     return is_extended or arbitration_id in _LOOP_STD_IDS
 
 
-def measure(reader: TraceReader, t0_s: float, t1_s: float) -> dict:
-    """channel -> kind -> (frames/s, mean wire bits, follows the loop) over [t0_s, t1_s)."""
-    meta = reader.metadata.get("run", {})
-    names = {meta.get("can1", "vcan0"): "can1", meta.get("can2", "vcan1"): "can2"}
+def measure(recording: Recording, t0_s: float, t1_s: float) -> dict:
+    """bus -> kind -> (frames/s, mean wire bits, follows the loop) over [t0_s, t1_s)."""
     bits = defaultdict(lambda: defaultdict(list))
     loop = {}
-    for frame in reader.frames():
+    for frame in recording.frames:
         if not t0_s * 1e9 <= frame.t_ns < t1_s * 1e9 or frame.is_error:
             continue
         kind = frame_kind(frame.arbitration_id, frame.is_extended)
-        bus = names.get(frame.channel, frame.channel)
+        bus = frame.bus or frame.channel
         bits[bus][kind].append(frame_bits(frame.arbitration_id, frame.is_extended, bytes(frame.data)))
         loop[kind] = follows_the_loop(frame.arbitration_id, frame.is_extended)
     span = t1_s - t0_s
@@ -74,14 +72,14 @@ def main(argv=None) -> int:
     parser.add_argument("--rates", type=float, nargs="+", default=[500.0, 1000.0], help="control rates to show")
     args = parser.parse_args(argv)
     try:
-        reader = TraceReader(args.trace)
-        t_end = reader.sim_state().get("t", [])
+        recording = open_recording(args.trace, strict=False)
+        t_end = recording.trace.sim_state().get("t", []) if recording.trace is not None else []
     except Exception as exc:  # noqa: BLE001 - any unreadable file: say so, no traceback
         parser.error(f"cannot read {args.trace}: {exc}")
     if not len(t_end):
         parser.error(f"{args.trace}: no /sim/state (not a rig trace)")
     t1 = float(t_end[-1]) - 0.1 if args.t1 is None else args.t1
-    table = measure(reader, args.t0, t1)
+    table = measure(recording, args.t0, t1)
     for bus in sorted(table):
         kinds = table[bus]
         print(f"{bus}:")

@@ -11,20 +11,10 @@ runs today's controller with today's DBC files.
 from __future__ import annotations
 
 import json
-import subprocess
-from pathlib import Path
 
 from wheelleg import dbc
-from wheelleg.controller import params as P
-from wheelleg.hil.record.sources import TraceSource
-
-RUN_KEYS = ("scenario", "seed", "control_period_s", "git_revision", "controller_params", "can1", "can2")
-
-
-def current_params() -> dict:
-    """The controller's tuning as the rig records it (``run.controller_params``)."""
-    params = {k: v for k, v in vars(P).items() if k.isupper()}
-    return json.loads(json.dumps(params, sort_keys=True, default=repr))
+from wheelleg.hil.record.run_metadata import REPLAY_KEYS, current_params, git_revision
+from wheelleg.hil.record.sources import Recording
 
 
 def plant_overrides(run: dict) -> dict[str, float]:
@@ -45,28 +35,19 @@ def rerun_command(run: dict) -> str:
     return " ".join(parts)
 
 
-def git_revision(cwd: Path | None = None) -> str:
-    try:
-        out = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True,
-                             cwd=cwd or Path(__file__).parent, timeout=5)
-        return out.stdout.strip() or "unknown"
-    except (OSError, subprocess.SubprocessError):
-        return "unknown"
-
-
-def bug_report_gaps(source: TraceSource) -> list[str]:
+def bug_report_gaps(source: Recording) -> list[str]:
     """What the trace lacks to be replayed on another machine ([] for a complete rig trace)."""
     if source.kind != "mcap":
         return ["a candump log carries no DBC files, MJCF, parameters, scenario, seed or revision: "
                 "replay uses what is installed here"]
-    gaps = [f"run metadata '{key}'" for key in RUN_KEYS if not source.run.get(key)]
+    gaps = [f"run metadata '{key}'" for key in REPLAY_KEYS if not source.run.get(key)]
     gaps += [f"attachment {p.name}" for p in dbc.all_dbc_files() if p.name not in source.attachments]
     if not any(name.endswith(".xml") for name in source.attachments):
         gaps.append("MJCF attachment (*.xml)")
     return gaps
 
 
-def environment_warnings(source: TraceSource) -> list[str]:
+def environment_warnings(source: Recording) -> list[str]:
     """Where this machine differs from the one that recorded: DBC files, revision, parameters."""
     out = [f"trace lacks {gap}" for gap in bug_report_gaps(source)] if source.kind == "mcap" else []
     installed = {p.name: p for p in dbc.all_dbc_files()}
@@ -86,7 +67,7 @@ def environment_warnings(source: TraceSource) -> list[str]:
     return out
 
 
-def _param_warnings(source: TraceSource) -> list[str]:
+def _param_warnings(source: Recording) -> list[str]:
     text = source.run.get("controller_params")
     if not text:
         return []

@@ -23,8 +23,9 @@ from wheelleg.controller.modes import Mode
 from wheelleg.dbc import cybergear as cg
 from wheelleg.hil.bus.busload import DEFAULT_BITRATE, frame_bits
 from wheelleg.hil.record.decode import FrameDecoder
-from wheelleg.hil.record.sources import (CAN1, DBS, HEARTBEAT, BusFrame, TraceSource, is_heartbeat, is_sync,
-                              open_trace, sync_tick)
+from wheelleg.hil.record.frame import Frame
+from wheelleg.hil.record.sources import (CAN1, DBS, HEARTBEAT, Recording, is_heartbeat, is_sync,
+                              open_recording, sync_tick)
 
 _FAULT_PREFIXES = ("Fault", "Warn")
 
@@ -87,7 +88,7 @@ class TraceSummary:
         return rows[0].rate_hz
 
 
-def _id_key(frame: BusFrame, plan) -> tuple[str, str, bool]:
+def _id_key(frame: Frame, plan) -> tuple[str, str, bool]:
     """(id label, message label, is a CyberGear reply): CyberGear per type and motor, others per id."""
     if frame.is_extended and plan is not None:
         ident = f"0x{cg.canonical_id(frame.arbitration_id):08X}"
@@ -103,7 +104,7 @@ def _id_key(frame: BusFrame, plan) -> tuple[str, str, bool]:
 class _Pass:
     """One pass over the frames, collecting every figure."""
 
-    def __init__(self, source: TraceSource, bitrate: int, window_s: float):
+    def __init__(self, source: Recording, bitrate: int, window_s: float):
         self.source, self.bitrate, self.window_ns = source, bitrate, max(int(window_s * 1e9), 1)
         self.t0 = min((f.t_ns for f in source.frames), default=0)
         self.decoder = FrameDecoder({name: DBS[role] for role, name in source.channels.items()})
@@ -135,7 +136,7 @@ class _Pass:
                 self._values(f, plan.name, label, values, reply)
             self._clock(f)
 
-    def _values(self, f: BusFrame, name: str, label: str, values: dict, reply: bool) -> None:
+    def _values(self, f: Frame, name: str, label: str, values: dict, reply: bool) -> None:
         for signal, value in values.items():
             if not isinstance(value, (int, float)) or not math.isfinite(value):
                 continue
@@ -154,12 +155,12 @@ class _Pass:
                 if value:
                     self._command(f, f"{signal} (A)", value)
 
-    def _command(self, f: BusFrame, label: str, value: float) -> None:
+    def _command(self, f: Frame, label: str, value: float) -> None:
         t, v = self.commands[label]
         t.append((f.t_ns - self.t0) / 1e9)
         v.append(value)
 
-    def _cybergear_faults(self, f: BusFrame, label: str, values: dict) -> None:
+    def _cybergear_faults(self, f: Frame, label: str, values: dict) -> None:
         for signal, value in values.items():
             if not signal.startswith(_FAULT_PREFIXES):
                 continue
@@ -171,7 +172,7 @@ class _Pass:
                                            f"{f.channel} {label}: {signal} {state}"))
             self.fault_state[key] = value
 
-    def _clock(self, f: BusFrame) -> None:
+    def _clock(self, f: Frame) -> None:
         """Heartbeats and SYNCs of one interface (CAN1's, else the first with a heartbeat)."""
         if self.hb_channel is None and is_heartbeat(f):
             self.hb_channel = f.channel
@@ -199,7 +200,7 @@ def _heartbeat_findings(rows: list) -> list[Finding]:
     return out
 
 
-def _deadline_findings(p: _Pass, source: TraceSource, period_s: float) -> list[Finding]:
+def _deadline_findings(p: _Pass, source: Recording, period_s: float) -> list[Finding]:
     out = [Finding(e["t"] - p.t0 / 1e9, "deadline", f"deadline miss (tick {e.get('tick', '?')})")
            for e in source.events if e.get("kind") == "deadline_miss"]
     answered = {tick for tick, _ in p.hb_ticks}
@@ -221,8 +222,8 @@ def _deadline_findings(p: _Pass, source: TraceSource, period_s: float) -> list[F
 def summarize(path_or_source, *, bitrate: int = DEFAULT_BITRATE, window_s: float = 0.1,
               channels: dict | None = None, period_s: float = 0.002) -> TraceSummary:
     """Read a trace or log and compute everything ``wheelleg inspect`` prints."""
-    source = path_or_source if isinstance(path_or_source, TraceSource) else \
-        open_trace(path_or_source, channels, strict=False)
+    source = path_or_source if isinstance(path_or_source, Recording) else \
+        open_recording(path_or_source, channels, strict=False)
     p = _Pass(source, bitrate, window_s)
     p.run()
     duration = source.duration_s
@@ -267,7 +268,7 @@ def _event_text(event: dict) -> str:
     return f"event {event.get('kind')}" + (f" ({fields})" if fields else "")
 
 
-def _notes(source: TraceSource) -> list[str]:
+def _notes(source: Recording) -> list[str]:
     notes = []
     if source.drops:
         notes.append(f"{sum(d.dropped for d in source.drops)} frame(s) lost in {len(source.drops)} "

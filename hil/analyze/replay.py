@@ -38,9 +38,10 @@ from wheelleg.controller.modes import Mode
 from wheelleg.controller.node import Controller, ControllerNode
 from wheelleg.hil.analyze.bug_report import environment_warnings, plant_overrides, rerun_command
 from wheelleg.hil.record.decode import FrameDecoder
-from wheelleg.hil.record.sources import (CAN1, CAN2, CONTROLLER_NODES, DBS, HEARTBEAT, ROLES, BusFrame,
-                              TraceError, TraceSource, heartbeat_tick, is_heartbeat, is_sync,
-                              open_trace, sent_by_controller)
+from wheelleg.hil.record.frame import Frame
+from wheelleg.hil.record.sources import (CAN1, CAN2, CONTROLLER_NODES, DBS, HEARTBEAT, ROLES,
+                              TraceError, Recording, heartbeat_tick, is_heartbeat, is_sync,
+                              open_recording, sent_by_controller)
 
 _DECODER = FrameDecoder(DBS)
 _START_MODES = (Mode.IDLE, Mode.ESTOP)  # what a fresh controller can report on its first tick
@@ -73,8 +74,8 @@ class TickStep:
 
     tick: int  # heartbeat Tick in the recording
     t_ns: int  # recording time of the tick's first controller frame
-    inputs: list[BusFrame]
-    expected: dict[str, list[int]]  # role -> indices into TraceSource.frames (heartbeat last)
+    inputs: list[Frame]
+    expected: dict[str, list[int]]  # role -> indices into Recording.frames (heartbeat last)
 
 
 @dataclass
@@ -86,7 +87,7 @@ class Schedule:
     notes: list[str] = field(default_factory=list)
 
 
-def _groups(frames: list[BusFrame]):
+def _groups(frames: list[Frame]):
     """Per role: [(tick, [frame indices])] closed by each heartbeat; inputs; leftovers."""
     groups = {r: [] for r in ROLES}
     pending = {r: [] for r in ROLES}
@@ -102,7 +103,7 @@ def _groups(frames: list[BusFrame]):
     return groups, inputs, pending
 
 
-def _check_pairing(source: TraceSource, groups: dict) -> list[str]:
+def _check_pairing(source: Recording, groups: dict) -> list[str]:
     """Raise unless both buses show the same heartbeat ticks; trims a last tick cut off by the file's end."""
     if not groups[CAN1] and not groups[CAN2]:
         raise TraceError(f"{source.path}: no controller frames (DBC senders {sorted(CONTROLLER_NODES)}, "
@@ -142,9 +143,9 @@ def _check_pairing(source: TraceSource, groups: dict) -> list[str]:
 BACKSTEP_LIMIT_NS = 100_000_000
 
 
-def _check_order(source: TraceSource) -> list[str]:
+def _check_order(source: Recording) -> list[str]:
     """Raise on time going backwards on an interface; notes for small reordering steps."""
-    last: dict[str, BusFrame] = {}
+    last: dict[str, Frame] = {}
     worst, count = 0, 0
     for f in source.frames:
         prev = last.get(f.channel)
@@ -161,7 +162,7 @@ def _check_order(source: TraceSource) -> list[str]:
             "(the writer logged them in the order the controller read them); replay keeps the file order"]
 
 
-def _check_drops(source: TraceSource) -> None:
+def _check_drops(source: Recording) -> None:
     if not source.drops:
         return
     d = source.drops[0]
@@ -173,13 +174,13 @@ def _check_drops(source: TraceSource) -> None:
                      "past that point (--allow-drops replays anyway)")
 
 
-def detect_mode(source: TraceSource) -> str:
+def detect_mode(source: Recording) -> str:
     """'sync' when SYNC frames reach the controller on both buses, else 'free-run'."""
     seen = {f.bus for f in source.frames if is_sync(f) and not sent_by_controller(f)}
     return "sync" if seen >= set(ROLES) else "free-run"
 
 
-def build_schedule(source: TraceSource, mode: str | None = None, allow_drops: bool = False) -> Schedule:
+def build_schedule(source: Recording, mode: str | None = None, allow_drops: bool = False) -> Schedule:
     """Split the recording into ticks; raises ``TraceError`` when it cannot be replayed."""
     if not allow_drops:
         _check_drops(source)
@@ -298,7 +299,7 @@ def _tolerance(tolerances: dict, message: str, signal: str) -> float:
     return tolerances.get(f"{message}.{signal}", tolerances.get(signal, 0.0))
 
 
-def _frame_difference(role: str, exp: BusFrame | None, got: can.Message | None, tolerances: dict):
+def _frame_difference(role: str, exp: Frame | None, got: can.Message | None, tolerances: dict):
     """(signal, expected, got, tolerance, unit, message name) of the first mismatch, or None."""
     if exp is None:
         name, _ = _decode(role, got.arbitration_id, got.is_extended_id, bytes(got.data))
@@ -336,7 +337,7 @@ def _ident(arbitration_id: int, extended: bool) -> str:
 # -- replaying -------------------------------------------------------------------------------
 @dataclass
 class ReplayResult:
-    source: TraceSource
+    source: Recording
     schedule: Schedule
     period_s: float
     ticks: int = 0  # ticks compared
@@ -403,7 +404,7 @@ def replay(path_or_source, *, tolerances: dict | None = None, exact: bool = Fals
     ``tolerances``: signal (or 'Message.Signal') -> allowed |difference| in signal
     units, on top of ``default_tolerances()`` unless ``exact``. Raises ``TraceError``.
     """
-    source = path_or_source if isinstance(path_or_source, TraceSource) else open_trace(path_or_source, channels)
+    source = path_or_source if isinstance(path_or_source, Recording) else open_recording(path_or_source, channels)
     schedule = build_schedule(source, allow_drops=allow_drops)
     period = period_s or _recorded_period(source) or P.CONTROL_PERIOD
     result = ReplayResult(source, schedule, period, warnings=environment_warnings(source))
@@ -454,7 +455,7 @@ def _compare_step(result: ReplayResult, step: TickStep, sent: dict, now: float, 
                                   name, signal, a, b, tol_value, unit, frame.where() if frame.line_no else "")
 
 
-def _recorded_period(source: TraceSource) -> float | None:
+def _recorded_period(source: Recording) -> float | None:
     try:
         value = float(source.run.get("control_period_s", ""))
     except ValueError:
@@ -462,7 +463,7 @@ def _recorded_period(source: TraceSource) -> float | None:
     return value if math.isfinite(value) and value > 0 else None
 
 
-def _schedule_notes(source: TraceSource, schedule: Schedule, period: float) -> list[str]:
+def _schedule_notes(source: Recording, schedule: Schedule, period: float) -> list[str]:
     notes = list(schedule.notes)
     frames = source.frames
     overrides = plant_overrides(source.run)

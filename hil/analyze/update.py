@@ -10,7 +10,6 @@ internals. The simulation truth is the recorded run's: replay is open loop.
 """
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 
@@ -18,19 +17,20 @@ import can
 
 from wheelleg import dbc
 from wheelleg.hil.record.candump import CandumpWriter
-from wheelleg.hil.analyze.bug_report import current_params, git_revision
 from wheelleg.hil.analyze.replay import ReplayResult
-from wheelleg.hil.record.sources import DBS, ROLES, BusFrame
+from wheelleg.hil.record.frame import Frame
+from wheelleg.hil.record.run_metadata import controller_params_json, git_revision
+from wheelleg.hil.record.sources import DBS, ROLES
 
 DEBUG_TOPIC = "/controller/debug"
 
 
-def _replacements(result: ReplayResult) -> tuple[dict[int, list[BusFrame]], set[int]]:
+def _replacements(result: ReplayResult) -> tuple[dict[int, list[Frame]], set[int]]:
     """Frame index -> frames written in its place; indices dropped."""
     if len(result.sent) != len(result.schedule.steps):
         raise ValueError("replay(..., keep_sent=True) is needed to write a reference")
     frames = result.source.frames
-    put: dict[int, list[BusFrame]] = {}
+    put: dict[int, list[Frame]] = {}
     drop: set[int] = set()
     for step, sent in zip(result.schedule.steps, result.sent):
         for role in ROLES:
@@ -46,12 +46,11 @@ def _replacements(result: ReplayResult) -> tuple[dict[int, list[BusFrame]], set[
     return put, drop
 
 
-def _as_frame(at: BusFrame, msg: can.Message) -> BusFrame:
-    return BusFrame(at.bus, at.channel, at.t_ns, msg.arbitration_id, msg.is_extended_id, msg.dlc,
-                    bytes(msg.data[:msg.dlc]), msg.is_error_frame, msg.is_remote_frame, msg.is_fd)
+def _as_frame(at: Frame, msg: can.Message) -> Frame:
+    return Frame.of(msg, at.channel, at.t_ns, at.bus)
 
 
-def updated_frames(result: ReplayResult) -> list[BusFrame]:
+def updated_frames(result: ReplayResult) -> list[Frame]:
     """The recording's frames with the controller's replaced by the replayed ones."""
     put, drop = _replacements(result)
     out = []
@@ -72,8 +71,7 @@ def write_reference(result: ReplayResult, out: Path | str) -> Path:
     else:
         with CandumpWriter(out, flush_interval_s=None) as log:
             for f in frames:
-                log.write(f.channel, f.t_ns, f.arbitration_id, f.is_extended, f.data, f.is_error,
-                          is_remote=f.is_remote, remote_dlc=f.dlc if f.is_remote else 0, is_fd=f.is_fd)
+                log.write(f)
     return out
 
 
@@ -83,7 +81,7 @@ def _metadata(result: ReplayResult) -> dict:
     run["reference_from"] = result.source.path.name
     run["reference_of_revision"] = run.get("git_revision", "unknown")
     run["git_revision"] = git_revision()
-    run["controller_params"] = json.dumps(current_params(), sort_keys=True)
+    run["controller_params"] = controller_params_json()
     return meta
 
 
@@ -96,10 +94,10 @@ def _attachments(result: ReplayResult) -> list:
     return files
 
 
-def _write_mcap(result: ReplayResult, frames: list[BusFrame], out: Path) -> None:
-    from wheelleg.hil.record.trace import DECODED_PREFIX, CAN_PREFIX, EVENTS_TOPIC, SIM_STATE_TOPIC, TraceReader, TraceWriter
+def _write_mcap(result: ReplayResult, frames: list[Frame], out: Path) -> None:
+    from wheelleg.hil.record.trace import DECODED_PREFIX, CAN_PREFIX, EVENTS_TOPIC, SIM_STATE_TOPIC, TraceWriter
 
-    reader = TraceReader(result.source.path)
+    reader = result.source.trace
     records = [(f.t_ns, 0, "frame", f) for f in frames]
     skip = (CAN_PREFIX, DECODED_PREFIX, DEBUG_TOPIC)
     for topic in reader.topics:
@@ -116,8 +114,7 @@ def _write_mcap(result: ReplayResult, frames: list[BusFrame], out: Path) -> None
                      flush_interval_s=None) as trace:
         for t_ns, _, kind, item in records:
             if kind == "frame":
-                trace.frame(item.channel, t_ns, item.arbitration_id, item.is_extended, item.dlc, item.data,
-                            is_error=item.is_error)
+                trace.frame(item)
             elif kind == SIM_STATE_TOPIC:
                 trace.sim_state(t_ns, {k: math.nan if v is None else v for k, v in item.items() if k != "t"})
             elif kind == EVENTS_TOPIC:

@@ -1,7 +1,7 @@
 """Frame faults on one rig bus: the machinery behind hil/run/faults.py's frame injectors.
 
-``BusFaults`` sits on a plant-side ``wheelleg.hil.bus.recorder.RecordingBus`` (its
-``outbox_filter`` and ``hook``) and applies the active ``FrameFault``s: to
+``BusFaults`` is a stage of a plant-side ``wheelleg.hil.bus.plant_bus.PlantBus``
+and applies the active ``FrameFault``s: to
 frames the plant sends towards the controller (drop, delay, corrupt, error
 frames, a babbling or garbage node, CAN arbitration) and to frames the
 controller sent towards the devices (drop). The rig's lockstep frames (SYNC,
@@ -10,14 +10,12 @@ Heartbeat) are never touched.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Callable
-
 import can
 import numpy as np
 
 from wheelleg.controller import constants as C
 from wheelleg.dbc import cybergear as cg
-from wheelleg.dbc import BUSES, CAN1, CAN2, load_bus
+from wheelleg.dbc import CAN1, CAN2, load_bus
 from wheelleg.hil.bus.busload import frame_bits, wire_ns
 
 _RIG = load_bus(CAN1)
@@ -300,37 +298,22 @@ def _rate(rate: float) -> float:
 
 
 class BusFaults:
-    """The frame faults active on one plant-side bus end (a ``wheelleg.hil.bus.recorder.RecordingBus``).
+    """The frame faults active on one plant-side bus end: a ``wheelleg.hil.bus.plant_bus.BusStage``.
 
-    It becomes the bus's ``outbox_filter`` and wraps its ``hook``; time is the
-    recorder's simulated clock (``now_ns``). Faults act in the order they
-    started; the arbitration model, when on, comes last. Frames held back
-    (delayed, or waiting for the wire) are released when the plant next puts
-    a frame on that bus at or after their time: at the latest at the next
-    SYNC, i.e. before the controller's next tick, which is when it matters in
-    lockstep. The trace shows them at their release.
+    Time is the run's simulated clock (``clock.now_ns``). Faults act in the
+    order they started; the arbitration model, when on, comes last. Frames
+    held back (delayed, or waiting for the wire) are released when the plant
+    next puts a frame on that bus at or after their time: at the latest at
+    the next SYNC, i.e. before the controller's next tick, which is when it
+    matters in lockstep. The trace shows them at their release.
     """
 
-    def __init__(self, bus, clock: Callable[[], int]):
-        self.bus, self.clock = bus, clock
+    def __init__(self, clock):
+        self.clock = clock  # wheelleg.hil.bus.plant_bus.SimClock
         self.faults: list[FrameFault] = []
         self.arbiter: Arbitration | None = None
         self._held: list = []  # (release ns, seq, msg), release times non-decreasing
         self._seq = 0
-        self._inner_hook = bus.hook
-        bus.hook = self.inbound
-        bus.outbox_filter = self.outbound
-
-    @classmethod
-    def of(cls, rig, bus: str) -> "BusFaults":
-        """The rig's fault layer on ``bus`` ("can1" or "can2"), installed on first use."""
-        if bus not in BUSES:
-            raise ValueError(f"bus must be one of {BUSES}, got {bus!r}")
-        end = rig.plant_buses[bus]
-        layer = getattr(end, "fault_layer", None)
-        if layer is None:
-            layer = end.fault_layer = cls(end, lambda: rig.recorder.now_ns)
-        return layer
 
     def add(self, fault: FrameFault) -> None:
         if isinstance(fault, Arbitration):
@@ -345,7 +328,7 @@ class BusFaults:
         if fault is self.arbiter:
             self.arbiter = None
             for msg in fault.drain():
-                self.hold(msg, self.clock())
+                self.hold(msg, self.clock.now_ns)
         else:
             self.faults.remove(fault)
 
@@ -363,9 +346,14 @@ class BusFaults:
                                    timestamp=release_ns / 1e9, check=False))
         return out
 
-    def outbound(self, msg: can.Message) -> list[can.Message]:
-        """Frames that go on the wire, towards the controller, when the plant sends ``msg``."""
-        now = self.clock()
+    def outbound(self, frames: list[can.Message]) -> list[can.Message]:
+        """Frames that go on the wire, towards the controller, when the plant sends ``frames``."""
+        if not self.faults and self.arbiter is None and not self._held:
+            return frames  # no fault on this bus: the common case, kept cheap
+        return [out for msg in frames for out in self._outbound(msg)]
+
+    def _outbound(self, msg: can.Message) -> list[can.Message]:
+        now = self.clock.now_ns
         frames = self._released(now) + [m for f in self.faults for m in f.spontaneous(now)]
         lockstep = _is_lockstep(msg)
         if not lockstep:  # only the new frame meets the faults: released ones already did
@@ -380,15 +368,17 @@ class BusFaults:
                 self.arbiter.occupy(msg, now)
         return frames + [msg] if lockstep else frames
 
-    def inbound(self, channel: str, msg: can.Message) -> bool:
+    def inbound(self, msg: can.Message) -> bool:
         """False swallows a frame the controller sent before any device gets it."""
+        if not self.faults and self.arbiter is None:
+            return True  # no fault on this bus
         if self.arbiter is not None:
-            self.arbiter.occupy(msg, self.clock())
+            self.arbiter.occupy(msg, self.clock.now_ns)
         if not _is_lockstep(msg):
             for fault in self.faults:
                 if fault.select.matches(msg, False) and not fault.inbound(msg):
                     return False
-        return True if self._inner_hook is None else self._inner_hook(channel, msg)
+        return True
 
 
 def _is_lockstep(msg: can.Message) -> bool:

@@ -24,7 +24,7 @@ class HeldBus:
     """A bus end whose ``recv`` returns only frames already gathered by ``gather``.
 
     Shaped like the part of ``can.BusABC`` the plant uses (``send``, ``recv``,
-    ``shutdown``), so it slots under ``wheelleg.hil.bus.recorder.RecordingBus``: the
+    ``shutdown``), so it slots under ``wheelleg.hil.bus.plant_bus.PlantBus``: the
     recorder sees a frame when the plant takes it, not when it was gathered.
     """
 

@@ -3,9 +3,9 @@
 For python-can's in-process ``virtual`` interface the rig uses a subclass
 whose ``send`` copies a frame by constructing a new ``can.Message`` instead
 of ``copy.deepcopy`` (which costs most of the rig's bus time at ~10,000
-frames per simulated second), and whose ``recv(timeout=0)`` (the lockstep
-drain) takes a queued frame directly instead of going through python-can's
-wait loop and ``queue.Empty``. Same channels, same semantics: it talks to
+frames per simulated second), and whose non-blocking receive (the lockstep
+drain) asks the queue whether it holds a frame instead of raising and
+catching ``queue.Empty``. Same channels, same semantics: it talks to
 plain ``virtual`` buses in the same process.
 """
 from __future__ import annotations
@@ -18,31 +18,37 @@ from can.interfaces.virtual import VirtualBus
 
 
 class LockstepVirtualBus(VirtualBus):
-    """python-can's virtual bus with cheap per-receiver copies and a cheap non-blocking poll."""
+    """python-can's virtual bus with cheap per-receiver copies and a cheap non-blocking poll.
 
-    def recv(self, timeout: float | None = None) -> can.Message | None:
-        if timeout != 0:  # a blocking wait (real-time mode, tools): python-can's own loop
-            return super().recv(timeout)
+    It fills python-can's two back-end hooks, ``_recv_internal`` and
+    ``send``; ``BusABC.recv`` keeps the policy (filters, timeouts).
+    """
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self._closed = False
+
+    def _check_open(self) -> None:
+        if self._closed:
+            raise can.CanOperationError("Cannot operate on a closed bus")
+
+    def shutdown(self) -> None:
+        self._closed = True
+        super().shutdown()
+
+    def _recv_internal(self, timeout: float | None) -> tuple[can.Message | None, bool]:
+        if timeout != 0:  # a blocking wait (real-time mode, tools): python-can's own
+            return super()._recv_internal(timeout)
         # The rig drains every bus with timeout 0 about 15 times a tick, mostly
         # finding it empty; queue.get would raise (and catch) queue.Empty each time.
-        self._check_if_open()
-        while (msg := self._take_queued()) is not None:
-            if self._matches_filters(msg):
-                return msg
-        return None
-
-    def _take_queued(self) -> can.Message | None:
-        """The oldest queued frame or None; what ``queue.Queue.get`` does, under its lock, without raising."""
-        q = self.queue
-        with q.not_empty:
-            if not q._qsize():
-                return None
-            msg = q._get()
-            q.not_full.notify()
-            return msg
+        self._check_open()
+        rx = self.queue
+        if not rx.queue:  # this bus is its queue's only reader: a frame seen is a frame to get
+            return None, False
+        return rx.get_nowait(), False
 
     def send(self, msg: can.Message, timeout: float | None = None) -> None:
-        self._check_if_open()
+        self._check_open()
         timestamp = msg.timestamp if self.preserve_timestamps else time.time()
         data = bytes(msg.data)
         full = False

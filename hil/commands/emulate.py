@@ -1,4 +1,7 @@
-"""``wheelleg emulate cybergear|c620|imu``: one emulated device alone on a CAN bus.
+"""``wheelleg emulate cybergear|c620|imu``: emulated devices alone on a CAN bus.
+
+``--id`` may be given several times: ``wheelleg emulate cybergear --id 1 --id
+2 --id 3 --id 4`` serves a robot's whole set of motors from one process.
 
 For anyone who writes or tests a driver: the device answers frame for frame
 as the real one (emulators/), its shaft a simple inertia with friction. The
@@ -27,7 +30,7 @@ from wheelleg.emulators.imu import Imu, ImuNoise
 from wheelleg.emulators.node import DeviceNode
 
 NAME = "emulate"
-HELP = "emulate one CyberGear, C620 or IMU alone on a CAN bus until interrupted"
+HELP = "emulate CyberGears, C620s or an IMU alone on a CAN bus until interrupted"
 DEFAULT_IDS = {"cybergear": 0x7F, "c620": 1, "imu": 0}
 
 log = logging.getLogger(__name__)
@@ -39,9 +42,12 @@ def _int(text: str) -> int:
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("device", choices=sorted(DEFAULT_IDS), help="which device to emulate")
-    parser.add_argument("--id", type=_int, default=None, metavar="N",
+    parser.add_argument("--id", type=_int, action="append", default=None, metavar="N",
                         help="CyberGear motor id 0..127 (default 0x7F) or C620 ESC id 1..8 (default 1); "
-                             "decimal or 0x hex")
+                             "decimal or 0x hex; repeat for several devices in one process")
+    parser.add_argument("--host", type=_int, default=0x00, metavar="N",
+                        help="CyberGear CAN_MASTER: the host id in 0..127 the motors answer (default 0x00); "
+                             "hosts 0x80..0xFF (0xFD, the debugger's) are always answered")
     parser.add_argument("--position-range", choices=("12.5", "4pi"), default="12.5",
                         help="CyberGear position field range in rad (default: %(default)s)")
     parser.add_argument("--uid", type=_int, default=None, metavar="UID",
@@ -57,19 +63,27 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     can.cli.add_bus_arguments(parser)
 
 
-def make_device(args: argparse.Namespace) -> EmulatedDevice:
-    """The device the arguments ask for; ValueError on a bad id or option."""
-    device_id = DEFAULT_IDS[args.device] if args.id is None else args.id
+def make_devices(args: argparse.Namespace) -> list[EmulatedDevice]:
+    """The devices the arguments ask for; ValueError on a bad id or option."""
+    ids = [DEFAULT_IDS[args.device]] if args.id is None else args.id
+    if len(set(ids)) != len(ids):
+        raise ValueError(f"--id given twice for the same device: {ids}")
+    if args.device == "imu":
+        if args.id is not None:
+            raise ValueError("the IMU has no --id")
+        return [Imu(period_s=args.imu_period, noise=ImuNoise(), rng=np.random.default_rng(args.seed))]
     if args.device == "cybergear":
-        return CyberGear(motor_id=device_id, position_range=args.position_range, uid=args.uid)
-    if args.device == "c620":
-        return C620(esc_id=device_id, command_timeout_s=args.command_timeout)
-    return Imu(period_s=args.imu_period, noise=ImuNoise(), rng=np.random.default_rng(args.seed))
+        if args.uid is not None and len(ids) > 1:
+            raise ValueError("--uid names one motor; give it with a single --id")
+        return [CyberGear(motor_id=i, position_range=args.position_range, uid=args.uid, host_id=args.host)
+                for i in ids]
+    return [C620(esc_id=i, command_timeout_s=args.command_timeout) for i in ids]
 
 
-def serve(device: EmulatedDevice, bus: can.BusABC, stop: threading.Event, tick_s: float = 0.001) -> DeviceNode:
-    """Serve ``device`` on ``bus`` in real time until ``stop`` is set; the caller owns the bus."""
-    node = DeviceNode(bus, [device])
+def serve(devices: list[EmulatedDevice], bus: can.BusABC, stop: threading.Event,
+          tick_s: float = 0.001) -> DeviceNode:
+    """Serve ``devices`` on ``bus`` in real time until ``stop`` is set; the caller owns the bus."""
+    node = DeviceNode(bus, devices)
     node.run_realtime(stop, dt_s=tick_s)
     return node
 
@@ -77,7 +91,7 @@ def serve(device: EmulatedDevice, bus: can.BusABC, stop: threading.Event, tick_s
 def run(args: argparse.Namespace, stop: threading.Event | None = None) -> int:
     """Emulate until SIGINT/SIGTERM (or ``stop``, for callers in a thread); 0 on a clean stop."""
     try:
-        device = make_device(args)
+        devices = make_devices(args)
         if not args.tick > 0.0:
             raise ValueError(f"--tick must be > 0 s, got {args.tick}")
     except ValueError as exc:
@@ -92,9 +106,10 @@ def run(args: argparse.Namespace, stop: threading.Event | None = None) -> int:
     stop = stop if stop is not None else threading.Event()
     restore = _stop_on_signals(stop.set)
     try:
-        print(f"wheelleg emulate: {args.device} {_describe(device)} on {bus.channel_info}; Ctrl-C stops",
+        described = ", ".join(_describe(d) for d in devices)
+        print(f"wheelleg emulate: {args.device} {described} on {bus.channel_info}; Ctrl-C stops",
               file=sys.stderr, flush=True)
-        node = serve(device, bus, stop, args.tick)
+        node = serve(devices, bus, stop, args.tick)
     finally:
         restore()
         bus.shutdown()

@@ -72,12 +72,12 @@ def execute(args: argparse.Namespace):
     results = [check(run) for check in scenario.checks]
     if not args.no_plot:
         plot_run(run, args.out / f"{scenario.name}.png", title=f"{scenario.name}: {scenario.summary}")
-    return outcome, results
+    return outcome, results, run
 
 
 def run(args: argparse.Namespace) -> int:
     try:
-        outcome, results = execute(args)
+        outcome, results, data = execute(args)
     except KeyError as exc:
         print(exc.args[0])
         return 2
@@ -91,7 +91,7 @@ def run(args: argparse.Namespace) -> int:
     if args.plant:
         print(f"  plant overrides: {' '.join(args.plant)}")
     print(f"  trace {outcome.trace_path}\n  log   {outcome.log_path}")
-    print_bus_load(load_run(outcome.trace_path))
+    print_bus_load(data)
     for r in results:
         print(f"  [{'PASS' if r.passed else 'FAIL'}] {r.name}: {r.detail}")
     ok = all(r.passed for r in results)

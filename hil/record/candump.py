@@ -38,6 +38,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Iterator
 
+from wheelleg.hil.record.frame import Frame
+
 CAN_ERR_FLAG = 0x20000000
 CAN_ERR_MASK = 0x1FFFFFFF
 CAN_ERR_BUSERROR = 0x00000080  # python-can's reader needs this class bit to see an error frame
@@ -63,29 +65,6 @@ class LogFormatError(ValueError):
     def __init__(self, path: str, line_no: int, line: str, reason: str):
         self.path, self.line_no, self.line, self.reason = path, line_no, line, reason
         super().__init__(f"{path}:{line_no}: {reason}: {line!r}")
-
-
-@dataclass(frozen=True, slots=True)
-class LogFrame:
-    """One frame line. ``t_ns`` is the log's timestamp in ns (microsecond resolution).
-
-    ``dlc``: the data length, or the requested length of a remote frame, or
-    the raw DLC 9..15 of a classic 8-byte frame written with ``_<dlc>``.
-    For error frames ``arbitration_id`` holds the error class bits.
-    """
-
-    t_ns: int
-    channel: str
-    arbitration_id: int
-    is_extended: bool
-    data: bytes
-    dlc: int
-    is_error: bool = False
-    is_remote: bool = False
-    is_fd: bool = False
-    fd_flags: int = 0
-    direction: str = ""  # "R"/"T" when the line carries it
-    line_no: int = 0
 
 
 @dataclass(frozen=True)
@@ -159,21 +138,22 @@ class CandumpWriter:
         self._flush_at = time.monotonic() + flush_interval_s if flush_interval_s else float("inf")
         self.frames = 0
 
-    def write(self, channel: str, t_ns: int, arbitration_id: int, is_extended: bool, data: bytes,
-              is_error: bool = False, *, is_remote: bool = False, remote_dlc: int = 0,
-              is_fd: bool = False, fd_flags: int = 0) -> None:
+    def write(self, frame: Frame) -> None:
         """One frame line: ``(sec.usec) channel frame``."""
         if self._file is None:
             raise ValueError(f"{self.path}: log already closed")
+        channel = frame.channel
         if channel not in self._channels:
             self._check_channel(channel)
-        text = "%s %s %s\n" % (format_timestamp(t_ns), channel, format_frame(
-            arbitration_id, is_extended, data, is_error, is_remote=is_remote, remote_dlc=remote_dlc,
-            is_fd=is_fd, fd_flags=fd_flags))
+        text = "%s %s %s\n" % (format_timestamp(frame.t_ns), channel, format_frame(
+            frame.arbitration_id, frame.is_extended, frame.data, frame.is_error, is_remote=frame.is_remote,
+            remote_dlc=frame.dlc if frame.is_remote else 0, is_fd=frame.is_fd, fd_flags=frame.fd_flags))
         self._file.write(text)
         self.frames += 1
         if time.monotonic() >= self._flush_at:
             self.flush()
+
+    on_frame = write  # a recorder sink (wheelleg.hil.bus.recorder.FrameSink)
 
     def _check_channel(self, channel: str) -> None:
         if not isinstance(channel, str) or not channel or any(c.isspace() for c in channel) \
@@ -195,6 +175,8 @@ class CandumpWriter:
             self._file.close()
         self._file = None
 
+    stop = close
+
     def __enter__(self) -> "CandumpWriter":
         return self
 
@@ -213,7 +195,7 @@ def parse_timestamp(text: str) -> int:
 
 
 def parse_frame(text: str) -> dict:
-    """can-utils' compact frame text -> LogFrame fields (without time/channel)."""
+    """can-utils' compact frame text -> ``Frame`` fields (without time/channel)."""
     m = _FRAME.fullmatch(text)
     if m is None:
         raise ValueError("frame is not <3 or 8 hex digit id>#<data>|R[dlc]|#<flags><data>")
@@ -268,7 +250,7 @@ class CandumpReader:
         """Frames the capturing socket reported lost (sum of DROPCOUNT notices)."""
         return sum(d.dropped for d in self.drops)
 
-    def __iter__(self) -> Iterator[LogFrame]:
+    def __iter__(self) -> Iterator[Frame]:
         last_t: int | None = None
         with open_log_text(self.path) as f:
             for line_no, line in enumerate(f, start=1):
@@ -307,7 +289,7 @@ class CandumpReader:
         self.skipped.append((line_no, reason))
 
 
-def _parse_line(text: str, line_no: int) -> LogFrame:
+def _parse_line(text: str, line_no: int) -> Frame:
     if text[0] != "(":
         raise ValueError("not a frame line (frames start with '(')")
     parts = text.split()
@@ -316,7 +298,7 @@ def _parse_line(text: str, line_no: int) -> LogFrame:
     direction = parts[3] if len(parts) == 4 else ""
     if direction and direction.upper() not in ("R", "T"):
         raise ValueError(f"unknown direction {direction!r} (R or T)")
-    return LogFrame(t_ns=parse_timestamp(parts[0]), channel=parts[1], direction=direction.upper(),
+    return Frame(t_ns=parse_timestamp(parts[0]), channel=parts[1], direction=direction.upper(),
                     line_no=line_no, **parse_frame(parts[2]))
 
 

@@ -2,21 +2,24 @@
 from __future__ import annotations
 
 from collections import defaultdict
+from collections.abc import Iterable
 from pathlib import Path
 
 import numpy as np
 
 from wheelleg.dbc import cybergear as cg
-from wheelleg.dbc import CAN1, CAN2, load_bus
+from wheelleg.dbc import CAN1, CAN2
 from wheelleg.hil.bus.busload import LOAD_TOPIC
+from wheelleg.hil.record.frame import Frame
+from wheelleg.hil.record.sources import TraceError, open_recording
+from wheelleg.hil.record.trace import TraceReader
 from wheelleg.hil.run.scenario import RunData
-from wheelleg.hil.record.trace import DECODED_PREFIX, TraceReader
 
 
-def _commands(reader: TraceReader, joints_channel: str) -> dict:
+def _commands(frames: Iterable[Frame]) -> dict:
     """Hip torques commanded in type-1 frames: motor id -> (t (n,), N m (n,))."""
     series = defaultdict(lambda: ([], []))
-    for frame in reader.frames(joints_channel):
+    for frame in frames:
         if frame.is_extended and cg.comm_type(frame.arbitration_id) == cg.T_MOTION:
             t, tau = series[cg.target(frame.arbitration_id)]
             t.append(frame.t_ns / 1e9)
@@ -33,21 +36,21 @@ def _currents(reader: TraceReader, wheels_channel: str) -> dict:
 
 
 def load_run(path: Path | str) -> RunData:
-    """Everything the checks need from a trace file."""
-    reader = TraceReader(path)
-    run_meta = reader.metadata.get("run", {})
-    can1, can2 = run_meta.get("can1", "vcan0"), run_meta.get("can2", "vcan1")
-    if not any(topic.startswith(DECODED_PREFIX) for topic in reader.topics):
-        # recorded with --no-decode: decode the raw frames with the DBCs on reading
-        reader = TraceReader(path, dbs={can1: load_bus(CAN1), can2: load_bus(CAN2)})
+    """Everything the checks need from a trace file (an MCAP trace of the rig)."""
+    recording = open_recording(path, strict=False)
+    reader = recording.trace
+    if reader is None:
+        raise TraceError(f"{path}: run data needs the rig's MCAP trace, not a candump log")
+    channels = recording.channels
+    can1 = channels.get(CAN1, "")
     return RunData(
         state=reader.sim_state(),
         heartbeat=reader.decoded(can1, "Heartbeat"),
-        hip_torque=_commands(reader, can2),
+        hip_torque=_commands(recording.bus_frames(CAN2)),
         wheel_current=_currents(reader, can1),
-        events=reader.events(),
-        meta=dict(run_meta, truncated=reader.truncated),
-        bus_load=_bus_load(reader, {can1: CAN1, can2: CAN2}),
+        events=recording.events,
+        meta=dict(recording.run, truncated=recording.truncated),
+        bus_load=_bus_load(reader, {name: role for role, name in channels.items()}),
     )
 
 

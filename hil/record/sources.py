@@ -1,11 +1,11 @@
 """One view of a recorded run, from either file: the rig's MCAP trace or a candump log.
 
-``open_trace(path)`` gives a ``TraceSource``: every frame in order with its bus
+``open_recording(path)`` gives a ``Recording``: every frame in order with its bus
 role (``can1`` = wheels/IMU/remote, ``can2`` = CyberGear joints), plus what the
 file says about the run (MCAP metadata, attachments, events; candump comments
 and DROPCOUNT notices). Replay and inspect both read through it.
 
-Bus roles: an MCAP trace of the rig names its channels in the ``run``
+Bus roles (worked out here only): an MCAP trace of the rig names its channels in the ``run``
 metadata; a candump log does not, so the role of each interface is inferred
 from what it carries (CyberGear extended ids -> can2; C620, IMU or remote ids
 -> can1), or given by the caller (``channels={"can1": "can0", "can2": "can1"}``).
@@ -20,16 +20,16 @@ from __future__ import annotations
 
 import heapq
 import zlib
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
-
-import can
+from typing import Iterator
 
 from wheelleg import dbc
 from wheelleg.controller.constants import CG_HOST_ID
 from wheelleg.dbc import CAN1, CAN2
 from wheelleg.dbc import cybergear as cg
 from wheelleg.hil.record.candump import CandumpReader, DropNotice, LogFormatError
+from wheelleg.hil.record.frame import Frame
 
 ROLES = dbc.BUSES
 CONTROLLER_NODES = frozenset({"HOST", "CONTROLLER"})  # DBC node names of the controller
@@ -43,53 +43,59 @@ class TraceError(Exception):
     """The file cannot be read or replayed; the message says why."""
 
 
-@dataclass(frozen=True, slots=True)
-class BusFrame:
-    """One recorded frame; ``bus`` is its role (can1/can2, or '' when unknown)."""
-
-    bus: str
-    channel: str  # the interface name in the file
-    t_ns: int
-    arbitration_id: int
-    is_extended: bool
-    dlc: int
-    data: bytes
-    is_error: bool = False
-    is_remote: bool = False
-    is_fd: bool = False
-    line_no: int = 0  # candump line (0 for MCAP)
-
-    def message(self) -> can.Message:
-        """The frame as python-can delivers it to the controller."""
-        return can.Message(timestamp=self.t_ns / 1e9, arbitration_id=self.arbitration_id,
-                           is_extended_id=self.is_extended, dlc=self.dlc, data=self.data,
-                           is_error_frame=self.is_error, is_remote_frame=self.is_remote,
-                           is_fd=self.is_fd, channel=self.channel, check=False)
-
-    def where(self) -> str:
-        """'line 12' for a log, 't=1.234567 s' for a trace."""
-        return f"line {self.line_no}" if self.line_no else f"t={self.t_ns / 1e9:.6f} s"
-
-
 @dataclass
-class TraceSource:
-    """A recorded run: frames in order plus what the file says about it."""
+class Recording:
+    """A recorded run: frames in order plus what the file says about it.
+
+    ``frames``: file order (candump); per bus in file order, merged by time
+    (MCAP), each with its role in ``bus``. An MCAP trace's frames are read
+    when first asked for; ``trace`` is its reader (sim state, decoded
+    signals, any topic), None for a candump log.
+    """
 
     path: Path
     kind: str  # "mcap" | "candump"
-    frames: list[BusFrame]  # file order (candump); per bus in file order, merged by time (MCAP)
-    channels: dict[str, str]  # role -> interface name
+    channels: dict[str, str] = field(default_factory=dict)  # role -> interface name
     metadata: dict[str, dict[str, str]] = field(default_factory=dict)
     attachments: dict[str, bytes] = field(default_factory=dict)
     events: list[dict] = field(default_factory=list)  # /scenario/events, each with "t" (s)
     drops: list[DropNotice] = field(default_factory=list)
     comments: int = 0
     truncated: bool = False
-    ignored_channels: dict[str, int] = field(default_factory=dict)  # interface -> frames
+    trace: object = None  # wheelleg.hil.record.trace.TraceReader of an MCAP trace
+    keep_unknown: bool = False  # frames of interfaces without a role: kept (role '') or ignored
+    raw_frames: list[Frame] | None = field(default=None, repr=False)  # a log's frames before roles
+    _frames: list[Frame] | None = field(default=None, init=False, repr=False)
+    _ignored: dict[str, int] = field(default_factory=dict, init=False, repr=False)
 
     @property
     def run(self) -> dict[str, str]:
         return self.metadata.get("run", {})
+
+    @property
+    def frames(self) -> list[Frame]:
+        if self._frames is None:
+            self._frames, self._ignored = _assign_roles(self._unassigned(), self.channels, self.keep_unknown)
+        return self._frames
+
+    @property
+    def ignored_channels(self) -> dict[str, int]:
+        """Interface -> frames left out because the interface has no role."""
+        _ = self.frames
+        return self._ignored
+
+    def bus_frames(self, role: str) -> Iterator[Frame]:
+        """The frames of one bus, in order (an MCAP trace reads only that channel)."""
+        if self.trace is not None and self._frames is None:
+            return self.trace.frames(self.channels[role], role) if role in self.channels else iter(())
+        return (f for f in self.frames if f.bus == role)
+
+    def _unassigned(self) -> list[Frame]:
+        if self.raw_frames is None:  # MCAP: read now, with the roles already known
+            role_of = {name: role for role, name in self.channels.items()}
+            self.raw_frames = list(heapq.merge(*(self.trace.frames(name, role_of.get(name, ""))
+                                                 for name in self.trace.channels()), key=lambda f: f.t_ns))
+        return self.raw_frames
 
     @property
     def duration_s(self) -> float:
@@ -112,7 +118,7 @@ def dbc_message(role: str, arbitration_id: int, is_extended: bool):
     return message if message.is_extended_frame == is_extended else None
 
 
-def sent_by_controller(frame: BusFrame) -> bool:
+def sent_by_controller(frame: Frame) -> bool:
     """True when the DBC names a controller node as the sender of this frame."""
     if frame.is_error or frame.is_fd:
         return False
@@ -122,21 +128,21 @@ def sent_by_controller(frame: BusFrame) -> bool:
     return not (frame.is_extended and cg.is_reply(frame.arbitration_id, CG_HOST_ID))
 
 
-def is_heartbeat(frame: BusFrame) -> bool:
+def is_heartbeat(frame: Frame) -> bool:
     return (not frame.is_extended and not frame.is_error and frame.arbitration_id == HEARTBEAT.frame_id
             and len(frame.data) == HEARTBEAT.length)
 
 
-def is_sync(frame: BusFrame) -> bool:
+def is_sync(frame: Frame) -> bool:
     return (not frame.is_extended and not frame.is_error and frame.arbitration_id == SYNC.frame_id
             and len(frame.data) == SYNC.length)
 
 
-def heartbeat_tick(frame: BusFrame) -> int:
+def heartbeat_tick(frame: Frame) -> int:
     return int(HEARTBEAT.decode(frame.data, decode_choices=False)["Tick"])
 
 
-def sync_tick(frame: BusFrame) -> int:
+def sync_tick(frame: Frame) -> int:
     return int(SYNC.decode(frame.data, decode_choices=False)["Tick"])
 
 
@@ -181,7 +187,7 @@ def parse_channels(text: str | None) -> dict[str, str] | None:
     return {CAN1: names[0], CAN2: names[1]}
 
 
-def _assign_roles(frames: list[BusFrame], channels: dict[str, str], keep_unknown: bool):
+def _assign_roles(frames: list[Frame], channels: dict[str, str], keep_unknown: bool):
     """Frames with their role set; frames of other interfaces kept (role '') or counted as ignored."""
     role_of = {name: role for role, name in channels.items()}
     out, ignored = [], {}
@@ -193,20 +199,17 @@ def _assign_roles(frames: list[BusFrame], channels: dict[str, str], keep_unknown
             else:
                 ignored[f.channel] = ignored.get(f.channel, 0) + 1
             continue
-        out.append(f if f.bus == role else _with_bus(f, role))
+        out.append(f if f.bus == role else replace(f, bus=role))
     return out, ignored
 
 
-def _with_bus(f: BusFrame, role: str) -> BusFrame:
-    return BusFrame(role, f.channel, f.t_ns, f.arbitration_id, f.is_extended, f.dlc, f.data,
-                    f.is_error, f.is_remote, f.is_fd, f.line_no)
-
-
-def _resolve_channels(frames, given: dict | None, recorded: dict | None, strict: bool) -> dict:
+def _resolve_channels(recording: Recording, given: dict | None, strict: bool) -> dict:
     if given:
         return dict(given)
+    recorded = recording.run
     if recorded and all(recorded.get(r) for r in ROLES):
         return {r: recorded[r] for r in ROLES}
+    frames = recording._unassigned()
     inferred = infer_channels(frames)
     present = sorted({f.channel for f in frames})
     unknown = [ch for ch in present if ch not in inferred.values()]
@@ -219,12 +222,12 @@ def _resolve_channels(frames, given: dict | None, recorded: dict | None, strict:
 
 
 # -- loading ---------------------------------------------------------------------------------
-def open_trace(path, channels: dict | None = None, *, strict: bool = True) -> TraceSource:
-    """Read an MCAP trace or a candump log.
+def open_recording(path, channels: dict | None = None, *, strict: bool = True) -> Recording:
+    """Read an MCAP trace or a candump log (plain or gzip-compressed).
 
     ``strict`` (replay): both bus roles must be known, frames of other
     interfaces are dropped (counted in ``ignored_channels``). ``strict=False``
-    (inspect): roles as far as they can be told, every frame kept.
+    (inspect, run data): roles as far as they can be told, every frame kept.
 
     Raises ``TraceError`` with the reason when the file cannot be read.
     """
@@ -233,33 +236,29 @@ def open_trace(path, channels: dict | None = None, *, strict: bool = True) -> Tr
         raise TraceError(f"{path}: no such file")
     with open(path, "rb") as f:
         head = f.read(len(MCAP_MAGIC))
-    source = _open_mcap(path) if head == MCAP_MAGIC else _open_candump(path)
-    recorded = {r: source.run.get(r, "") for r in ROLES} if source.run else None
-    source.channels = _resolve_channels(source.frames, channels, recorded, strict)
-    source.frames, source.ignored_channels = _assign_roles(source.frames, source.channels, not strict)
-    return source
+    recording = _open_mcap(path) if head == MCAP_MAGIC else _open_candump(path)
+    recording.keep_unknown = not strict
+    recording.channels = _resolve_channels(recording, channels, strict)
+    if recording.trace is not None:  # decode on reading what was recorded without /decoded/
+        recording.trace.decode_with({recording.channels[r]: DBS[r] for r in ROLES if r in recording.channels})
+    return recording
 
 
-def _open_mcap(path: Path) -> TraceSource:
-    from wheelleg.hil.record.trace import CAN_PREFIX, TraceReader  # noqa: PLC0415 (mcap only when needed
+def _open_mcap(path: Path) -> Recording:
+    from wheelleg.hil.record.trace import TraceReader  # noqa: PLC0415 (mcap only when needed)
 
     try:
         reader = TraceReader(path)
     except Exception as exc:  # a file that is not MCAP past its magic
         raise TraceError(f"{path}: not a readable MCAP trace: {exc}") from exc
-    names = sorted(t[len(CAN_PREFIX):] for t in reader.topics if t.startswith(CAN_PREFIX))
-    per_channel = [[BusFrame("", f.channel, f.t_ns, f.arbitration_id, f.is_extended, f.dlc, f.data,
-                             f.is_error) for f in reader.frames(name)] for name in names]
-    frames = list(heapq.merge(*per_channel, key=lambda f: f.t_ns))
-    return TraceSource(path, "mcap", frames, {}, reader.metadata, dict(reader.attachments),
-                       reader.events(), truncated=reader.truncated)
+    return Recording(path, "mcap", metadata=reader.metadata, attachments=dict(reader.attachments),
+                     events=reader.events(), truncated=reader.truncated, trace=reader)
 
 
-def _open_candump(path: Path) -> TraceSource:
+def _open_candump(path: Path) -> Recording:
     reader = CandumpReader(path, strict=True)
     try:
-        frames = [BusFrame("", f.channel, f.t_ns, f.arbitration_id, f.is_extended, f.dlc, f.data,
-                           f.is_error, f.is_remote, f.is_fd, f.line_no) for f in reader]
+        frames = list(reader)
     except LogFormatError as exc:
         raise TraceError(f"{exc.path}:{exc.line_no}: not a candump -L line ({exc.reason}): "
                          f"{exc.line[:80]!r}") from exc
@@ -269,5 +268,5 @@ def _open_candump(path: Path) -> TraceSource:
         raise TraceError(f"{path}: a damaged gzip-compressed log ({exc})") from exc
     if not frames and not reader.drops:
         raise TraceError(f"{path}: no CAN frames (is it a `candump -L` log or an MCAP trace?)")
-    return TraceSource(path, "candump", frames, {}, drops=list(reader.drops), comments=reader.comments,
-                       truncated=reader.cut_off)
+    return Recording(path, "candump", drops=list(reader.drops), comments=reader.comments,
+                     truncated=reader.cut_off, raw_frames=frames)

@@ -17,7 +17,7 @@ written first, so even a trace whose writer was killed carries them.
 Usage::
 
     with TraceWriter(path, metadata={"run": {...}}, attachments=[...], dbs={"can1": db1}) as trace:
-        trace.frame("can1", t_ns, 0x201, False, 8, data)
+        trace.frame(Frame(t_ns, "can1", 0x201, False, data, 8))
         trace.sim_state(t_ns, state)
     reader = TraceReader(path)
     reader.sim_state()["pitch"]   # (n,) rad
@@ -33,7 +33,6 @@ import json
 import math
 import struct
 from collections import defaultdict
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Iterator, Sequence
 
@@ -43,6 +42,7 @@ from mcap.records import Channel, Message, Metadata, Attachment, Schema
 from wheelleg.hil.record import schemas
 from wheelleg.hil.record.mcap_chunks import ChunkedMcapWriter, RecordScan, read_records
 from wheelleg.hil.record.decode import FrameDecoder
+from wheelleg.hil.record.frame import Frame
 
 try:  # optional: 10x faster float formatting than the json module
     import orjson
@@ -153,7 +153,7 @@ class TraceWriter:
         self._file.close()
         self._finished = True
 
-    close = finish
+    close = stop = finish  # stop: as a recorder sink
 
     def add_metadata(self, name: str, record: dict[str, str]) -> None:
         """One more metadata record (e.g. totals known only at the end of a run)."""
@@ -197,9 +197,10 @@ class TraceWriter:
         return channel_id
 
     # -- records -------------------------------------------------------------------
-    def frame(self, channel: str, t_ns: int, arbitration_id: int, is_extended: bool, dlc: int,
-              data: bytes, *, is_error: bool = False) -> None:
-        """One CAN frame at bus time ``t_ns``; also decoded if a DBC of ``channel`` knows it."""
+    def frame(self, frame: Frame) -> None:
+        """One CAN frame at its bus time; also decoded if a DBC of its channel knows it."""
+        channel, t_ns, arbitration_id = frame.channel, frame.t_ns, frame.arbitration_id
+        is_extended, data, is_error = frame.is_extended, frame.data, frame.is_error
         channel_id = self._can_ids.get(channel)
         if channel_id is None:
             channel_id = self._can_channel(channel)
@@ -209,7 +210,7 @@ class TraceWriter:
         if not 0 <= arbitration_id <= _MAX_ID:
             raise ValueError(f"{channel}: arbitration id {arbitration_id!r} outside 0..0x1FFFFFFF")
         # hand-formatted: 2x faster than any encoder; the fields are fixed (schemas.CAN_FRAME)
-        record = (f'{{"id":{arbitration_id:d},"extended":{_JSON_BOOL[is_extended]},"dlc":{dlc:d},'
+        record = (f'{{"id":{arbitration_id:d},"extended":{_JSON_BOOL[is_extended]},"dlc":{frame.dlc:d},'
                   f'"data":"{data.hex()}","error":{_JSON_BOOL[is_error]}}}').encode()
         try:
             mcap.add_message(channel_id, t_ns, record)
@@ -224,6 +225,8 @@ class TraceWriter:
             if decoded_id is None:
                 decoded_id = self._decoded_channel(channel, plan)
             mcap.add_message(decoded_id, t_ns, dumps(values))
+
+    on_frame = frame  # a recorder sink (wheelleg.hil.bus.recorder.FrameSink)
 
     def sim_state(self, t_ns: int, state: dict[str, float]) -> None:
         """Ground truth at ``t_ns``: the contract's fields (``schemas.SIM_STATE_FIELDS``) + extras.
@@ -295,19 +298,6 @@ def _checked_metadata(metadata: dict) -> dict[str, dict[str, str]]:
 
 
 # -- reading ----------------------------------------------------------------------------
-@dataclass(frozen=True, slots=True)
-class Frame:
-    """One recorded CAN frame; ``t_ns`` is bus time."""
-
-    channel: str
-    t_ns: int
-    arbitration_id: int
-    is_extended: bool
-    dlc: int
-    data: bytes
-    is_error: bool = False
-
-
 class TraceReader:
     """Reads a trace back, also one whose writer was killed (``truncated`` is then True).
 
@@ -325,6 +315,10 @@ class TraceReader:
         self._messages: dict[str, list[tuple[int, bytes]]] = defaultdict(list)
         self._decoder = FrameDecoder(dbs) if dbs else None
         self._load()
+
+    def decode_with(self, dbs: dict) -> None:
+        """Decode raw frames with ``dbs`` (channel -> cantools Database) where ``/decoded/`` lacks them."""
+        self._decoder = FrameDecoder(dbs)
 
     @property
     def truncated(self) -> bool:
@@ -355,17 +349,21 @@ class TraceReader:
         """Every message of ``topic`` as (log time ns, payload), in file order."""
         return [(t, loads(data)) for t, data in self._messages.get(topic, ())]
 
-    def frames(self, channel: str | None = None) -> Iterator[Frame]:
-        """Raw frames of one channel (or of all, merged by bus time)."""
+    def frames(self, channel: str | None = None, bus: str = "") -> Iterator[Frame]:
+        """Raw frames of one channel (or of all, merged by bus time); ``bus``: the role to give them."""
         if channel is not None:
-            return self._channel_frames(channel)
-        names = [t[len(CAN_PREFIX):] for t in self._messages if t.startswith(CAN_PREFIX)]
-        return heapq.merge(*(self._channel_frames(n) for n in sorted(names)), key=lambda f: f.t_ns)
+            return self._channel_frames(channel, bus)
+        return heapq.merge(*(self._channel_frames(n, bus) for n in self.channels()), key=lambda f: f.t_ns)
 
-    def _channel_frames(self, channel: str) -> Iterator[Frame]:
+    def channels(self) -> list[str]:
+        """The CAN channels (interface names) of the trace, sorted."""
+        return sorted(t[len(CAN_PREFIX):] for t in self._messages if t.startswith(CAN_PREFIX))
+
+    def _channel_frames(self, channel: str, bus: str) -> Iterator[Frame]:
         for t_ns, data in self._messages.get(CAN_PREFIX + channel, ()):
             r = loads(data)
-            yield Frame(channel, t_ns, r["id"], r["extended"], r["dlc"], bytes.fromhex(r["data"]), r["error"])
+            yield Frame(t_ns, channel, r["id"], r["extended"], bytes.fromhex(r["data"]), r["dlc"], bus,
+                        r["error"])
 
     def sim_state(self) -> dict[str, np.ndarray]:
         """``/sim/state`` as arrays keyed by field, each shape (n,); {} if absent."""

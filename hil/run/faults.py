@@ -7,9 +7,8 @@ the end of the run); the end is a ``fault_end`` event naming the fault.
 
 Device faults set the emulated device's fault policy (emulators/device.py:
 ``silent``, ``frozen``, ``deaf``) or its model (IMU noise, CyberGear fault
-bits). Frame faults act on one bus through ``BusFaults`` (hil/bus/frame_faults.py,
-re-exported here), installed on the plant's ``RecordingBus`` the first time a
-fault needs it:
+bits). Frame faults act on one bus through the rig's ``BusFaults`` of that bus
+(hil/bus/frame_faults.py, re-exported here), a stage of the plant's bus end:
 
 - towards the controller (frames the plant sends): drop, delay (late or
   jittered replies), corrupt, error frames after a frame, extra traffic from
@@ -36,8 +35,9 @@ from wheelleg.controller import constants as C
 from wheelleg.dbc import cybergear as cg
 from wheelleg.hil.bus.busload import DEFAULT_BITRATE
 # BOTH, TO_DEVICES and priority are re-exported: scenarios and tests name them faults.*
-from wheelleg.hil.bus.frame_faults import (BOTH, BUSES, TO_CONTROLLER, TO_DEVICES, Arbitration, Babble,  # noqa: F401
-                              BusFaults, BusOff, Corrupt, Delay, Drop, ErrorFrames, Garbage, Select,
+from wheelleg.dbc import BUSES  # noqa: F401  (re-exported: scenarios and tests name faults.BUSES)
+from wheelleg.hil.bus.frame_faults import (BOTH, TO_CONTROLLER, TO_DEVICES, Arbitration, Babble,  # noqa: F401
+                              BusOff, Corrupt, Delay, Drop, ErrorFrames, Garbage, Select,
                               make_select, priority)
 from wheelleg.hil.run.scenario import Action
 
@@ -164,10 +164,10 @@ def _frame_fault(kind: str, bus: str, t_s: float, duration_s: float | None, make
     def start(rig):
         seed = [int(rig.config.seed), zlib.crc32(f"{kind}:{bus}:{t_s!r}".encode())]
         active["fault"] = make(np.random.default_rng(seed))
-        BusFaults.of(rig, bus).add(active["fault"])
+        rig.bus_faults[bus].add(active["fault"])
 
     def end(rig):
-        BusFaults.of(rig, bus).remove(active["fault"])
+        rig.bus_faults[bus].remove(active["fault"])
         return {"frames_affected": active["fault"].count}
 
     return _window(kind, t_s, duration_s, start, end, bus=bus, **fields)

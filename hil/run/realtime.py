@@ -31,9 +31,11 @@ from contextlib import contextmanager
 
 from wheelleg.controller.node import ControllerNode
 from wheelleg.dbc import CAN1, CAN2
+from wheelleg.hil.bus.plant_bus import SimClock
+from wheelleg.hil.bus.transport import open_bus
 from wheelleg.hil.record import schemas
 from wheelleg.hil.run.loop_timing import loop_timing, per_tick, plant_timing
-from wheelleg.hil.bus.transport import open_bus
+from wheelleg.hil.run.schedule import HeartbeatWatch
 
 MAX_BATCH_S = 0.05  # s of physics the plant takes in one batch when behind (then it stretches time)
 SWITCH_INTERVAL_S = 0.0002  # Python's GIL hand-over bound while two loops share the process
@@ -115,21 +117,27 @@ def host_steal_s() -> float | None:
         return None
 
 
-class RealtimeRun:
-    """Drives one rig in real time; ``run`` returns (ticks, sim s, wall s, timing dict)."""
+class Realtime:
+    """The real-time schedule: owns the run's clock; ``run`` returns (ticks, sim s, wall s, timing dict)."""
 
-    def __init__(self, rig):
-        self.rig = rig
-        cfg = rig.config
-        self.dt = cfg.physics_dt_s
-        self.steps_per_tick = round(cfg.period_s / cfg.physics_dt_s)
-        self.max_batch = max(1, round(MAX_BATCH_S / cfg.physics_dt_s))
+    def __init__(self, period_s: float, physics_dt_s: float):
+        self.period_s, self.dt = period_s, physics_dt_s
+        self.clock = SimClock()
+        self.watches: dict[str, HeartbeatWatch] = {}  # unused in real time, kept for one bus stack
+        self.steps_per_tick = round(period_s / physics_dt_s)
+        self.max_batch = max(1, round(MAX_BATCH_S / physics_dt_s))
         self.batches: list[int] = []
         self.lags: list[float] = []
+        self.rig = None
 
-    def run(self) -> tuple[int, float, float, dict]:
-        rig, cfg = self.rig, self.rig.config
-        total = round(rig.scenario.duration_s / cfg.period_s) * self.steps_per_tick
+    def bus_end(self, bus: str, end):
+        self.watches[bus] = HeartbeatWatch()
+        return end
+
+    def run(self, rig, ticks: int) -> tuple[int, float, float, dict]:
+        self.rig = rig
+        cfg = rig.config
+        total = ticks * self.steps_per_tick
         controller = None
         if cfg.in_process_controller:
             controller = ControllerThread(cfg.interface, rig.names, cfg.period_s)
@@ -149,7 +157,6 @@ class RealtimeRun:
         stolen = None if steal0 is None or steal1 is None else steal1 - steal0
         timing = {"plant": dict(plant_timing(self.batches, self.lags, self.dt, sim_s, wall_s),
                                 scheduler=plant_scheduler, host_steal_s=stolen)}
-        ticks = total // self.steps_per_tick
         if controller is not None:
             timing["controller"] = self._record_controller(controller, wall0, ticks)
         self._record_plant(timing["plant"])
@@ -175,21 +182,22 @@ class RealtimeRun:
 
     def _advance(self, first: int, count: int) -> None:
         """Physics steps ``first`` .. ``first + count - 1``, the buses served around them."""
-        rig = self.rig
+        rig, clock = self.rig, self.clock
         t0 = first * self.dt
-        rig.recorder.now_ns = round(t0 * 1e9)
-        rig._serve_plant(t0)  # the controller's frames that came while we slept
+        clock.set_s(t0)
+        rig.serve_plant(t0)  # the controller's frames that came while we slept
         for k in range(first, first + count):
             now = k * self.dt
             if k % self.steps_per_tick == 0:
-                rig.recorder.now_ns = round(now * 1e9)
-                rig._apply_actions(now)
+                clock.set_s(now)
+                rig.apply_actions(now)
             rig.plant.step(now)
             if (k + 1) % self.steps_per_tick == 0:
-                rig.trace.sim_state(round((now + self.dt) * 1e9), rig.physics.ground_truth())
+                clock.set_s(now + self.dt)
+                rig.record_state()
         t1 = (first + count) * self.dt
-        rig.recorder.now_ns = round(t1 * 1e9)
-        rig._serve_plant(t1)  # feedback of the new state
+        clock.set_s(t1)
+        rig.serve_plant(t1)  # feedback of the new state
 
     # -- the record ------------------------------------------------------------------------------
     def _record_controller(self, controller: ControllerThread, wall0: float, ticks_run: int) -> dict:

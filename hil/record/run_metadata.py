@@ -1,0 +1,53 @@
+"""The trace's ``run`` metadata record: written by the rig, read by replay and the bug report.
+
+Every key is a str -> str (MCAP metadata). ``REPLAY_KEYS`` are the ones a
+trace needs to be replayed on another machine; ``run_record`` writes them
+all (and a few more).
+"""
+from __future__ import annotations
+
+import json
+import subprocess
+from pathlib import Path
+
+from wheelleg.controller import params as P
+from wheelleg.dbc import CAN1, CAN2
+
+REPLAY_KEYS = ("scenario", "seed", "control_period_s", "git_revision", "controller_params", CAN1, CAN2)
+
+
+def git_revision(cwd: Path | None = None) -> str:
+    """The commit the code runs from ("unknown" outside a git checkout)."""
+    try:
+        out = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True,
+                             cwd=cwd or Path(__file__).parent, timeout=5)
+        return out.stdout.strip() or "unknown"
+    except (OSError, subprocess.SubprocessError):
+        return "unknown"
+
+
+def controller_params_json() -> str:
+    """The controller's tuning (every upper-case name of its params module) as sorted JSON."""
+    params = {k: v for k, v in vars(P).items() if k.isupper()}
+    return json.dumps(params, sort_keys=True, default=repr)
+
+
+def current_params() -> dict:
+    """The controller's tuning as a recording holds it (``run.controller_params`` read back)."""
+    return json.loads(controller_params_json())
+
+
+def run_record(*, scenario: str, seed: int, control_period_s: float, channels: dict[str, str],
+               physics_dt_s: float | None = None, duration_s: float | None = None,
+               interface: str = "virtual", plant_overrides: dict[str, float] | None = None) -> dict[str, str]:
+    """The ``run`` record of one run; ``channels``: bus role -> interface name;
+    ``plant_overrides``: the plant's per-run overrides (key -> SI value), JSON in the record."""
+    record = {"scenario": scenario, "seed": str(seed), "control_period_s": repr(control_period_s)}
+    if physics_dt_s is not None:
+        record["physics_dt_s"] = repr(physics_dt_s)
+    if duration_s is not None:
+        record["duration_s"] = repr(duration_s)
+    record.update({"interface": interface, CAN1: channels[CAN1], CAN2: channels[CAN2],
+                   "git_revision": git_revision(), "controller_params": controller_params_json(),
+                   "plant_overrides": json.dumps(plant_overrides or {}, sort_keys=True)})
+    return record

@@ -1,0 +1,129 @@
+"""How a lockstep run moves: the schedule owns the run's clock and drives the rig tick by tick.
+
+Lockstep: each control period the rig sends SYNC(T) on both buses after the
+period's feedback; the controller runs one tick per SYNC and ends it with a
+heartbeat on both buses; the plant handles the commands that came before the
+heartbeats (they are in bus order) and only then steps the physics. A
+heartbeat that does not come within ``deadline_s`` of wall time is a
+deadline miss: reported in the trace and the summary, never waited on.
+
+- ``Lockstep``: python-can's in-process virtual bus. With the in-process
+  controller the rig hands it the turn itself instead of sleeping: the same
+  frames in the same order, just no thread switches.
+- ``HeldLockstep``: a real transport (SocketCAN). The plant holds each bus's
+  frames until both heartbeats are in and then takes them in the virtual
+  bus's order (hil/bus/held_bus.py): the same bytes in the recording on
+  every transport.
+
+Real time has its own schedule: hil/run/realtime.py.
+"""
+from __future__ import annotations
+
+import time
+
+import can
+
+from wheelleg.dbc import load_bus
+from wheelleg.dbc import CAN1
+from wheelleg.hil.bus.held_bus import HeldBus
+from wheelleg.hil.bus.plant_bus import SimClock
+
+_HEARTBEAT = load_bus(CAN1).get_message_by_name("Heartbeat")
+POLL_S = 0.00005  # s between polls while the heartbeats of an external controller are awaited
+
+
+class HeartbeatWatch:
+    """The lockstep watch, a plant-bus stage: the last heartbeat tick the controller sent on one bus."""
+
+    def __init__(self):
+        self.tick = -1
+
+    def outbound(self, frames: list[can.Message]) -> list[can.Message]:
+        return frames
+
+    def inbound(self, msg: can.Message) -> bool:
+        if msg.arbitration_id == _HEARTBEAT.frame_id:  # the common case, a frame that is none, cheaply
+            self.note(msg)
+        return True
+
+    def note(self, msg: can.Message) -> None:
+        if msg.arbitration_id == _HEARTBEAT.frame_id and not msg.is_extended_id and msg.dlc == 8:
+            try:
+                self.tick = _HEARTBEAT.decode(bytes(msg.data))["Tick"]
+            except Exception:
+                pass  # a malformed heartbeat counts as none: the deadline catches it
+
+
+class Lockstep:
+    """Lockstep on the in-process bus; owns the run's ``clock``."""
+
+    def __init__(self, period_s: float, physics_dt_s: float, deadline_s: float):
+        self.period_s, self.physics_dt_s, self.deadline_s = period_s, physics_dt_s, deadline_s
+        self.clock = SimClock()
+        self.watches: dict[str, HeartbeatWatch] = {}
+
+    def bus_end(self, bus: str, end: can.BusABC):
+        """The transport end the plant reads ``bus`` through, and its lockstep watch."""
+        self.watches[bus] = HeartbeatWatch()
+        return end
+
+    def run(self, rig, ticks: int) -> None:
+        for tick in range(ticks):
+            self.step_tick(rig, tick)
+
+    def step_tick(self, rig, tick: int) -> None:
+        t_s = tick * self.period_s
+        self.clock.set_s(t_s)
+        rig.apply_actions(t_s)
+        rig.send_sync(tick, t_s)
+        rig.service_controller()
+        if not self.await_heartbeats(rig, tick, t_s):
+            rig.deadline_miss(tick)
+        rig.record_debug()
+        substeps = round(self.period_s / self.physics_dt_s)
+        for k in range(substeps):
+            now = t_s + k * self.physics_dt_s
+            rig.plant.step(now)
+            self.clock.set_s(now + self.physics_dt_s)
+            rig.serve_plant(now + self.physics_dt_s)
+        rig.record_state()
+
+    def heartbeats_in(self, tick: int) -> bool:
+        return all(w.tick == tick for w in self.watches.values())
+
+    def await_heartbeats(self, rig, tick: int, t_s: float) -> bool:
+        deadline = time.monotonic() + self.deadline_s
+        while True:
+            rig.serve_plant(t_s)
+            if self.heartbeats_in(tick):
+                return True
+            if rig.controller is not None or time.monotonic() > deadline:
+                return False
+            time.sleep(POLL_S)
+
+
+class HeldLockstep(Lockstep):
+    """Lockstep held on a real transport: frames gathered until both heartbeats are in."""
+
+    def __init__(self, period_s: float, physics_dt_s: float, deadline_s: float):
+        super().__init__(period_s, physics_dt_s, deadline_s)
+        self.held: dict[str, HeldBus] = {}
+
+    def bus_end(self, bus: str, end: can.BusABC):
+        super().bus_end(bus, end)
+        self.held[bus] = HeldBus(end)
+        return self.held[bus]
+
+    def await_heartbeats(self, rig, tick: int, t_s: float) -> bool:
+        deadline = time.monotonic() + self.deadline_s
+        while True:
+            for bus, held in self.held.items():
+                for msg in held.gather():
+                    self.watches[bus].note(msg)
+            done = self.heartbeats_in(tick)
+            if done or time.monotonic() > deadline:
+                break
+            rig.service_controller()  # its SYNC may have been in flight
+            time.sleep(POLL_S)
+        rig.serve_plant(t_s)  # CAN1's held frames, then CAN2's: the virtual bus's order
+        return done
