@@ -292,6 +292,12 @@ class ChassisController:
             # moving: speed alone is tracked (a position lead would overshoot the speed
             # and wind up against a wall); the spot to hold is where it stops
             self.x_ref = self.x
+        elif self.trim_hold_s > 0.0:
+            # just stopped: the braking overshoots the spot where the set point reached 0
+            # (0.5 m from 2 m/s). The LQR sees the error clamped (_lqr), so dragging the spot
+            # to within the clamp changes no braking torque; it only spares the walk back
+            # at the clamp's speed (0.3 m/s), which left `sprint` still moving 3.5 s later
+            self.x_ref = self.x - _clamp(self.x - self.x_ref, P.POSITION_ERROR_LIMIT)
         # standing, it stays put: pushed away, the robot comes back to its spot, with the
         # error the LQR sees clamped (_lqr), so at a bounded speed
         self.yaw_ref = _wrap(self.yaw_ref + _clamp(cmd.yaw_rate, P.YAW_RATE_LIMIT) * self.dt)
