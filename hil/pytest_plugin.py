@@ -18,7 +18,7 @@ robot team's own tests to use ``rig_run``::
 - A failing test that used ``rig_run`` gets a "wheelleg rig" report section
   naming the trace, the candump log and the commands to replay and inspect it.
   A run is registered with its test before it starts, so a test stopped during
-  the run (pytest-timeout's signal method, Ctrl-C) still names the files the run
+  the run (pytest-timeout's signal method) still names the files the run
   was writing. (pytest-timeout's thread method ends the process: no report.)
 
 Importing this module must stay cheap (pytest loads it in every session of an
