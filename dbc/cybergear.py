@@ -18,6 +18,7 @@ from wheelleg.dbc import load_file, truncating_raw
 
 TYPE_SHIFT = 24
 DEVICE_ID_TARGET = 0xFE  # replies to type 0/7/22 go to this address
+DEFAULT_MASTER = 0x00  # CAN_MASTER's factory value: where a motor answers unless told otherwise
 FAULT_NAMES = ("FaultUnderVoltage", "FaultOverCurrent", "FaultOverTemp",
                "FaultMagEncoder", "FaultHallEncoder", "FaultNotCalibrated")
 
@@ -159,6 +160,19 @@ def sent_by_host(can_id: int, host_id: int) -> bool:
     """
     sender = request_host(can_id)
     return sender == host_id or sender > MAX_MOTOR_ID
+
+
+def from_motor(can_id: int, host_id: int) -> bool:
+    """True for a motor->host frame to any host, False for a host->motor request.
+
+    ``is_reply`` knows only ``host_id`` and 0xFE; a reply to the demo's and the
+    firmware's default master 0x00 ends in 0x00 too, which also reads as a
+    request to motor 0. Bits 15..8 settle it: a request's name a host
+    (``sent_by_host``), a reply's the answering motor.
+    """
+    if is_reply(can_id, host_id):
+        return True
+    return target(can_id) == DEFAULT_MASTER and not sent_by_host(can_id, host_id)
 
 
 def reply_motor(can_id: int) -> int:

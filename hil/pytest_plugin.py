@@ -17,6 +17,9 @@ robot team's own tests to use ``rig_run``::
   vcan, when vcan0/vcan1 (or the ``--can-channels``) cannot be opened.
 - A failing test that used ``rig_run`` gets a "wheelleg rig" report section
   naming the trace, the candump log and the commands to replay and inspect it.
+  A run is registered with its test before it starts, so a test stopped during
+  the run (pytest-timeout's signal method) still names the files the run
+  was writing. (pytest-timeout's thread method ends the process: no report.)
 
 Importing this module must stay cheap (pytest loads it in every session of an
 environment where the package is installed): the rig is imported on first use.
@@ -24,6 +27,7 @@ environment where the package is installed): the rig is imported on first use.
 from __future__ import annotations
 
 import argparse
+import json
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -33,7 +37,7 @@ import pytest
 from wheelleg.hil.analyze.bug_report import rerun_command
 from wheelleg.hil.run.scenario import RunData
 
-_RUNS_OF_ITEM = pytest.StashKey[list]()
+_RUNS_OF_ITEM = pytest.StashKey[list]()  # RigRun, or PlannedRun while (or if) it has not returned
 _SOCKETCAN_HELP = "needs real SocketCAN vcan0/vcan1 (skipped with the reason when they are absent)"
 
 
@@ -116,32 +120,65 @@ class RigRun(RunData):
             raise AssertionError(f"{len(self.failed_checks)} check(s) of {self.scenario} failed\n{self.describe()}")
 
 
+@dataclass(frozen=True)
+class PlannedRun:
+    """A run about to start (or stopped before it returned): what it is and where it writes."""
+
+    scenario: str
+    seed: int
+    duration: float | None
+    overrides: tuple  # (plant key, value) pairs
+    out_dir: Path
+    trace_path: Path
+    log_path: Path
+
+    @property
+    def key(self) -> tuple:
+        return self.scenario, self.seed, self.duration, self.overrides
+
+    def describe(self) -> str:
+        """The files a run stopped midway leaves (written up to the stop) and how to run it again."""
+        meta = {"scenario": self.scenario, "seed": self.seed, "duration_s": self.duration,
+                "plant_overrides": json.dumps(dict(self.overrides))}
+        return "\n".join([f"scenario {self.scenario} (seed {self.seed}) did not finish: the test stopped during the run",
+                          f"  trace:   {self.trace_path} (as far as it got; a killed run's trace has no summary)",
+                          f"  log:     {self.log_path}",
+                          f"  rerun:   {rerun_command(meta)}"])
+
+
 class _RunCache:
     def __init__(self, out_dir: Path, interface: str, channels: tuple[str, str]):
         self.out_dir, self.interface, self.channels = out_dir, interface, channels
         self.runs: dict[tuple, RigRun] = {}
         self.executed = 0  # rig runs actually done (the rest came from the cache)
 
-    def get(self, scenario: str, duration: float | None, seed: int, plant: dict | None = None) -> RigRun:
+    def plan(self, scenario: str, duration: float | None, seed: int, plant: dict | None = None) -> PlannedRun:
+        """The run ``get`` gives for these arguments, with the paths it writes (nothing runs)."""
         from wheelleg.emulators.overrides import check_overrides  # ValueError: one line, the known keys
+        from wheelleg.hil.run.rig import run_paths  # the rig (MuJoCo, emulators) only when used
 
         overrides = tuple(check_overrides(plant or {}).items())
-        key = (scenario, int(seed), None if duration is None else float(duration), overrides)
-        run = self.runs.get(key)
+        duration = None if duration is None else float(duration)
+        words = [f"{scenario}-seed{int(seed)}-{duration or 'full'}s", *(f"{k}={v!r}" for k, v in overrides)]
+        out_dir = self.out_dir / re.sub(r"[^A-Za-z0-9_.-]", "_", "-".join(words))
+        return PlannedRun(scenario, int(seed), duration, overrides, out_dir, *run_paths(out_dir, scenario))
+
+    def get(self, planned: PlannedRun) -> RigRun:
+        run = self.runs.get(planned.key)
         if run is None:
-            run = self.runs[key] = self._execute(*key)
+            run = self.runs[planned.key] = self._execute(planned)
         return run
 
-    def _execute(self, scenario: str, seed: int, duration: float | None, overrides: tuple) -> RigRun:
+    def _execute(self, planned: PlannedRun) -> RigRun:
         if self.interface == "socketcan":
             reason = socketcan_missing(self.channels)
             if reason:
                 pytest.skip(f"--can-interface socketcan: {reason}")
         from wheelleg.hil.commands.run import execute  # the rig (MuJoCo, emulators) only when used
 
-        plant = [f"{k}={v!r}" for k, v in overrides]
-        label = re.sub(r"[^A-Za-z0-9_.-]", "_", "-".join([f"{scenario}-seed{seed}-{duration or 'full'}s", *plant]))
-        args = argparse.Namespace(scenario=scenario, out=self.out_dir / label, interface=self.interface,
+        scenario, seed, duration = planned.scenario, planned.seed, planned.duration
+        plant = [f"{k}={v!r}" for k, v in planned.overrides]
+        args = argparse.Namespace(scenario=scenario, out=planned.out_dir, interface=self.interface,
                                   channel=list(self.channels),
                                   seed=seed, duration=duration, realtime=False, external_controller=False,
                                   no_plot=True, quiet=True, plant=plant)
@@ -167,7 +204,10 @@ def rig_run(request, rig_cache):
     runs = request.node.stash.setdefault(_RUNS_OF_ITEM, [])
 
     def run(scenario: str, duration: float | None = None, seed: int = 0, plant: dict | None = None) -> RigRun:
-        result = rig_cache.get(scenario, duration, seed, plant)
+        planned = rig_cache.plan(scenario, duration, seed, plant)
+        runs.append(planned)  # before the run: a test stopped during it still names the files
+        result = rig_cache.get(planned)
+        runs[:] = [r for r in runs if r is not planned]  # returned: the RigRun says more
         if not any(r is result for r in runs):  # identity: RunData holds arrays
             runs.append(result)
         return result

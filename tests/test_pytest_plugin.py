@@ -63,6 +63,34 @@ def test_rig_run_fixture_caches_runs_and_reports_failures(pytester):
     assert text.count("wheelleg rig") == 1
 
 
+TIMEOUT_TEST = '''
+import pytest
+import wheelleg.hil.commands.run  # the rig's imports before the clock starts
+
+@pytest.mark.timeout(1)
+def test_stopped_during_a_long_run(rig_run):
+    rig_run("balance", seed=3)  # the full scenario: many seconds
+'''
+
+
+def test_a_test_timed_out_during_rig_run_names_the_trace(pytester):
+    pytest.importorskip("pytest_timeout")
+    pytester.makepyfile(test_timeout=TIMEOUT_TEST)
+    out = pytester.path / "rig-out"
+    # a subprocess: the signal method needs the main thread, and the thread method would end this process
+    result = pytester.runpytest_subprocess("-p", "no:cacheprovider", "--timeout-method", "signal",
+                                           "--rig-out", str(out))
+    result.assert_outcomes(failed=1)
+    text = result.stdout.str()
+    assert "Timeout" in text
+    section = text[text.index("wheelleg rig"):]
+    trace = re.search(r"trace:\s+(\S+)", section).group(1)
+    log = re.search(r"log:\s+(\S+)", section).group(1)
+    assert trace == str(out / "balance-seed3-fulls" / "balance.mcap")
+    assert log == str(out / "balance-seed3-fulls" / "balance.log")
+    assert "did not finish" in section and "rerun:   wheelleg run balance --seed 3" in section
+
+
 def test_socketcan_marker_and_transport_skip_with_a_reason(pytester):
     pytester.makepyfile(test_sc='''
 import pytest

@@ -9,6 +9,8 @@ feed-forward, mode, fault bits) are added through ``wheelleg.dbc.cybergear``.
 
 Values are numbers (choices stay numbers). A frame that cannot be decoded
 (unknown id, wrong length) yields ``None``: the raw frame is still recorded.
+A type-0 request carries no payload (the official debugger sends DLC 1, ``00``;
+other drivers DLC 0 or 8): it decodes to its id fields alone, whatever its length.
 
 Speed: cantools' ``Message.decode`` costs 3-5 us per frame here, too much for
 the rig's hot path; payloads of the message's length go through the compiled
@@ -63,8 +65,8 @@ def _reply_fields(can_id: int) -> dict:
 
 
 def _either_fields(can_id: int) -> dict:
-    """Types 0, 17, 21 are both requests and replies: the last byte tells which."""
-    if cg.is_reply(can_id, CG_HOST_ID):
+    """Types 0, 17, 21 are both requests and replies: ``cg.from_motor`` tells which."""
+    if cg.from_motor(can_id, CG_HOST_ID):
         return _reply_fields(can_id)
     return _request_fields(can_id)
 
@@ -98,19 +100,23 @@ _CYBERGEAR_MESSAGES = _cybergear_names()
 class DecodePlan:
     """How to decode frames of one identifier: the DBC message and the id fields."""
 
-    __slots__ = ("message", "name", "codec", "id_fields", "id_units", "renamed", "_id_cache")
+    __slots__ = ("message", "name", "codec", "id_fields", "id_units", "renamed", "bare_requests", "_id_cache")
 
     def __init__(self, message, id_fields: Callable[[int], dict] | None = None,
-                 id_units: tuple[tuple[str, str], ...] = (), renamed: tuple[tuple[str, str], ...] = ()):
+                 id_units: tuple[tuple[str, str], ...] = (), renamed: tuple[tuple[str, str], ...] = (),
+                 bare_requests: bool = False):
         self.message = message  # cantools Message
         self.name: str = message.name
         self.codec = _compiled(message)
         self.id_fields = id_fields
         self.id_units = id_units  # (field name, unit) for the schema
         self.renamed = renamed  # id field -> name used (the payload wins a clash)
+        self.bare_requests = bare_requests  # requests carry no payload: id fields only
         self._id_cache: dict[int, dict] = {}
 
     def decode(self, can_id: int, data: bytes) -> dict | None:
+        if self.bare_requests and not cg.from_motor(can_id, CG_HOST_ID):
+            return dict(self._fields_of(can_id))
         codec = self.codec
         try:
             if codec is not None and len(data) == codec.length:
@@ -148,7 +154,8 @@ def _cybergear_plan(message) -> DecodePlan:
     payload = {s.name for s in message.signals}
     renamed = tuple((name, "Id" + name) for name in units if name in payload)
     rename = dict(renamed)
-    return DecodePlan(message, fn, tuple((rename.get(k, k), u) for k, u in units.items()), renamed)
+    return DecodePlan(message, fn, tuple((rename.get(k, k), u) for k, u in units.items()), renamed,
+                      bare_requests=cg.comm_type(message.frame_id) == cg.T_DEVICE_ID)
 
 
 class FrameDecoder:
@@ -195,7 +202,7 @@ class FrameDecoder:
         if db is None:
             return None
         try:
-            message = db.get_message_by_frame_id(can_id)
+            message = db.get_message_by_frame_id(can_id, force_extended_id=is_extended)
         except KeyError:
             return None
         if message.is_extended_frame != is_extended:

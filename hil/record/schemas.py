@@ -140,17 +140,18 @@ def _signal_property(signal) -> dict:
     return prop
 
 
-def decoded_schema(message, id_fields: dict[str, str] | None = None) -> dict:
+def decoded_schema(message, id_fields: dict[str, str] | None = None, payload_optional: bool = False) -> dict:
     """Schema of ``/decoded/<channel>/<message.name>`` for a cantools message.
 
     ``id_fields`` maps the names of fields read from the identifier (CyberGear)
-    to their unit. Every signal is optional: a multiplexed message carries
-    only the signals of its multiplexer value.
+    to their unit. The signals are required unless the message is multiplexed
+    (a frame carries only the signals of its multiplexer value) or
+    ``payload_optional`` (some frames of the topic carry no payload: type-0 requests).
     """
     props = {s.name: _signal_property(s) for s in message.signals}
     for name, unit in (id_fields or {}).items():
         props[name] = _number(unit, "from the 29-bit identifier")
-    required = [] if message.is_multiplexed() else [s.name for s in message.signals]
+    required = [] if message.is_multiplexed() or payload_optional else [s.name for s in message.signals]
     return {
         "title": f"wheelleg.decoded.{message.name}",
         "description": (message.comment or message.name).strip(),

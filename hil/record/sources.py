@@ -113,7 +113,8 @@ def dbc_message(role: str, arbitration_id: int, is_extended: bool):
         return None
     frame_id = cg.canonical_id(arbitration_id) if is_extended else arbitration_id
     try:
-        message = db.get_message_by_frame_id(frame_id)
+        # cantools reads an id <= 0x7FF as standard unless told: type 0's canonical id is 0
+        message = db.get_message_by_frame_id(frame_id, force_extended_id=is_extended)
     except KeyError:
         return None
     return message if message.is_extended_frame == is_extended else None

@@ -198,7 +198,7 @@ class TraceWriter:
         return channel_id
 
     def _decoded_channel(self, channel: str, plan) -> int:
-        schema = schemas.decoded_schema(plan.message, dict(plan.id_units))
+        schema = schemas.decoded_schema(plan.message, dict(plan.id_units), payload_optional=plan.bare_requests)
         channel_id = self._channel(f"{DECODED_PREFIX}{channel}/{plan.name}", schema["title"], schema)
         self._decoded_ids[plan] = channel_id
         return channel_id

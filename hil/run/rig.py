@@ -80,6 +80,11 @@ def _schedule(config: RigConfig):
     return kind(config.period_s, config.physics_dt_s, config.deadline_s)
 
 
+def run_paths(out_dir: Path, scenario_name: str) -> tuple[Path, Path]:
+    """Where a run of ``scenario_name`` into ``out_dir`` writes its MCAP trace and its candump log."""
+    return out_dir / f"{scenario_name}.mcap", out_dir / f"{scenario_name}.log"
+
+
 class Rig:
     """One scenario run: build everything, step it, record it."""
 
@@ -88,8 +93,7 @@ class Rig:
         self.scenario, self.config = scenario, config
         self.progress = progress
         out_dir.mkdir(parents=True, exist_ok=True)
-        self.trace_path = out_dir / f"{scenario.name}.mcap"
-        self.log_path = out_dir / f"{scenario.name}.log"
+        self.trace_path, self.log_path = run_paths(out_dir, scenario.name)
         self.names = {CAN1: config.channels[0], CAN2: config.channels[1]}
         self.rng = np.random.default_rng(config.seed)
         self.physics = Physics(terrain=scenario.terrain, timestep_s=config.physics_dt_s,
