@@ -32,6 +32,27 @@ class LastOutput:
         return tuple(self.chassis.legs[leg].theta_rad for leg in LEGS)
 
 
+# Every key of ``debug_record`` with its meaning and unit (the trace's schema describes
+# the fields from this table; tests check it names exactly the record's keys).
+DEBUG_FIELDS = {
+    "x": "wheel travel since the last reset (m)",
+    "x_ref": "position reference (m)",
+    "speed": "axle speed along the ground, mean of both wheels (m/s)",
+    "speed_ref": "speed reference after the acceleration limit (m/s)",
+    "pitch": "body pitch from the IMU, nose down positive (rad)",
+    "roll": "body roll from the IMU, left side up positive (rad)",
+    "yaw": "body yaw from the IMU (rad)",
+    "yaw_ref": "heading reference (rad)",
+    **{f"{leg}_{key}": f"{leg} leg: {text}" for leg in LEGS for key, text in (
+        ("L0", "virtual leg length (m)"), ("L0_ref", "leg length reference (m)"),
+        ("theta", "virtual leg angle from vertical, wheel behind the hip positive (rad)"),
+        ("T", "wheel torque asked of the LQR and yaw control (N m)"),
+        ("Tp", "virtual hip torque asked of the LQR and split control (N m)"))},
+    **{f"Fn_{leg}": f"{leg} leg: support force estimate (N)" for leg in LEGS},
+    "jump_phase": "jump table phase (controller.jump.Phase, 0 = idle)",
+}
+
+
 def debug_record(last: LastOutput) -> dict:
     """The trace's flat debug record (key -> number) of ``last``; read by no control path."""
     c = last.chassis

@@ -177,6 +177,7 @@ def test_cybergeardriver_drives_every_command(emulator):
         param("loc_ref", 1.0, 1e-6)
         state("position", 1.0, 0.05)
         motor.stop()  # else the position loop drives to loc_ref again from the new zero
+        state("velocity", 0.0, 0.01)  # at rest first: a shaft still coasting leaves the new zero
         motor.set_zero_position()
         state("position", 0.0, 0.01)
         param("VBUS", 24.0, 1e-3)

@@ -63,3 +63,27 @@ def test_the_run_prints_its_start_up_and_the_factor_to_the_verdict(tmp_path, cap
     out = capsys.readouterr().out
     assert "start-up" in out and "(imports, model build)" in out
     assert "x real time from the first tick to the checks' verdict" in out
+
+
+def test_controller_debug_has_a_described_schema_for_foxglove(tmp_path):
+    """/controller/debug is wheelleg.ControllerDebug, every field described with its unit,
+    and every message of a run validates against it (no key outside the table)."""
+    import json
+
+    import jsonschema
+    from mcap.reader import make_reader
+    from wheelleg.controller.telemetry import DEBUG_FIELDS
+    from wheelleg.hil.record.trace import TraceReader
+
+    outcome, _ = run_scenario("stand-up", tmp_path, duration=0.6)
+    reader = TraceReader(outcome.trace_path)
+    with open(outcome.trace_path, "rb") as f:
+        summary = make_reader(f).get_summary()
+    (schema_rec,) = [s for s in summary.schemas.values() if s.name == "wheelleg.ControllerDebug"]
+    schema = json.loads(schema_rec.data)
+    assert set(schema["properties"]) == set(DEBUG_FIELDS)
+    assert all("(" in p["description"] for p in schema["properties"].values())  # a unit in each
+    messages = reader.topic("/controller/debug")
+    assert len(messages) > 100
+    for _, payload in messages:
+        jsonschema.validate(payload, schema)

@@ -162,6 +162,13 @@ def decoded_schema(message, id_fields: dict[str, str] | None = None, payload_opt
     }
 
 
+def described_schema(title: str, fields: dict[str, str]) -> dict:
+    """A JSON channel of numbers whose every field has a description (meaning and unit)."""
+    return {"title": title, "type": "object",
+            "properties": {k: {"type": ["number", "null"], "description": text} for k, text in fields.items()},
+            "required": list(fields), "additionalProperties": False}
+
+
 def inferred_schema(title: str, payload: dict) -> dict:
     """A permissive schema for a generic JSON channel, typed from its first payload."""
     return {"title": title, "type": "object",

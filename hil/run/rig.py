@@ -19,6 +19,7 @@ import numpy as np
 from wheelleg.controller import params as P
 from wheelleg.controller.bus_args import per_bus_kwargs
 from wheelleg.controller.node import ControllerNode
+from wheelleg.controller.telemetry import DEBUG_FIELDS
 from wheelleg.dbc import CAN1, CAN2, all_dbc_files, load_bus
 from wheelleg.emulators.physics import MODEL_DIR, Physics
 from wheelleg.emulators.plant import Plant, PlantConfig
@@ -28,11 +29,13 @@ from wheelleg.hil.bus.recorder import Recorder
 from wheelleg.hil.bus.transport import open_bus
 from wheelleg.hil.record.candump import CandumpWriter
 from wheelleg.hil.record.run_metadata import run_record
+from wheelleg.hil.record.schemas import described_schema
 from wheelleg.hil.record.trace import TraceWriter
 from wheelleg.hil.run.scenario import Scenario
 from wheelleg.hil.run.schedule import HeldLockstep, Lockstep
 
 _SYNC = load_bus(CAN1).get_message_by_name("SYNC")
+DEBUG_SCHEMA = described_schema("wheelleg.ControllerDebug", DEBUG_FIELDS)  # /controller/debug
 
 @dataclass
 class RigConfig:
@@ -186,7 +189,8 @@ class Rig:
             return
         result = self.controller.last_result
         if result is not None and result.debug:
-            self.trace.message("/controller/debug", self.clock.now_ns, result.debug, "ControllerDebug")
+            self.trace.message("/controller/debug", self.clock.now_ns, result.debug, DEBUG_SCHEMA["title"],
+                               DEBUG_SCHEMA)
 
     # -- scenario actions ------------------------------------------------------
     def apply_actions(self, t_s: float) -> None:
