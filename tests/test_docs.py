@@ -8,6 +8,7 @@ an anchor, a heading of that file).
 """
 from __future__ import annotations
 
+import codecs
 import re
 from pathlib import Path
 
@@ -136,8 +137,10 @@ def test_the_docs_the_readme_promises_exist():
 
 # --- the checks themselves can fail -------------------------------------------------------
 def test_pointer_pattern_catches_each_kind_and_spares_the_docs():
-    bad = ["see DESIGN" ".md", "(../shared" "/protoc" "ols.md §1)", "control_" "notes §1.8",
-           "seed " "000's detect task", "Issue " "5: faults", "protoc" "ols.md §1.4"]
+    # The pointers are written rot13-encoded, so this file holds none of them itself.
+    bad = [codecs.decode(line, "rot13") for line in (
+        "frr QRFVTA.zq", "(../funerq/cebgbpbyf.zq §1)", "pbageby_abgrf §1.8",
+        "frrq 000'f qrgrpg gnfx", "Vffhr 5: snhygf", "cebgbpbyf.zq §1.4")]
     for line in bad:
         assert pointers(line), line
     for line in ["docs/protocols.md §1.4", "seeded generator", "seed 0", "the issue's aims", "docs/design.md"]:

@@ -1,6 +1,5 @@
 """Transports: udp_multicast buses that do not cross, msgpack declared, an external controller
 refused where none can join and given up on where none answers."""
-import time
 import tomllib
 from pathlib import Path
 
@@ -53,12 +52,10 @@ def test_msgpack_is_declared_for_udp_multicast():
 
 
 def test_external_controller_on_the_virtual_bus_is_refused_at_once(tmp_path, capsys):
-    start = time.monotonic()
     assert main(["run", "balance", "--external-controller", "--out", str(tmp_path), "--no-plot"]) == 2
-    assert time.monotonic() - start < 30  # no rig was started (it would wait per tick)
     err = capsys.readouterr().err
     assert "--external-controller needs a bus another process can join" in err
-    assert not any(tmp_path.iterdir())
+    assert not any(tmp_path.iterdir())  # no rig was started (it would have opened its files)
 
 
 def test_a_silent_external_controller_is_given_up_on(tmp_path, monkeypatch):
@@ -69,10 +66,8 @@ def test_a_silent_external_controller_is_given_up_on(tmp_path, monkeypatch):
     monkeypatch.setattr(schedule, "CONTACT_S", 0.3)
     config = RigConfig(channels=("wl-silent-0", "wl-silent-1"), in_process_controller=False, deadline_s=0.05)
     rig = Rig(scenarios.get("balance"), config, tmp_path)
-    start = time.monotonic()
     with pytest.raises(schedule.NoController, match="no heartbeat from an external controller"):
         rig.run()
-    assert time.monotonic() - start < 20
     assert rig.tick < 20  # it stopped near the start, not after the whole scenario
     assert (tmp_path / "balance.mcap").stat().st_size > 0  # the trace is closed and kept
 
