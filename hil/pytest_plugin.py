@@ -34,7 +34,7 @@ from pathlib import Path
 
 import pytest
 
-from wheelleg.hil.analyze.bug_report import rerun_command
+from wheelleg.hil.record.run_metadata import rerun_command
 from wheelleg.hil.run.scenario import RunData
 
 _RUNS_OF_ITEM = pytest.StashKey[list]()  # RigRun, or PlannedRun while (or if) it has not returned

@@ -213,7 +213,7 @@ def _run(out, plant: list[str]):
 
 
 def test_a_run_records_its_overrides_and_replays_identically(tmp_path):
-    from wheelleg.hil.analyze.bug_report import plant_overrides, rerun_command
+    from wheelleg.hil.record.run_metadata import plant_overrides, rerun_command
     from wheelleg.hil.analyze.replay import replay
     from wheelleg.hil.record.sources import open_recording as open_trace
 

@@ -17,22 +17,6 @@ from wheelleg.hil.record.run_metadata import REPLAY_KEYS, current_params, git_re
 from wheelleg.hil.record.sources import Recording
 
 
-def plant_overrides(run: dict) -> dict[str, float]:
-    """The run's plant overrides (run metadata ``plant_overrides``, JSON), {} when none or absent."""
-    try:
-        recorded = json.loads(run.get("plant_overrides") or "{}")
-    except ValueError:
-        return {}
-    return {str(k): float(v) for k, v in recorded.items()} if isinstance(recorded, dict) else {}
-
-
-def rerun_command(run: dict) -> str:
-    """The one command that runs the recorded scenario again on the same plant (run metadata in)."""
-    parts = ["wheelleg run", run.get("scenario", "SCENARIO"), f"--seed {run.get('seed', 0)}"]
-    if run.get("duration_s"):
-        parts.append(f"--duration {run['duration_s']}")
-    parts += [f"--plant {key}={value!r}" for key, value in plant_overrides(run).items()]
-    return " ".join(parts)
 
 
 def bug_report_gaps(source: Recording) -> list[str]:

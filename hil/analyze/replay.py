@@ -36,7 +36,8 @@ import can
 from wheelleg.controller import params as P
 from wheelleg.controller.modes import Mode
 from wheelleg.controller.node import Controller, ControllerNode
-from wheelleg.hil.analyze.bug_report import environment_warnings, plant_overrides, rerun_command
+from wheelleg.hil.analyze.bug_report import environment_warnings
+from wheelleg.hil.record.run_metadata import plant_overrides, rerun_command
 from wheelleg.hil.record.decode import FrameDecoder
 from wheelleg.hil.record.frame import Frame
 from wheelleg.hil.record.sources import (CAN1, CAN2, CONTROLLER_NODES, DBS, HEARTBEAT, ROLES,

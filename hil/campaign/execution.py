@@ -15,7 +15,6 @@ import logging
 import math
 import os
 import re
-import shlex
 import shutil
 import signal
 import time
@@ -24,6 +23,7 @@ from pathlib import Path
 from typing import Callable, Iterator
 
 from wheelleg.hil.campaign.sampling import Job
+from wheelleg.hil.record.run_metadata import run_command
 
 _NUMBER = re.compile(r"[-+]?(?:nan|inf|(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)", re.IGNORECASE)
 
@@ -57,13 +57,8 @@ def check_ranges(ranges: dict[str, tuple[float, float]]) -> None:
 
 def rerun_command(job: Job, settings: RunSettings) -> str:
     """The one command that runs ``job`` alone (the same candump log, byte for byte), shell-quoted."""
-    words = ["wheelleg", "run", job.scenario, "--seed", str(job.seed)]
-    if settings.duration_s is not None:
-        words += ["--duration", repr(settings.duration_s)]
-    for key, value in sorted(job.overrides.items()):
-        words += ["--plant", f"{key}={value!r}"]
-    words += ["--out", str(run_dir(job, settings) / "rerun")]
-    return shlex.join(words)
+    return run_command(job.scenario, job.seed, settings.duration_s, job.overrides,
+                       out=run_dir(job, settings) / "rerun")
 
 
 def run_dir(job: Job, settings: RunSettings) -> Path:

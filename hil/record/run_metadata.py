@@ -7,6 +7,7 @@ all (and a few more).
 from __future__ import annotations
 
 import json
+import shlex
 import subprocess
 from pathlib import Path
 
@@ -51,3 +52,31 @@ def run_record(*, scenario: str, seed: int, control_period_s: float, channels: d
                    "git_revision": git_revision(), "controller_params": controller_params_json(),
                    "plant_overrides": json.dumps(plant_overrides or {}, sort_keys=True)})
     return record
+
+
+def plant_overrides(run: dict) -> dict[str, float]:
+    """The run's plant overrides (the record's ``plant_overrides``, JSON), {} when none or absent."""
+    try:
+        recorded = json.loads(run.get("plant_overrides") or "{}")
+    except ValueError:
+        return {}
+    return {str(k): float(v) for k, v in recorded.items()} if isinstance(recorded, dict) else {}
+
+
+def run_command(scenario: str, seed: int | str, duration_s: float | str | None = None,
+                overrides: dict[str, float] | None = None, out: Path | str | None = None) -> str:
+    """The one ``wheelleg run`` command (shell-quoted) that makes this run again, byte for byte."""
+    words = ["wheelleg", "run", scenario, "--seed", str(seed)]
+    if duration_s:
+        words += ["--duration", str(duration_s)]
+    for key, value in sorted((overrides or {}).items()):
+        words += ["--plant", f"{key}={value!r}"]
+    if out is not None:
+        words += ["--out", str(out)]
+    return shlex.join(words)
+
+
+def rerun_command(run: dict) -> str:
+    """``run_command`` of a recorded run (its ``run`` metadata record)."""
+    return run_command(run.get("scenario", "SCENARIO"), run.get("seed", 0), run.get("duration_s"),
+                       plant_overrides(run))
