@@ -57,11 +57,6 @@ _GROUND_ONLY = np.array([i == GROUND_GROUP for i in range(6)], dtype=np.uint8)
 _DOWN = np.array([0.0, 0.0, -1.0])
 
 
-def _wrap(angle: float) -> float:
-    """angle (rad) mapped to (-pi, pi]."""
-    return angle - 2.0 * math.pi * math.ceil((angle - math.pi) / (2.0 * math.pi))
-
-
 def _quat_yaw_pitch(yaw: float, pitch: float) -> np.ndarray:
     """Quaternion (w, x, y, z) of R = Rz(yaw) Ry(pitch), pitch > 0 nose down."""
     cy, sy, cp, sp = math.cos(yaw / 2), math.sin(yaw / 2), math.cos(pitch / 2), math.sin(pitch / 2)
@@ -90,8 +85,8 @@ def leg_joint_angles(leg: str, phi1: float, phi4: float) -> dict[str, float]:
     axis_sign = -1.0 if leg == "left" else 1.0
     joints = {m.name: fivebar.shaft_from_phi(m, phi1 if m.hip == "A" else phi4)
               for m in D.HIP_MOTORS if m.leg == leg}
-    joints[f"{leg}_front_knee"] = axis_sign * _wrap((phi2 - phi1) - (rest2 - rest1))
-    joints[f"{leg}_rear_knee"] = axis_sign * _wrap((phi3 - phi4) - (rest3 - rest4))
+    joints[f"{leg}_front_knee"] = axis_sign * fivebar.wrap((phi2 - phi1) - (rest2 - rest1))
+    joints[f"{leg}_rear_knee"] = axis_sign * fivebar.wrap((phi3 - phi4) - (rest3 - rest4))
     return joints
 
 

@@ -19,7 +19,7 @@ _HALF_L5 = 0.5 * D.L5_M
 _CLOSURE_TOL = 1e-9  # relative: a discriminant below -tol means the loop cannot close
 
 
-def _wrap(angle: float) -> float:
+def wrap(angle: float) -> float:
     """angle (rad) mapped to (-pi, pi]."""
     return angle - 2.0 * math.pi * math.ceil((angle - math.pi) / (2.0 * math.pi))
 
@@ -39,7 +39,7 @@ def link_angles(phi1: float, phi4: float) -> tuple[float, float]:
     disc = a0 * a0 + b0 * b0 - c0 * c0
     if disc < -_CLOSURE_TOL * (a0 * a0 + b0 * b0) or bd_sq == 0.0:
         raise ValueError(f"phi1={phi1:.4f}, phi4={phi4:.4f} rad do not close the five-bar loop")
-    phi2 = _wrap(2.0 * math.atan2(b0 + math.sqrt(max(disc, 0.0)), a0 + c0))
+    phi2 = wrap(2.0 * math.atan2(b0 + math.sqrt(max(disc, 0.0)), a0 + c0))
     xc, yc = xb + D.L2_M * math.cos(phi2), yb + D.L2_M * math.sin(phi2)
     return phi2, math.atan2(yc - yd, xc - xd)
 
