@@ -43,7 +43,7 @@ import numpy as np
 from mcap.records import Channel, Message, Metadata, Attachment, Schema
 
 from wheelleg.hil.record import schemas
-from wheelleg.hil.record.mcap_chunks import ChunkedMcapWriter, RecordScan, read_records
+from wheelleg.hil.record.mcap_chunks import ChunkedMcapWriter, ChunkMessages, RecordScan, read_records
 from wheelleg.hil.record.decode import FrameDecoder
 from wheelleg.hil.record.frame import Frame
 
@@ -338,8 +338,11 @@ class TraceReader:
 
     def _load(self) -> None:
         messages, topics = self._messages, self._topics
-        for record in read_records(self.path, self.scan):
-            if type(record) is Message:
+        for record in read_records(self.path, self.scan, by_channel=True):
+            if type(record) is ChunkMessages:
+                for channel_id, rows in record.by_channel.items():
+                    messages[topics[channel_id]].extend(rows)
+            elif type(record) is Message:  # a message outside chunks
                 messages[topics[record.channel_id]].append((record.log_time, record.data))
             elif isinstance(record, Channel):
                 topics[record.id] = record.topic
@@ -423,10 +426,21 @@ def _columns(rows: list[tuple[int, dict]], time_key: str | None = None) -> dict[
     out = {}
     for key in keys:
         if key == time_key:
-            out[key] = np.array([t / 1e9 for t, _ in rows], dtype=float)
+            out[key] = np.array([t for t, _ in rows], dtype=np.int64) / 1e9
         else:
-            out[key] = np.array([_float(row.get(key)) for _, row in rows], dtype=float)
+            out[key] = _floats([row.get(key) for _, row in rows])
     return out
+
+
+def _floats(values: list) -> np.ndarray:
+    """Numbers -> float array; None (missing, null) and strings -> NaN."""
+    try:
+        out = np.array(values, dtype=float)  # None -> NaN
+        if out.ndim == 1:
+            return out
+    except (TypeError, ValueError):  # a string among them
+        pass
+    return np.array([_float(v) for v in values], dtype=float)
 
 
 def _float(value) -> float:
