@@ -67,16 +67,20 @@ class ChunkedMcapWriter:
 
     ``stream`` is a binary file opened for writing; the writer flushes it after
     every chunk but never closes it. ``compression`` is ``"zstd"`` or ``""``.
+    ``before_close()``, if given, is called before a chunk is closed: the
+    caller's messages held back for a batch go into that chunk
+    (``add_messages``).
     """
 
     def __init__(self, stream: BinaryIO, *, chunk_size: int = 512 * 1024,
                  chunk_span_ns: int = 500_000_000, flush_interval_s: float | None = 1.0,
-                 compression: str = "zstd"):
+                 compression: str = "zstd", before_close=None):
         if compression not in ("zstd", ""):
             raise ValueError(f"compression must be 'zstd' or '', not {compression!r}")
         if compression == "zstd" and zstandard is None:
             compression = ""
         self._stream = stream
+        self._before_close = before_close
         self._chunk_size = int(chunk_size)
         self._chunk_span_ns = int(chunk_span_ns)
         self._flush_interval_s = flush_interval_s
@@ -198,8 +202,26 @@ class ChunkedMcapWriter:
                 or time.monotonic() >= self._flush_deadline):
             self.flush()
 
+    def add_messages(self, channel_id: int, log_times: list[int], payloads: list[bytes]) -> None:
+        """Append a batch of one channel's messages to the open chunk, all of them (no chunk closes)."""
+        if not log_times:
+            return
+        buf, head, message = self._buf, _MESSAGE_HEAD.pack, _OP_MESSAGE
+        index = self._index.get(channel_id)
+        if index is None:
+            index = self._index[channel_id] = []
+            if self._chunk_t0 is None:
+                self._chunk_t0 = log_times[0]
+        for log_time, data in zip(log_times, payloads):
+            index.append(log_time)
+            index.append(len(buf))
+            buf += head(message, _MESSAGE_FIELDS_LEN + len(data), channel_id, 0, log_time, log_time)
+            buf += data
+
     def flush(self) -> None:
         """Close the open chunk (if it holds messages) and push it to the OS."""
+        if self._before_close is not None:
+            self._before_close()
         if self._index:
             self._write_chunk()
         self._stream.flush()

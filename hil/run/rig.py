@@ -112,7 +112,8 @@ class Rig:
         self.trace = TraceWriter(self.trace_path, metadata=self._metadata(),
                                  attachments=attachments,
                                  dbs={self.names[CAN1]: load_bus(CAN1), self.names[CAN2]: load_bus(CAN2)},
-                                 decode=config.decode)
+                                 decode=config.decode,
+                                 decode_batch=1 if config.realtime else 256)  # a real-time loop must not stall
         self.log = CandumpWriter(self.log_path)
         self.recorder = Recorder([self.trace, self.log], self.clock, load_to=self.trace)
         self.bus_faults = {k: BusFaults(self.clock) for k in self._raw}
