@@ -5,7 +5,10 @@ updates statistics and writes the record through ``RecordBuilder`` field by
 field, about 8 us per message on the rig's machine. The rig records ~20,000
 messages per simulated second at >= 10x real time, so that alone would eat the
 whole time budget. Here a message is one ``struct.pack`` into the open chunk
-and two list appends for its index (well under 1 us). Every other record
+and two list appends for its index (well under 1 us). Within a chunk each
+channel's messages sit together (one buffer per channel, joined when the chunk
+closes): like records compress better side by side (about 8 % less file than
+interleaved by time), and readers take the order from the message index. Every other record
 (header, schema, channel, chunk, metadata, attachment, summary, footer) is
 mcap's own dataclass written by mcap's own code, so the file layout stays
 mcap's; only the Message and MessageIndex records are packed here, by the
@@ -86,8 +89,11 @@ class ChunkedMcapWriter:
         self._flush_interval_s = flush_interval_s
         self._compression = compression
         self._compressor = zstandard.ZstdCompressor(level=1) if compression == "zstd" else None
-        self._buf = bytearray()  # records of the open chunk, uncompressed
-        self._index: dict[int, list[int]] = {}  # channel id -> [t0, offset0, t1, offset1, ...]
+        self._records = bytearray()  # schema and channel records of the open chunk (its start)
+        # channel id -> (its messages' records, uncompressed; [t0, offset0, t1, offset1, ...]
+        # with offsets into that buffer): the open chunk's messages, by channel
+        self._runs: dict[int, tuple[bytearray, list[int]]] = {}
+        self._size = 0  # bytes in the open chunk
         self._chunk_t0: int | None = None
         self._flush_deadline = float("inf")
         self._schemas: list[Schema] = []
@@ -149,7 +155,7 @@ class ChunkedMcapWriter:
         schema = Schema(id=len(self._schemas) + 1, name=name, encoding=encoding, data=data)
         self._schemas.append(schema)
         self._stats.schema_count += 1
-        self._buf += _record_bytes(schema)
+        self._records += _record_bytes(schema)
         return schema.id
 
     def register_channel(self, topic: str, message_encoding: str, schema_id: int,
@@ -158,7 +164,7 @@ class ChunkedMcapWriter:
                           schema_id=schema_id, metadata=dict(metadata or {}))
         self._channels.append(channel)
         self._stats.channel_count += 1
-        self._buf += _record_bytes(channel)
+        self._records += _record_bytes(channel)
         return channel.id
 
     # -- records outside chunks ------------------------------------------------
@@ -186,19 +192,17 @@ class ChunkedMcapWriter:
     # -- the hot path ------------------------------------------------------------
     def add_message(self, channel_id: int, log_time: int, data: bytes) -> None:
         """Append one message (log time = publish time, ns) to the open chunk."""
-        buf = self._buf
-        offset = len(buf)
-        buf += _MESSAGE_HEAD.pack(_OP_MESSAGE, _MESSAGE_FIELDS_LEN + len(data),
-                                  channel_id, 0, log_time, log_time)
-        buf += data
-        index = self._index.get(channel_id)
-        if index is None:
-            index = self._index[channel_id] = []
-            if self._chunk_t0 is None:
-                self._chunk_t0 = log_time
+        head = _MESSAGE_HEAD.pack(_OP_MESSAGE, _MESSAGE_FIELDS_LEN + len(data), channel_id, 0, log_time, log_time)
+        run = self._runs.get(channel_id)  # after the pack: a bad time raises before anything is kept
+        if run is None:
+            run = self._open_run(channel_id, log_time)
+        buf, index = run
         index.append(log_time)
-        index.append(offset)
-        if (len(buf) >= self._chunk_size or log_time - self._chunk_t0 >= self._chunk_span_ns
+        index.append(len(buf))
+        buf += head
+        buf += data
+        self._size += _MESSAGE_HEAD.size + len(data)
+        if (self._size >= self._chunk_size or log_time - self._chunk_t0 >= self._chunk_span_ns
                 or time.monotonic() >= self._flush_deadline):
             self.flush()
 
@@ -206,23 +210,31 @@ class ChunkedMcapWriter:
         """Append a batch of one channel's messages to the open chunk, all of them (no chunk closes)."""
         if not log_times:
             return
-        buf, head, message = self._buf, _MESSAGE_HEAD.pack, _OP_MESSAGE
-        index = self._index.get(channel_id)
-        if index is None:
-            index = self._index[channel_id] = []
-            if self._chunk_t0 is None:
-                self._chunk_t0 = log_times[0]
-        for log_time, data in zip(log_times, payloads):
+        head, message = _MESSAGE_HEAD.pack, _OP_MESSAGE
+        heads = [head(message, _MESSAGE_FIELDS_LEN + len(data), channel_id, 0, log_time, log_time)
+                 for log_time, data in zip(log_times, payloads)]  # a bad time raises before anything is kept
+        run = self._runs.get(channel_id)
+        buf, index = run if run is not None else self._open_run(channel_id, log_times[0])
+        start = len(buf)
+        for log_time, record, data in zip(log_times, heads, payloads):
             index.append(log_time)
             index.append(len(buf))
-            buf += head(message, _MESSAGE_FIELDS_LEN + len(data), channel_id, 0, log_time, log_time)
+            buf += record
             buf += data
+        self._size += len(buf) - start
+
+    def _open_run(self, channel_id: int, log_time: int) -> tuple[bytearray, list[int]]:
+        """The open chunk's buffer and index of a channel's first message in it."""
+        if self._chunk_t0 is None:
+            self._chunk_t0 = log_time
+        run = self._runs[channel_id] = (bytearray(), [])
+        return run
 
     def flush(self) -> None:
         """Close the open chunk (if it holds messages) and push it to the OS."""
         if self._before_close is not None:
             self._before_close()
-        if self._index:
+        if self._runs:
             self._write_chunk()
         self._stream.flush()
         self._arm_flush_timer()
@@ -232,9 +244,14 @@ class ChunkedMcapWriter:
             self._flush_deadline = time.monotonic() + self._flush_interval_s
 
     def _write_chunk(self) -> None:
-        raw = bytes(self._buf)
-        starts = [min(ix[0::2]) for ix in self._index.values()]
-        ends = [max(ix[0::2]) for ix in self._index.values()]
+        parts, base, bases = [self._records], len(self._records), {}
+        for channel_id, (buf, _) in self._runs.items():  # each channel's messages after the last's
+            bases[channel_id] = base
+            parts.append(buf)
+            base += len(buf)
+        raw = b"".join(parts)
+        starts = [min(ix[0::2]) for _, ix in self._runs.values()]
+        ends = [max(ix[0::2]) for _, ix in self._runs.values()]
         data = self._compressor.compress(raw) if self._compressor else raw
         chunk = Chunk(message_start_time=min(starts), message_end_time=max(ends),
                       uncompressed_size=len(raw), uncompressed_crc=zlib.crc32(raw),
@@ -243,9 +260,9 @@ class ChunkedMcapWriter:
         chunk_raw = _record_bytes(chunk)
         self._stream.write(chunk_raw)
         index_offsets, index_raw = {}, bytearray()
-        for channel_id, entries in self._index.items():
+        for channel_id, (_, entries) in self._runs.items():
             index_offsets[channel_id] = chunk_offset + len(chunk_raw) + len(index_raw)
-            index_raw += _pack_message_index(channel_id, entries)
+            index_raw += _pack_message_index(channel_id, entries, bases[channel_id])
         self._stream.write(index_raw)
         self._chunk_indexes.append(ChunkIndex(
             message_start_time=chunk.message_start_time, message_end_time=chunk.message_end_time,
@@ -253,14 +270,15 @@ class ChunkedMcapWriter:
             message_index_offsets=index_offsets, message_index_length=len(index_raw),
             compression=chunk.compression, compressed_size=len(data), uncompressed_size=len(raw)))
         self._count_chunk(chunk)
-        self._buf = bytearray()
-        self._index = {}
+        self._records = bytearray()
+        self._runs = {}
+        self._size = 0
         self._chunk_t0 = None
 
     def _count_chunk(self, chunk: Chunk) -> None:
         stats = self._stats
         first = stats.message_count == 0
-        for channel_id, entries in self._index.items():
+        for channel_id, (_, entries) in self._runs.items():
             n = len(entries) // 2
             stats.channel_message_counts[channel_id] = stats.channel_message_counts.get(channel_id, 0) + n
             stats.message_count += n
@@ -270,8 +288,10 @@ class ChunkedMcapWriter:
         stats.message_end_time = max(stats.message_end_time, chunk.message_end_time)
 
 
-def _pack_message_index(channel_id: int, entries: list[int]) -> bytes:
-    """MessageIndex record: (log time, offset in the uncompressed chunk) pairs."""
+def _pack_message_index(channel_id: int, entries: list[int], base: int) -> bytes:
+    """MessageIndex record: (log time, offset in the uncompressed chunk) pairs; ``entries``' offsets + ``base``."""
+    entries = list(entries)
+    entries[1::2] = [offset + base for offset in entries[1::2]]
     body = struct.pack(f"<{len(entries)}Q", *entries)
     return _INDEX_HEAD.pack(_OP_MESSAGE_INDEX, 2 + 4 + len(body), channel_id, len(body)) + body
 
