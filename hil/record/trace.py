@@ -223,9 +223,11 @@ class TraceWriter:
         return channel_id
 
     def _decoded_channel(self, channel: str, plan) -> int:
-        schema = schemas.decoded_schema(plan.message, dict(plan.id_units), payload_optional=plan.bare_requests)
-        channel_id = self._channel(f"{DECODED_PREFIX}{channel}/{plan.name}", schema["title"], schema)
-        self._decoded_ids[plan] = channel_id
+        channel_id = self._decoded_ids.get(plan)
+        if channel_id is None:
+            schema = schemas.decoded_schema(plan.message, dict(plan.id_units), payload_optional=plan.bare_requests)
+            channel_id = self._channel(f"{DECODED_PREFIX}{channel}/{plan.name}", schema["title"], schema)
+            self._decoded_ids[plan] = channel_id
         return channel_id
 
     # -- records -------------------------------------------------------------------
@@ -249,18 +251,27 @@ class TraceWriter:
         if self._decoder is None or is_error:
             return
         plan = self._decoder.plan(channel, arbitration_id, is_extended)
-        if plan is not None:  # held for its batch (a chunk that closes first takes the batch along)
-            pending = self._pending.get(plan)
-            if pending is None:
-                pending = self._pending[plan] = _Pending(channel)
-            pending.can_ids.append(arbitration_id)
-            pending.payloads.append(data)
-            times = pending.t_ns
-            times.append(t_ns)
-            if len(times) >= self._decode_batch:
-                self._write_plan(plan, pending)
+        if plan is not None:
+            self._decode(plan, channel, t_ns, arbitration_id, data)
 
     on_frame = frame  # a recorder sink (wheelleg.hil.bus.recorder.FrameSink)
+
+    def _decode(self, plan, channel: str, t_ns: int, arbitration_id: int, data: bytes) -> None:
+        """The frame's ``/decoded/`` row: now (``decode_batch`` 1), or held for its message's batch."""
+        if self._decode_batch == 1:
+            values = plan.decode(arbitration_id, data)
+            if values is not None:
+                self._mcap.add_message(self._decoded_channel(channel, plan), t_ns, dumps(values))
+            return
+        pending = self._pending.get(plan)  # a chunk that closes first takes the batch along
+        if pending is None:
+            pending = self._pending[plan] = _Pending(channel)
+        pending.can_ids.append(arbitration_id)
+        pending.payloads.append(data)
+        times = pending.t_ns
+        times.append(t_ns)
+        if len(times) >= self._decode_batch:
+            self._write_plan(plan, pending)
 
     def _write_decoded(self) -> None:
         """Every held frame decoded into the open chunk (called before a chunk closes)."""
@@ -275,10 +286,7 @@ class TraceWriter:
             times = [t for t, row in zip(times, rows) if row is not None]
             rows = [row for row in rows if row is not None]
         if rows:
-            decoded_id = self._decoded_ids.get(plan)
-            if decoded_id is None:
-                decoded_id = self._decoded_channel(pending.channel, plan)
-            self._mcap.add_messages(decoded_id, times, _json_rows(rows))
+            self._mcap.add_messages(self._decoded_channel(pending.channel, plan), times, _json_rows(rows))
         pending.clear()
 
     def sim_state(self, t_ns: int, state: dict[str, float]) -> None:
