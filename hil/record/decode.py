@@ -137,16 +137,29 @@ class DecodePlan:
 
     def decode_many(self, can_ids: list[int], payloads: list[bytes]) -> list[dict | None]:
         """``decode`` of each frame (the same dicts); one numpy pass when every payload has the codec's length."""
+        batch = self.decode_columns(can_ids, payloads)
+        if batch is None:
+            return [self.decode(i, d) for i, d in zip(can_ids, payloads)]
+        names, columns, id_fields = batch
+        rows = [dict(zip(names, values)) for values in zip(*columns)] if names else [{} for _ in payloads]
+        if id_fields is not None:
+            for row, fields in zip(rows, id_fields):
+                row.update(fields)
+        return rows
+
+    def decode_columns(self, can_ids: list[int], payloads: list[bytes]):
+        """What ``decode`` gives each frame, by column: (signal names, one list of values per signal,
+        each frame's id-field dict or None when the message has none), or None when the batch is not
+        for the numpy path (too few frames, a payload of another length, a layout it cannot read).
+
+        The id-field dicts are shared between frames of one id: read, do not change them.
+        """
         length = self.codec.length if self._columns is not None else -1
         if len(payloads) < _MIN_BATCH or any(len(d) != length for d in payloads):
-            return [self.decode(i, d) for i, d in zip(can_ids, payloads)]
+            return None
         names, columns = self._columns(payloads)
-        rows = [dict(zip(names, values)) for values in zip(*columns)] if names else [{} for _ in payloads]
-        if self.id_fields is not None:
-            fields_of = self._fields_of
-            for row, can_id in zip(rows, can_ids):
-                row.update(fields_of(can_id))
-        return rows
+        id_fields = None if self.id_fields is None else [self._fields_of(i) for i in can_ids]
+        return names, columns, id_fields
 
     def _fields_of(self, can_id: int) -> dict:
         fields = self._id_cache.get(can_id)

@@ -106,19 +106,28 @@ else:
     loads = json.loads
 
 
-def _json_rows(rows: list[dict]) -> list[bytes]:
-    """``[dumps(row) for row in rows]`` for flat rows of numbers, in one encoder call.
+def _json_rows(names: list[str], columns: list[list], id_fields: list[dict] | None, n: int) -> list[bytes]:
+    """``dumps`` of each row {name: value, ..., **id fields} without a dict or an encoder call per row.
 
-    A row of numbers under plain keys holds no ``},{``, so the encoded list
-    splits back into the rows' own bytes.
+    Each column is encoded once as a list of numbers and split at its commas
+    (a number holds none); the id fields, shared by the frames of one id, are
+    encoded once per id; a row is then one ``%`` into a template of its keys.
+    The bytes are those ``dumps`` gives the row's dict (a test compares them).
     """
-    if len(rows) < 2:
-        return [dumps(row) for row in rows]
-    text = dumps(rows)
-    parts = text[2:-2].split(b"},{")
-    if len(parts) != len(rows):  # a key with "},{" in it: one by one
-        return [dumps(row) for row in rows]
-    return [b"{" + part + b"}" for part in parts]
+    template = b",".join(dumps(name).replace(b"%", b"%%") + b":%s" for name in names)
+    texts = [dumps(column)[1:-1].split(b",") for column in columns]
+    if id_fields is not None:
+        encoded: dict[int, bytes] = {}  # id(fields dict) -> its members' text, after a comma if it needs one
+        for fields in id_fields:
+            if id(fields) not in encoded:
+                members = dumps(fields)[1:-1]
+                encoded[id(fields)] = b"," + members if members and names else members
+        template += b"%s"
+        texts.append([encoded[id(fields)] for fields in id_fields])
+    if not texts:
+        return [b"{}"] * n
+    template = b"{" + template + b"}"
+    return [template % values for values in zip(*texts)]
 
 
 # -- writing --------------------------------------------------------------------------
@@ -280,13 +289,16 @@ class TraceWriter:
                 self._write_plan(plan, pending)
 
     def _write_plan(self, plan, pending: "_Pending") -> None:
-        rows = plan.decode_many(pending.can_ids, pending.payloads)
         times = pending.t_ns
-        if None in rows:  # frames that did not decode (wrong length...): raw only
+        batch = plan.decode_columns(pending.can_ids, pending.payloads)
+        if batch is not None:
+            records = _json_rows(*batch, len(times))
+        else:  # one by one; frames that do not decode (wrong length...) stay raw only
+            rows = [plan.decode(i, d) for i, d in zip(pending.can_ids, pending.payloads)]
             times = [t for t, row in zip(times, rows) if row is not None]
-            rows = [row for row in rows if row is not None]
-        if rows:
-            self._mcap.add_messages(self._decoded_channel(pending.channel, plan), times, _json_rows(rows))
+            records = [dumps(row) for row in rows if row is not None]
+        if records:
+            self._mcap.add_messages(self._decoded_channel(pending.channel, plan), times, records)
         pending.clear()
 
     def sim_state(self, t_ns: int, state: dict[str, float]) -> None:
