@@ -53,6 +53,7 @@ class RigConfig:
     realtime: bool = False  # plant at wall-clock pace, controller on its own timer (hil/run/realtime.py)
     record_debug: bool = True  # the in-process controller's internals on /controller/debug
     decode: bool = True  # also write /decoded/ channels (raw frames are always recorded)
+    trace_flush_s: float | None = 1.0  # wall s a killed run may lose; None: chunks close by size and bus time only
     bus_kwargs: dict = field(default_factory=dict)  # more keyword arguments for python-can's bus
     plant: PlantConfig = field(default_factory=PlantConfig)
 
@@ -114,7 +115,7 @@ class Rig:
         self.trace = TraceWriter(self.trace_path, metadata=self._metadata(),
                                  attachments=attachments,
                                  dbs={self.names[CAN1]: load_bus(CAN1), self.names[CAN2]: load_bus(CAN2)},
-                                 decode=config.decode,
+                                 decode=config.decode, flush_interval_s=config.trace_flush_s,
                                  decode_batch=1 if config.realtime else 256)  # a real-time loop must not stall
         self.log = CandumpWriter(self.log_path)
         self.recorder = Recorder([self.trace, self.log], self.clock, load_to=self.trace)
