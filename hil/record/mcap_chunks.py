@@ -7,8 +7,9 @@ messages per simulated second at >= 10x real time, so that alone would eat the
 whole time budget. Here a message is one ``struct.pack`` into the open chunk
 and two list appends for its index (well under 1 us). Within a chunk each
 channel's messages sit together (one buffer per channel, joined when the chunk
-closes): like records compress better side by side (about 8 % less file than
-interleaved by time), and readers take the order from the message index. Every other record
+closes): like records compress better side by side (a few per cent less file
+than interleaved by time), and readers take the order from the message index.
+Every other record
 (header, schema, channel, chunk, metadata, attachment, summary, footer) is
 mcap's own dataclass written by mcap's own code, so the file layout stays
 mcap's; only the Message and MessageIndex records are packed here, by the
