@@ -168,8 +168,11 @@ def from_motor(can_id: int, host_id: int) -> bool:
     ``is_reply`` knows only ``host_id`` and 0xFE; a reply to the demo's and the
     firmware's default master 0x00 ends in 0x00 too, which also reads as a
     request to motor 0. Bits 15..8 settle it: a request's name a host
-    (``sent_by_host``), a reply's the answering motor.
+    (``sent_by_host``), a reply's the answering motor. A type-1 command is
+    never a motor's (its bits 15..8 hold torque, not a sender).
     """
+    if comm_type(can_id) == T_MOTION:
+        return False
     if is_reply(can_id, host_id):
         return True
     return target(can_id) == DEFAULT_MASTER and not sent_by_host(can_id, host_id)
