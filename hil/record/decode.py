@@ -181,6 +181,13 @@ class FrameDecoder:
     def channels(self) -> list[str]:
         return list(self._dbs)
 
+    def fields(self) -> set[tuple[str, str]]:
+        """(message, field) for every value a decoded frame can carry: DBC signals and CyberGear id fields."""
+        out = {(m.name, s.name) for db in self._dbs.values() for m in db.messages for s in m.signals}
+        for by_type in self._cybergear.values():
+            out |= {(plan.name, name) for plan in by_type.values() for name, _ in plan.id_units}
+        return out
+
     def plan(self, channel: str, can_id: int, is_extended: bool) -> DecodePlan | None:
         """The decode plan of one identifier on ``channel``, or None if no DBC message fits."""
         if is_extended:
