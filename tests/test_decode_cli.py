@@ -54,12 +54,14 @@ def _cantools(database: str, text: str, *options: str) -> list[str]:
 
 
 # -- what it prints ------------------------------------------------------------------------------
-def test_rig_frames_print_exactly_as_cantools_decode_prints_them(fault_log, capsys):
-    sync_and_heartbeat = "".join(line for line in fault_log.read_text().splitlines(keepends=True)
-                                 if line.split()[2][:4] in ("080#", "710#"))
-    status, out, _ = _decode(capsys, fault_log, "--id", "80", "--id", "710", "-s")
+@pytest.mark.parametrize("database, ids", [("rig.dbc", ("080", "710", "100", "101", "102", "300")),
+                                          ("c620.dbc", ("200", "201", "202"))])
+def test_standard_frames_print_exactly_as_cantools_decode_prints_them(fault_log, capsys, database, ids):
+    theirs = "".join(line for line in fault_log.read_text().splitlines(keepends=True)
+                     if line.split()[2].split("#")[0] in ids)
+    status, out, _ = _decode(capsys, fault_log, *(a for i in ids for a in ("--id", i)), "-s")
     assert status == 0
-    assert out.splitlines() == _cantools("rig.dbc", sync_and_heartbeat)
+    assert out.splitlines() == _cantools(database, theirs)
     assert len(out.splitlines()) > 400
 
 
