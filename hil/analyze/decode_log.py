@@ -30,7 +30,7 @@ from wheelleg.hil.record.frame import Frame
 from wheelleg.hil.record.sources import DBS, ROLES, Recording
 
 CSV_COLUMNS = ("time_s", "bus", "channel", "id", "message")
-MAX_TYPE = (1 << 5) - 1  # the communication type is id bits 28..24
+MAX_TYPE = cg.comm_type(CAN_EFF_MASK)  # every bit of the communication type set (31)
 # choice names of the id fields (Mode of a reply), by field name: the CG_Id_* messages agree
 ID_CHOICES = {s.name: {int(k): str(v) for k, v in s.choices.items()}
               for m in dbc.load_file(cg.ID_DBC).messages for s in m.signals if s.choices}
