@@ -56,7 +56,7 @@ DEBUG_FIELDS = {
 def debug_record(last: LastOutput) -> dict:
     """The trace's flat debug record (key -> number) of ``last``; read by no control path."""
     c = last.chassis
-    record = {"x": c.x_m, "x_ref": c.x_ref_m, "speed": c.speed_m_s, "speed_ref": c.speed_ref_m_s,
+    record = {"x": c.x_m, "x_ref": c.x_ref_m, "x_integral": c.x_integral_m_s, "speed": c.speed_m_s, "speed_ref": c.speed_ref_m_s,
               "pitch": c.pitch_rad, "roll": c.roll_rad, "yaw": c.yaw_rad, "yaw_ref": c.yaw_ref_rad}
     for leg in LEGS:
         s = c.legs[leg]
