@@ -71,6 +71,7 @@ class Command:
     leg_force: float | None = None  # N per leg, open-loop push replacing the leg PID (jump)
     hip_torque_limit: float = P.HIP_TORQUE_LIMIT  # N m, raised only for a jump's thrust
     air_leg_hold: bool = True  # in the air, hold the legs vertical (False: Tp 0, legs swing free)
+    air_pitch_hold: bool = False  # in the air, level the body with the wheels' reaction (flight only)
     trim: bool = False  # standing or moving on the wheels: integrate the position error (``_trim``)
 
 
@@ -258,16 +259,27 @@ class ChassisController:
         for leg in LEGS:
             s = legs[leg]
             self.leg_ref[leg] = min(max(cmd.leg_length, P.LEG_LENGTH_MIN), P.LEG_LENGTH_MAX)
-            wheel_t[leg] = 0.0
+            wheel_t[leg] = self._air_pitch_torque(att, cmd) if cmd.air_pitch_hold else 0.0
             tp[leg] = -(P.AIR_THETA_KP * s.theta + P.AIR_THETA_KD * s.dtheta) if cmd.air_leg_hold else 0.0
+            # the wheel's reaction acts on its leg: the hip passes it on to the body
+            tp[leg] += wheel_t[leg]
             self.u_prev[leg] = (0.0, tp[leg])
             force = cmd.leg_force if cmd.leg_force is not None else _clamp(
                 P.LEG_KP * (self.leg_ref[leg] - s.L0) - P.LEG_KD * s.dL0, P.AIR_LEG_FORCE_LIMIT)
             self._hips(out, leg, s, force, tp[leg])
-            out.wheel_torque[_LEG_WHEEL[leg].esc_id] = 0.0
+            wheel = _LEG_WHEEL[leg]
+            out.wheel_torque[wheel.esc_id] = wheel.forward_sign * wheel_t[leg]
         self._limit_hips(out, cmd.hip_torque_limit)
         out.report = self._report(legs, att, speed, wheel_t, tp)
         return out
+
+    @staticmethod
+    def _air_pitch_torque(att: Attitude, cmd: Command) -> float:
+        """Wheel torque (N m, each wheel) whose reaction turns the body towards ``cmd.pitch``.
+
+        A wheel torque T (forward rolling positive) turns the body nose up by T:
+        T = kp (pitch - pitch_ref) + kd pitch_rate, nose down positive."""
+        return _clamp(P.AIR_PITCH_KP * (att.pitch - cmd.pitch) + P.AIR_PITCH_KD * att.wy, P.WHEEL_TORQUE_LIMIT)
 
     def follow_position(self) -> None:
         """The position reference jumps to where the robot is (no pull back this tick)."""

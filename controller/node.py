@@ -220,7 +220,7 @@ class Controller:
                       leg_length=op.leg_length, pitch=op.pitch, roll=op.roll,
                       trim=self.mode in (Mode.BALANCE, Mode.MOVE))
         if self.mode == Mode.AIRBORNE:
-            cmd.airborne, cmd.leg_length = True, P.AIR_LEG_LENGTH
+            cmd.airborne, cmd.air_pitch_hold, cmd.leg_length = True, True, P.AIR_LEG_LENGTH
         elif self.mode == Mode.JUMP:
             self._jump_command(cmd)
         elif self.mode == Mode.STAND_UP and self.recovery.active:
@@ -265,6 +265,7 @@ class Controller:
         ahead = self._jump_forward and jc.phase in (Phase.SQUAT, Phase.THRUST, Phase.RETRACT, Phase.FLIGHT)
         cmd.speed, cmd.yaw_rate = (P.JUMP_FORWARD_SPEED if ahead else 0.0), 0.0
         cmd.airborne, cmd.leg_force, cmd.hip_torque_limit = jc.airborne, jc.leg_force, jc.hip_torque_limit
+        cmd.air_pitch_hold = jc.airborne
         if jc.leg_length is not None:
             cmd.leg_length = jc.leg_length
 

@@ -128,6 +128,13 @@ AIR_THETA_KP = 5.0  # N m/rad, leg-angle PD on Tp (I ~0.014 kg m^2 -> ~20 rad/s)
 AIR_THETA_KD = 0.4  # N m s/rad
 AIR_LEG_LENGTH = 0.20  # m, long legs in the air leave stroke to absorb the landing
 AIR_LEG_FORCE_LIMIT = 40.0  # N, leg PD clamp in the air (no gravity feed-forward there)
+# The wheels as reaction wheels in flight: a spin picked up at take-off (a jump with the CoM
+# off the hips: lifting the wheels pulls below and behind it) would land the robot on its
+# tail. Whole robot ~0.035 kg m^2 about its pitch axis at ~15 rad/s: kp = I w^2, kd = 2 I w,
+# split over two wheels. Each wheel's ~0.0024 kg m^2 (rotor reflected) takes up 0.14 N m s
+# (4 rad/s of body spin) in ~30 rad/s of its own speed, well inside the M3508's ~50 rad/s.
+AIR_PITCH_KP = 4.0  # N m/rad per wheel
+AIR_PITCH_KD = 0.5  # N m s/rad per wheel
 
 # --- jump (controller/jump.py; public jumps mapped to this robot) ---------------------------
 JUMP_SQUAT_LENGTH = 0.12  # m, lowest leg length of the K(L0) fit: the longest stroke

@@ -6,10 +6,13 @@ LQR's position-error integral) the CoM 3 cm forward made `balance` creep 210 cm 
 10 s; before the ESC watch took the last two commands, 2 ms of feedback latency
 latched a false ESC fault in `drop`.
 
-Not here because it does not hold yet: the issue's aim of a drift under 5 cm with
-the CoM 3 cm forward (the transient while the trim builds reaches 8.5 cm at 0.8 s;
-the test below asserts no creep instead), and `jump` with the CoM 2 cm forward
-(FALLEN: the body pitches about 1 rad nose up in flight).
+Before the wheels levelled the body in flight, `jump` with the CoM 2 cm forward
+ended FALLEN: lifting the wheels at take-off pulls below and behind the CoM and the
+body spun nose up about 1 rad before landing.
+
+Not here because it does not hold yet: a drift under 5 cm with the CoM 3 cm forward
+(the transient while the trim builds reaches 8.5 cm at 0.8 s; the test below asserts
+no creep instead).
 """
 import numpy as np
 import pytest
@@ -22,6 +25,11 @@ def test_balance_with_the_com_3cm_forward_holds_its_spot(rig_run):
     late = run.state["t"] > run.state["t"][-1] - 3.0
     assert float(np.max(drift[late])) < 0.05, "no creep: back at its spot over the last 3 s"
     assert float(np.max(drift)) < 0.15, "the transient while the trim builds stays bounded"
+
+
+@pytest.mark.parametrize("com_x_m", [0.02, -0.02])
+def test_jump_with_the_com_2cm_off_lands_upright(rig_run, com_x_m):
+    rig_run("jump", plant={"com_x_m": com_x_m}).assert_passed()
 
 
 @pytest.mark.parametrize("plant", [{"feedback_delay_s": 0.002}])
