@@ -93,7 +93,8 @@ class ChassisReport:
     x_m: float  # wheel travel since reset
     x_ref_m: float
     x_integral_m_s: float  # the position error's integral, the LQR's trim state
-    speed_m_s: float  # mean axle speed along the ground
+    speed_m_s: float  # mean axle speed along the ground (the IMU's figure while the wheels slip)
+    slipping: bool  # the wheels' speed and the IMU's part (estimate.SlipObserver)
     speed_ref_m_s: float
     pitch_rad: float  # nose down positive
     roll_rad: float
@@ -135,6 +136,17 @@ def leg_state(bus: BusState, leg: str, att: Attitude) -> LegState:
     wheel = _LEG_WHEEL[leg]
     spin = wheel.forward_sign * bus.wheels[wheel.esc_id].speed + att.wy - dphi2
     return LegState(kin, kin.L0, dL0, theta, dtheta, spin * C.WHEEL_RADIUS)
+
+
+def _mean_speed(legs: dict) -> float:
+    """Mean axle speed (m/s) the two wheels report."""
+    return 0.5 * (legs["left"].wheel_speed + legs["right"].wheel_speed)
+
+
+def _legs_under_body(legs: dict) -> float:
+    """Mean forward speed (m/s) of the axles relative to the hips, from the legs'
+    motion: the axle sits L0 sin(theta) behind the hip."""
+    return -0.5 * sum(s.dL0 * math.sin(s.theta) + s.L0 * math.cos(s.theta) * s.dtheta for s in legs.values())
 
 
 def _wrap(angle: float) -> float:
@@ -193,6 +205,7 @@ class ChassisController:
         self.trim_hold_s = 0.0  # s left before the integral may move again after a stop (TRIM_SETTLE_S)
         self.u_prev = {leg: (0.0, 0.0) for leg in LEGS}  # (T, Tp) N m sent last period (the LQR's delay states)
         self.gyro = estimate.GyroBiasObserver(dt, P.GYRO_BIAS_OMEGA, P.GYRO_BIAS_LIMIT)
+        self.slip = estimate.SlipObserver(dt, P.SLIP_GAIN, P.SLIP_ON, P.SLIP_GRIP_WINDOW, P.SLIP_GRIP_TOL)
 
     def observe(self, bus: BusState) -> None:
         """Every tick, enabled or not: follow the gyro's bias against the IMU's orientation."""
@@ -210,6 +223,8 @@ class ChassisController:
         self.u_prev = {leg: (0.0, 0.0) for leg in LEGS}
         self.speed_ref = 0.0
         self.lean = 0.0
+        legs = {leg: leg_state(bus, leg, att) for leg in LEGS}
+        self.slip.reset(_mean_speed(legs) - _legs_under_body(legs))
         self.yaw_ref = att.yaw
         for leg in LEGS:
             self.leg_integral[leg] = 0.0
@@ -220,7 +235,7 @@ class ChassisController:
     def step(self, bus: BusState, cmd: Command) -> Output:
         att = self.attitude(bus)
         legs = {leg: leg_state(bus, leg, att) for leg in LEGS}
-        speed = 0.5 * (legs["left"].wheel_speed + legs["right"].wheel_speed)
+        speed = self._ground_speed(bus, legs)
         self.x += speed * self.dt
         if cmd.airborne:
             return self._air_step(legs, att, speed, cmd)
@@ -247,6 +262,16 @@ class ChassisController:
         self._limit_hips(out, cmd.hip_torque_limit)
         out.report = self._report(legs, att, speed, wheel_t, tp)
         return out
+
+    def _ground_speed(self, bus: BusState, legs: dict) -> float:
+        """Mean axle speed along the ground (m/s): the wheels' own while they grip,
+        the IMU's (plus the legs' motion) while they slip."""
+        wheels = _mean_speed(legs)
+        under = _legs_under_body(legs)
+        accel = estimate.forward_accel(bus.imu.quat, bus.imu.accel)
+        if self.slip.update(accel, wheels - under):
+            return self.slip.speed_m_s + under
+        return wheels
 
     def _air_step(self, legs: dict, att: Attitude, speed: float, cmd: Command) -> Output:
         """In the air (docs/control.md, in the air): wheel torque 0, a leg-angle PD holds each
@@ -361,7 +386,7 @@ class ChassisController:
         # saturating the whole sum would give away the torque that keeps the legs upright
         travel = -sum(k[0][i] * err[i] for i in _TRAVEL)
         t = -sum(g * e for i, (g, e) in enumerate(zip(k[0], err)) if i not in _TRAVEL)
-        t += _clamp(travel, P.TRAVEL_TORQUE_LIMIT)
+        t += _clamp(travel, P.SLIP_TRAVEL_TORQUE_LIMIT if self.slip.slipping else P.TRAVEL_TORQUE_LIMIT)
         tp = -sum(g * e for g, e in zip(k[1], err))
         return t, tp
 
@@ -407,7 +432,7 @@ class ChassisController:
 
     def _report(self, legs: dict, att: Attitude, speed: float, wheel_t: dict, tp: dict) -> ChassisReport:
         return ChassisReport(
-            x_m=self.x, x_ref_m=self.x_ref, x_integral_m_s=self.x_integral, speed_m_s=speed, speed_ref_m_s=self.speed_ref,
+            x_m=self.x, x_ref_m=self.x_ref, x_integral_m_s=self.x_integral, speed_m_s=speed, slipping=self.slip.slipping, speed_ref_m_s=self.speed_ref,
             pitch_rad=att.pitch, roll_rad=att.roll, yaw_rad=att.yaw, yaw_ref_rad=self.yaw_ref,
             legs={leg: LegReport(legs[leg].L0, self.leg_ref[leg], legs[leg].theta, wheel_t[leg], tp[leg])
                   for leg in LEGS})

@@ -77,3 +77,68 @@ class GyroBiasObserver:
         norm = math.sqrt(sum(v * v for v in q))
         self._quat = tuple(v / norm for v in q)
         return self.bias
+
+
+def forward_accel(quat: tuple, specific_force: tuple) -> float:
+    """World-horizontal acceleration (m/s^2) along the body's heading, gravity removed.
+
+    quat (w, x, y, z) body->world, specific_force (3,) body frame (+g on z at rest):
+    a_world = R f - g z, projected on (cos yaw, sin yaw, 0).
+    """
+    w, x, y, z = quat
+    fx, fy, fz = specific_force
+    ax = (1 - 2 * (y * y + z * z)) * fx + 2 * (x * y - w * z) * fy + 2 * (x * z + w * y) * fz
+    ay = 2 * (x * y + w * z) * fx + (1 - 2 * (x * x + z * z)) * fy + 2 * (y * z - w * x) * fz
+    yaw = math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+    return ax * math.cos(yaw) + ay * math.sin(yaw)
+
+
+class SlipObserver:
+    """Whether the wheels slip, and the body's ground speed (m/s) while they do.
+
+    The body's forward speed ``speed_m_s`` follows the IMU's acceleration and is
+    pulled towards the wheels' own figure (their speed less the legs' motion under
+    the body) at ``gain`` (1/s) while they grip. Slipping is declared when the two
+    part by more than ``on_m_s``; while slipping the pull stops, so a spinning or
+    skidding wheel cannot drag the estimate along. Grip is back when the two agree
+    within ``grip_m_s`` again, or when over a window of ``window_s`` the wheels'
+    speed changed as the IMU's did (within ``grip_m_s``): the estimate then takes
+    the wheels' figure, so an estimate that drifted while slipping (a bias, a
+    landing's jolt) cannot hold the flag on.
+    An accelerometer bias b leaves b / gain (m/s) between them while gripping:
+    3 deg of mounting tilt (0.5 m/s^2) at gain 10 is 0.05 m/s, well below ``on_m_s``.
+    """
+
+    def __init__(self, dt_s: float, gain: float, on_m_s: float, window_s: float, grip_m_s: float):
+        self.dt_s, self.gain, self.on_m_s = dt_s, gain, on_m_s
+        self.window_s, self.grip_m_s = window_s, grip_m_s
+        self.speed_m_s = 0.0
+        self.slipping = False
+        self._window = (0.0, 0.0, 0.0)  # (s elapsed, IMU speed change m/s, wheels' speed at its start m/s)
+
+    def reset(self, body_speed_m_s: float) -> None:
+        self.speed_m_s, self.slipping = body_speed_m_s, False
+
+    def update(self, accel_m_s2: float, wheels_body_speed_m_s: float) -> bool:
+        """One period: the forward acceleration (m/s^2) and the body speed the wheels
+        report (m/s) in; whether they slip out."""
+        self.speed_m_s += accel_m_s2 * self.dt_s
+        if self.slipping:
+            self._watch_grip(accel_m_s2, wheels_body_speed_m_s)
+        elif abs(wheels_body_speed_m_s - self.speed_m_s) > self.on_m_s:
+            self.slipping, self._window = True, (0.0, 0.0, wheels_body_speed_m_s)
+        if not self.slipping:
+            self.speed_m_s += self.gain * (wheels_body_speed_m_s - self.speed_m_s) * self.dt_s
+        return self.slipping
+
+    def _watch_grip(self, accel_m_s2: float, wheels_m_s: float) -> None:
+        elapsed, imu_change, wheels_start = self._window
+        elapsed, imu_change = elapsed + self.dt_s, imu_change + accel_m_s2 * self.dt_s
+        if abs(wheels_m_s - self.speed_m_s) < self.grip_m_s:
+            self.slipping = False
+        elif elapsed < self.window_s:
+            self._window = (elapsed, imu_change, wheels_start)
+        elif abs((wheels_m_s - wheels_start) - imu_change) < self.grip_m_s:
+            self.slipping, self.speed_m_s = False, wheels_m_s
+        else:
+            self._window = (0.0, 0.0, wheels_m_s)

@@ -91,6 +91,14 @@ WHEEL_TORQUE_LIMIT = 5.5  # N m, below the C620's 20 A x 0.3 N m/A
 # the IMU orientation's noise enters the bias only below it
 GYRO_BIAS_OMEGA = 1.0
 GYRO_BIAS_LIMIT = 0.2  # rad/s, largest bias believed (a calibrated MEMS gyro is within ~0.05)
+# Slip: the wheels' speed against the IMU's integrated acceleration (estimate.SlipObserver).
+SLIP_GAIN = 10.0  # 1/s, pull of the IMU speed towards the wheels' while they grip
+SLIP_ON = 0.3  # m/s apart: slipping (a hard stop's ~0.1 m/s of leg swing stays below)
+SLIP_GRIP_WINDOW = 0.1  # s; gripping again when over it the wheels' speed changed as the IMU's ...
+SLIP_GRIP_TOL = 0.05  # m/s ... did, within this
+# N m, while slipping the wheel's share for position and speed (the LQR's travel) is held
+# to this: the floor cannot take more, and asking more only spins the wheel further
+SLIP_TRAVEL_TORQUE_LIMIT = 1.0
 
 # --- safety -------------------------------------------------------------------------
 FALL_PITCH = 0.6  # rad, beyond it the robot has fallen (rm_controllers)
