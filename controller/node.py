@@ -25,7 +25,7 @@ from wheelleg.controller import messages
 from wheelleg.controller import posture
 from wheelleg.controller import support
 from wheelleg.controller import params as P
-from wheelleg.controller.chassis import Attitude, ChassisController, Command, attitude
+from wheelleg.controller.chassis import Attitude, ChassisController, Command
 from wheelleg.controller.jump import JumpSequencer, Phase
 from wheelleg.controller.recovery import Phase as RecoveryPhase
 from wheelleg.controller.recovery import RecoverySequencer
@@ -95,6 +95,7 @@ class Controller:
         return seen
 
     def tick(self, tick: int, now_s: float) -> TickResult:
+        self.chassis.observe(self.bus)
         faulted = self._faulted(now_s)
         report = detect.check(self.last_seen(), now_s, faulted)
         inputs = self._inputs(report.balance_ok, now_s)
@@ -152,7 +153,7 @@ class Controller:
         self._last_buttons = (op.reenable, op.jump, op.jump_forward)
         if jump_edge or forward_edge:
             self._jump_forward = forward_edge
-        att = attitude(self.bus.imu)
+        att = self.chassis.attitude(self.bus)
         in_air = self.mode in (Mode.JUMP, Mode.AIRBORNE)  # tumbling in the air: wider limits
         pitch_limit, roll_limit = (P.FALL_PITCH_AIR, P.FALL_ROLL_AIR) if in_air else (P.FALL_PITCH, P.FALL_ROLL)
         fallen = abs(att.pitch) > pitch_limit or abs(att.roll) > roll_limit
@@ -216,9 +217,10 @@ class Controller:
         op = self.bus.operator
         moving = self.mode == Mode.MOVE
         cmd = Command(speed=op.speed if moving else 0.0, yaw_rate=op.yaw_rate if moving else 0.0,
-                      leg_length=op.leg_length, pitch=op.pitch, roll=op.roll)
+                      leg_length=op.leg_length, pitch=op.pitch, roll=op.roll,
+                      trim=self.mode in (Mode.BALANCE, Mode.MOVE))
         if self.mode == Mode.AIRBORNE:
-            cmd.airborne, cmd.leg_length = True, P.AIR_LEG_LENGTH
+            cmd.airborne, cmd.air_pitch_hold, cmd.leg_length = True, True, P.AIR_LEG_LENGTH
         elif self.mode == Mode.JUMP:
             self._jump_command(cmd)
         elif self.mode == Mode.STAND_UP and self.recovery.active:
@@ -227,13 +229,13 @@ class Controller:
 
     def _lying(self) -> bool:
         """Past the fall limit on pitch, not on its side: stand-up starts with a recovery."""
-        att = attitude(self.bus.imu)
+        att = self.chassis.attitude(self.bus)
         return abs(att.pitch) > P.FALL_PITCH and abs(att.roll) < P.FALL_ROLL
 
     def _recovery_command(self, cmd: Command) -> None:
         """Fill ``cmd`` from the recovery table's phase (controller/recovery.py)."""
         lengths = self._leg_lengths_m(P.LEG_LENGTH_MAX)
-        rc = self.recovery.step(lengths, attitude(self.bus.imu).pitch, cmd.pitch)
+        rc = self.recovery.step(lengths, self.chassis.attitude(self.bus).pitch, cmd.pitch)
         if self.recovery.entered == RecoveryPhase.TILT_UP:
             self.chassis.reset(self.bus)
         cmd.airborne, cmd.air_leg_hold = rc.airborne, False
@@ -263,6 +265,7 @@ class Controller:
         ahead = self._jump_forward and jc.phase in (Phase.SQUAT, Phase.THRUST, Phase.RETRACT, Phase.FLIGHT)
         cmd.speed, cmd.yaw_rate = (P.JUMP_FORWARD_SPEED if ahead else 0.0), 0.0
         cmd.airborne, cmd.leg_force, cmd.hip_torque_limit = jc.airborne, jc.leg_force, jc.hip_torque_limit
+        cmd.air_pitch_hold = jc.airborne
         if jc.leg_length is not None:
             cmd.leg_length = jc.leg_length
 

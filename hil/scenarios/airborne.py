@@ -236,11 +236,23 @@ def drop_scenario(height_m: float = 0.5) -> Scenario:
         checks=(mode_seen(AIRBORNE), never_fallen(), upright_at_end(1.0), no_deadline_miss()))
 
 
-def fall_scenario(force_n: float = 50.0) -> Scenario:
-    """A shove it cannot save: detected, torque off; lying, the operator re-enables and it stands."""
+def fall_scenario(force_n: float = 40.0, duration_s: float = 1.0) -> Scenario:
+    """A push it cannot save: detected, torque off; lying, the operator re-enables and it stands.
+
+    The default leans on the body with 40 N (0.9 of its weight) for 1 s: holding
+    that would take a lean past the fall limits, so any balance law topples, and
+    it topples nose first at walking pace. A short violent shove (50 N for 0.3 s)
+    sends it off at 4 m/s instead; where that tumble ends (on its nose, or over
+    onto its back, from where it cannot stand) turned on a millimetre of the run
+    (seed, controller), which made the scenario a coin toss.
+    """
+    _positive("force_n", force_n, 500.0)
+    _positive("duration_s", duration_s, 2.5)
     return Scenario(
-        "fall", f"{force_n:g} N shove for 0.3 s topples it; torque off; re-enable stands it up", 7.0, standing(),
-        timeline=(stand(), *push(0.5, (force_n, 0.0, 0.0), 0.3), remote(3.0, Reenable=1), remote(3.2, Reenable=0)),
+        "fall", f"{force_n:g} N push for {duration_s:g} s topples it; torque off; re-enable stands it up", 7.0,
+        standing(),
+        timeline=(stand(), *push(0.5, (force_n, 0.0, 0.0), duration_s), remote(3.0, Reenable=1),
+                  remote(3.2, Reenable=0)),
         checks=(mode_seen(FALLEN), torque_off_after_fall(), mode_seen(STAND_UP, 3.0),
                 upright_at_end(1.0), no_deadline_miss()))
 
