@@ -208,9 +208,14 @@ class ChassisController:
         self.slip = estimate.SlipObserver(dt, P.SLIP_GAIN, P.SLIP_ON, P.SLIP_GRIP_WINDOW, P.SLIP_GRIP_TOL)
 
     def observe(self, bus: BusState) -> None:
-        """Every tick, enabled or not: follow the gyro's bias against the IMU's orientation."""
-        if math.isfinite(bus.imu.received_s):
-            self.gyro.update(bus.imu.quat, bus.imu.gyro)
+        """Every tick, enabled or not: follow the gyro's bias against the IMU's orientation
+        and the wheels' grip against its acceleration (so neither is stale on enabling)."""
+        if not math.isfinite(bus.imu.received_s):
+            return
+        self.gyro.update(bus.imu.quat, bus.imu.gyro)
+        legs = {leg: leg_state(bus, leg, self.attitude(bus)) for leg in LEGS}
+        self.slip.update(estimate.forward_accel(bus.imu.quat, bus.imu.accel),
+                         _mean_speed(legs) - _legs_under_body(legs))
 
     def attitude(self, bus: BusState) -> Attitude:
         """The body's attitude with the gyro's estimated bias taken out."""
@@ -223,8 +228,6 @@ class ChassisController:
         self.u_prev = {leg: (0.0, 0.0) for leg in LEGS}
         self.speed_ref = 0.0
         self.lean = 0.0
-        legs = {leg: leg_state(bus, leg, att) for leg in LEGS}
-        self.slip.reset(_mean_speed(legs) - _legs_under_body(legs))
         self.yaw_ref = att.yaw
         for leg in LEGS:
             self.leg_integral[leg] = 0.0
@@ -235,7 +238,7 @@ class ChassisController:
     def step(self, bus: BusState, cmd: Command) -> Output:
         att = self.attitude(bus)
         legs = {leg: leg_state(bus, leg, att) for leg in LEGS}
-        speed = self._ground_speed(bus, legs)
+        speed = self._ground_speed(legs)
         self.x += speed * self.dt
         if cmd.airborne:
             return self._air_step(legs, att, speed, cmd)
@@ -263,15 +266,12 @@ class ChassisController:
         out.report = self._report(legs, att, speed, wheel_t, tp)
         return out
 
-    def _ground_speed(self, bus: BusState, legs: dict) -> float:
+    def _ground_speed(self, legs: dict) -> float:
         """Mean axle speed along the ground (m/s): the wheels' own while they grip,
-        the IMU's (plus the legs' motion) while they slip."""
-        wheels = _mean_speed(legs)
-        under = _legs_under_body(legs)
-        accel = estimate.forward_accel(bus.imu.quat, bus.imu.accel)
-        if self.slip.update(accel, wheels - under):
-            return self.slip.speed_m_s + under
-        return wheels
+        the IMU's (plus the legs' motion) while they slip (``observe`` this tick)."""
+        if self.slip.slipping:
+            return self.slip.speed_m_s + _legs_under_body(legs)
+        return _mean_speed(legs)
 
     def _air_step(self, legs: dict, att: Attitude, speed: float, cmd: Command) -> Output:
         """In the air (docs/control.md, in the air): wheel torque 0, a leg-angle PD holds each

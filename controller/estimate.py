@@ -116,9 +116,6 @@ class SlipObserver:
         self.slipping = False
         self._window = (0.0, 0.0, 0.0)  # (s elapsed, IMU speed change m/s, wheels' speed at its start m/s)
 
-    def reset(self, body_speed_m_s: float) -> None:
-        self.speed_m_s, self.slipping = body_speed_m_s, False
-
     def update(self, accel_m_s2: float, wheels_body_speed_m_s: float) -> bool:
         """One period: the forward acceleration (m/s^2) and the body speed the wheels
         report (m/s) in; whether they slip out."""
