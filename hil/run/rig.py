@@ -114,7 +114,7 @@ class Rig:
                                  dbs={self.names[CAN1]: load_bus(CAN1), self.names[CAN2]: load_bus(CAN2)},
                                  decode=config.decode)
         self.log = CandumpWriter(self.log_path)
-        self.recorder = Recorder([self.trace, self.log], self.clock, load_to=self.trace)
+        self.recorder = Recorder([self.trace, self.log], self.clock, list(self.names.values()), load_to=self.trace)
         self.bus_faults = {k: BusFaults(self.clock) for k in self._raw}
         self.plant_buses = {}
         for k, raw in self._raw.items():
