@@ -79,23 +79,19 @@ class Recorder:
             self.wires[channel] = BusWire(self.bitrate)
         return self.wires[channel]
 
-    def sent(self, channel: str, msg: can.Message, answers: Queued | None = None) -> Queued | None:
-        """A frame the plant side put on ``channel``; ``answers``: the received frame it replies to.
-
-        Returns its place on the wire (None for a SYNC, which is on the wire at once).
-        """
+    def sent(self, channel: str, msg: can.Message, answers: Queued | None = None) -> None:
+        """A frame the plant side put on ``channel``; ``answers``: the received frame it replies to."""
         now_ns = self._arrive()
         frame = self._frame(channel, msg)
         if is_sync(msg):
             self._sync_end_ns[channel] = self.wire(channel).barrier(frame, now_ns)
             self._advance(now_ns, emit=True)
-            return None
-        item = self.wire(channel).queue(frame, now_ns, answers)
-        self._advance(now_ns)
-        return item
+        else:
+            self.wire(channel).queue(frame, now_ns, answers)
+            self._advance(now_ns)
 
     def received(self, channel: str, msg: can.Message) -> Queued:
-        """A frame the plant side took off ``channel``: the controller's (or another node's)."""
+        """A frame the plant side took off ``channel`` (the controller's); its place on the wire."""
         now_ns = self._arrive()
         tick_ns = max(self._sync_end_ns.values(), default=0)
         item = self.wire(channel).queue_controller(self._frame(channel, msg), max(now_ns, tick_ns))

@@ -125,17 +125,19 @@ class BusWire:
 
     def _next(self) -> tuple[int, Queued | None]:
         """The frame that takes the wire next and when, if every queued frame were in."""
-        start, best = self._winner(self.free_ns)
-        if best is None:
+        start = self.free_ns
+        best = self._winner(start)
+        if best is None:  # the bus idles until the first frame is queued
             times = [r for r in map(Queued.ready, self.waiting) if r is not None]
             if self.controller:
                 times.append(self.controller[0].ready_ns)
             if not times:
-                return self.free_ns, None
-            start, best = self._winner(min(times))
+                return start, None
+            start = min(times)
+            best = self._winner(start)
         return start, best
 
-    def _winner(self, t_ns: int) -> tuple[int, Queued | None]:
+    def _winner(self, t_ns: int) -> Queued | None:
         """The frame that wins arbitration at ``t_ns`` among those queued by then."""
         best = None
         for item in self.waiting:
@@ -145,7 +147,7 @@ class BusWire:
         head = self.controller[0] if self.controller else None
         if head is not None and head.ready_ns <= t_ns and (best is None or head.key < best.key):
             best = head
-        return t_ns, best
+        return best
 
     def _send(self, item: Queued, start_ns: int) -> None:
         if self.controller and item is self.controller[0]:
