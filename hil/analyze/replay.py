@@ -13,9 +13,13 @@ recorded before that answer are what it had heard.
 - sync mode (a rig trace or rig log: SYNC frames on both buses): a real
   ``ControllerNode`` in sync mode runs over two in-memory buses
   (``MemoryBus``); its own SYNC handling stamps the frames and decides the
-  tick, exactly as in the rig. A bus's inputs before the tick's first frame on
-  that bus are delivered (each bus keeps its order; the controller only reads
-  between ticks).
+  tick, exactly as in the rig. A bus's inputs up to and including the tick's
+  SYNC on that bus are delivered (each bus keeps its order): in lockstep the
+  controller ticks on SYNC with what it has heard, and what the devices send
+  after it is for the next tick, even when it is on the wire before the
+  controller's commands (the rig's log is in the wire's order,
+  hil/bus/wire_order.py). Without that SYNC in the recording, the inputs
+  before the tick's first frame on that bus.
 - free-run mode (a robot's candump log, no SYNC): the log's timestamps are
   the controller clock (ns since the log's first frame); ``Controller`` gets
   each input frame before the tick's first controller frame in the log, then
@@ -44,7 +48,7 @@ from wheelleg.hil.record.decode import FrameDecoder
 from wheelleg.hil.record.frame import Frame
 from wheelleg.hil.record.sources import (CAN1, CAN2, CONTROLLER_NODES, DBS, HEARTBEAT, ROLES,
                               TraceError, Recording, heartbeat_tick, is_heartbeat, is_sync,
-                              open_recording, sent_by_controller)
+                              open_recording, sent_by_controller, sync_tick)
 
 _DECODER = FrameDecoder(DBS)
 _START_MODES = (Mode.IDLE, Mode.ESTOP)  # what a fresh controller can report on its first tick
@@ -196,13 +200,16 @@ def build_schedule(source: Recording, mode: str | None = None, allow_drops: bool
     frames = source.frames
     usable = [i for i in inputs if not frames[i].is_fd]
     per_bus = {r: collections.deque(i for i in usable if frames[i].bus == r) for r in ROLES}
+    syncs = _sync_positions(frames, usable) if mode == "sync" else {}
     steps = []
     for (tick, idx1), (_, idx2) in zip(groups[CAN1], groups[CAN2]):
         expected = {CAN1: idx1, CAN2: idx2}
         first = min(idx1[0], idx2[0])
         delivered = []
         for role in ROLES:
-            bound = expected[role][0] if mode == "sync" else first
+            bound = first
+            if mode == "sync":  # just after this tick's SYNC, else at the tick's first frame on the bus
+                bound = syncs.get((role, tick), expected[role][0] - 1) + 1
             queue = per_bus[role]
             while queue and queue[0] < bound:
                 delivered.append(queue.popleft())
@@ -210,6 +217,15 @@ def build_schedule(source: Recording, mode: str | None = None, allow_drops: bool
             delivered.sort()  # free-run: the log's order across buses
         steps.append(TickStep(tick, frames[first].t_ns, [frames[i] for i in delivered], expected))
     return Schedule(mode, steps, trailing, len(inputs) - len(usable), order_notes)
+
+
+def _sync_positions(frames: list[Frame], inputs: list[int]) -> dict[tuple[str, int], int]:
+    """(bus, tick) -> index of the first SYNC with that tick on that bus."""
+    out: dict[tuple[str, int], int] = {}
+    for i in inputs:
+        if is_sync(frames[i]):
+            out.setdefault((frames[i].bus, sync_tick(frames[i])), i)
+    return out
 
 
 # -- comparing frames ------------------------------------------------------------------------

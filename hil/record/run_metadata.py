@@ -1,20 +1,23 @@
 """The trace's ``run`` metadata record: written by the rig, read by replay and the bug report.
 
 Every key is a str -> str (MCAP metadata). ``REPLAY_KEYS`` are the ones a
-trace needs to be replayed on another machine; ``run_record`` writes them
-all (and a few more).
+trace needs to be replayed on another machine, or run again to the same
+bytes; ``run_record`` writes them all (and a few more).
 """
 from __future__ import annotations
 
 import json
 import shlex
 import subprocess
+from decimal import Decimal, InvalidOperation
 from pathlib import Path
 
 from wheelleg.controller import params as P
 from wheelleg.dbc import CAN1, CAN2
 
-REPLAY_KEYS = ("scenario", "seed", "control_period_s", "git_revision", "controller_params", CAN1, CAN2)
+REPLAY_KEYS = ("scenario", "seed", "control_period_s", "git_revision", "controller_params", CAN1, CAN2,
+               "epoch_s")
+_NS_PER_S = 1_000_000_000
 
 
 def git_revision(cwd: Path | None = None) -> str:
@@ -38,11 +41,37 @@ def current_params() -> dict:
     return json.loads(controller_params_json())
 
 
+def parse_epoch(text: str) -> int:
+    """``--epoch SECONDS`` (seconds since 1970, a decimal such as 1700000000.25) as integer ns.
+
+    Read as a decimal, not a float, so that every digit given is kept; ValueError
+    (one line) unless it is a number >= 0 with no more than 9 fraction digits.
+    """
+    try:
+        value = Decimal(text.strip())
+    except InvalidOperation:
+        raise ValueError(f"epoch {text!r}: not a number of seconds") from None
+    if not value.is_finite() or value < 0:
+        raise ValueError(f"epoch {text!r}: must be >= 0 s (seconds since 1970)")
+    ns = value * _NS_PER_S
+    if ns != ns.to_integral_value():
+        raise ValueError(f"epoch {text!r}: finer than a nanosecond")
+    return int(ns)
+
+
+def epoch_text(epoch_ns: int) -> str:
+    """Integer ns as the shortest exact decimal of seconds (``parse_epoch`` reads it back)."""
+    seconds, ns = divmod(epoch_ns, _NS_PER_S)
+    return f"{seconds}.{ns:09d}".rstrip("0") if ns else str(seconds)
+
+
 def run_record(*, scenario: str, seed: int, control_period_s: float, channels: dict[str, str],
                physics_dt_s: float | None = None, duration_s: float | None = None,
-               interface: str = "virtual", plant_overrides: dict[str, float] | None = None) -> dict[str, str]:
+               interface: str = "virtual", plant_overrides: dict[str, float] | None = None,
+               epoch_ns: int = 0) -> dict[str, str]:
     """The ``run`` record of one run; ``channels``: bus role -> interface name;
-    ``plant_overrides``: the plant's per-run overrides (key -> SI value), JSON in the record."""
+    ``plant_overrides``: the plant's per-run overrides (key -> SI value), JSON in the record;
+    ``epoch_ns``: what the candump log adds to every time (``epoch_s``; the trace keeps the run's time)."""
     record = {"scenario": scenario, "seed": str(seed), "control_period_s": repr(control_period_s)}
     if physics_dt_s is not None:
         record["physics_dt_s"] = repr(physics_dt_s)
@@ -50,7 +79,8 @@ def run_record(*, scenario: str, seed: int, control_period_s: float, channels: d
         record["duration_s"] = repr(duration_s)
     record.update({"interface": interface, CAN1: channels[CAN1], CAN2: channels[CAN2],
                    "git_revision": git_revision(), "controller_params": controller_params_json(),
-                   "plant_overrides": json.dumps(plant_overrides or {}, sort_keys=True)})
+                   "plant_overrides": json.dumps(plant_overrides or {}, sort_keys=True),
+                   "epoch_s": epoch_text(epoch_ns)})
     return record
 
 
@@ -64,11 +94,14 @@ def plant_overrides(run: dict) -> dict[str, float]:
 
 
 def run_command(scenario: str, seed: int | str, duration_s: float | str | None = None,
-                overrides: dict[str, float] | None = None, out: Path | str | None = None) -> str:
+                overrides: dict[str, float] | None = None, out: Path | str | None = None,
+                epoch_ns: int = 0) -> str:
     """The one ``wheelleg run`` command (shell-quoted) that makes this run again, byte for byte."""
     words = ["wheelleg", "run", scenario, "--seed", str(seed)]
     if duration_s:
         words += ["--duration", str(duration_s)]
+    if epoch_ns:
+        words += ["--epoch", epoch_text(epoch_ns)]
     for key, value in sorted((overrides or {}).items()):
         words += ["--plant", f"{key}={value!r}"]
     if out is not None:
@@ -76,7 +109,15 @@ def run_command(scenario: str, seed: int | str, duration_s: float | str | None =
     return shlex.join(words)
 
 
+def recorded_epoch(run: dict) -> int:
+    """The run's ``epoch_s`` as ns; 0 when absent (older traces) or unreadable."""
+    try:
+        return parse_epoch(run.get("epoch_s") or "0")
+    except ValueError:
+        return 0
+
+
 def rerun_command(run: dict) -> str:
     """``run_command`` of a recorded run (its ``run`` metadata record)."""
     return run_command(run.get("scenario", "SCENARIO"), run.get("seed", 0), run.get("duration_s"),
-                       plant_overrides(run))
+                       plant_overrides(run), epoch_ns=recorded_epoch(run))

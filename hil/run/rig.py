@@ -53,6 +53,7 @@ class RigConfig:
     decode: bool = True  # also write /decoded/ channels (raw frames are always recorded)
     bus_kwargs: dict = field(default_factory=dict)  # more keyword arguments for python-can's bus
     plant: PlantConfig = field(default_factory=PlantConfig)
+    epoch_ns: int = 0  # ns since 1970 that the candump log's time 0 stands for (the trace keeps the run's time)
 
 @dataclass
 class RunOutcome:
@@ -113,8 +114,8 @@ class Rig:
                                  attachments=attachments,
                                  dbs={self.names[CAN1]: load_bus(CAN1), self.names[CAN2]: load_bus(CAN2)},
                                  decode=config.decode)
-        self.log = CandumpWriter(self.log_path)
-        self.recorder = Recorder([self.trace, self.log], self.clock, load_to=self.trace)
+        self.log = CandumpWriter(self.log_path, epoch_ns=config.epoch_ns)
+        self.recorder = Recorder([self.trace, self.log], self.clock, list(self.names.values()), load_to=self.trace)
         self.bus_faults = {k: BusFaults(self.clock) for k in self._raw}
         self.plant_buses = {}
         for k, raw in self._raw.items():
@@ -138,7 +139,7 @@ class Rig:
         return {"run": run_record(scenario=self.scenario.name, seed=cfg.seed, control_period_s=cfg.period_s,
                                   physics_dt_s=cfg.physics_dt_s, duration_s=self.scenario.duration_s,
                                   interface=cfg.interface, channels=self.names,
-                                  plant_overrides=cfg.plant.overrides_dict())}
+                                  plant_overrides=cfg.plant.overrides_dict(), epoch_ns=cfg.epoch_ns)}
 
     @staticmethod
     def _attachments() -> list:
