@@ -13,6 +13,7 @@ from pathlib import Path
 
 from wheelleg.controller import params as P
 from wheelleg.dbc import CAN1, CAN2
+from wheelleg.hil.robots import DEFAULT as DEFAULT_ROBOT
 
 REPLAY_KEYS = ("scenario", "seed", "control_period_s", "git_revision", "controller_params", CAN1, CAN2)
 
@@ -40,16 +41,22 @@ def current_params() -> dict:
 
 def run_record(*, scenario: str, seed: int, control_period_s: float, channels: dict[str, str],
                physics_dt_s: float | None = None, duration_s: float | None = None,
-               interface: str = "virtual", plant_overrides: dict[str, float] | None = None) -> dict[str, str]:
+               interface: str = "virtual", plant_overrides: dict[str, float] | None = None,
+               robot=None) -> dict[str, str]:
     """The ``run`` record of one run; ``channels``: bus role -> interface name;
-    ``plant_overrides``: the plant's per-run overrides (key -> SI value), JSON in the record."""
+    ``plant_overrides``: the plant's per-run overrides (key -> SI value), JSON in the record;
+    ``robot``: the registered ``wheelleg.hil.robots.Robot`` it ran (None: the default robot,
+    whose name the record then leaves out)."""
     record = {"scenario": scenario, "seed": str(seed), "control_period_s": repr(control_period_s)}
+    if robot is not None:
+        record["robot"] = robot.name
     if physics_dt_s is not None:
         record["physics_dt_s"] = repr(physics_dt_s)
     if duration_s is not None:
         record["duration_s"] = repr(duration_s)
     record.update({"interface": interface, CAN1: channels[CAN1], CAN2: channels[CAN2],
-                   "git_revision": git_revision(), "controller_params": controller_params_json(),
+                   "git_revision": git_revision(),
+                   "controller_params": controller_params_json() if robot is None else robot.params_json(),
                    "plant_overrides": json.dumps(plant_overrides or {}, sort_keys=True)})
     return record
 
@@ -76,7 +83,16 @@ def run_command(scenario: str, seed: int | str, duration_s: float | str | None =
     return shlex.join(words)
 
 
+def recorded_robot(run: dict) -> str | None:
+    """The robot a recorded run ran (its ``run`` record's ``robot``), None when the record does not say
+    (a trace from before robots were registered, or a log: the default robot)."""
+    return run.get("robot") or None
+
+
 def rerun_command(run: dict) -> str:
-    """``run_command`` of a recorded run (its ``run`` metadata record)."""
-    return run_command(run.get("scenario", "SCENARIO"), run.get("seed", 0), run.get("duration_s"),
-                       plant_overrides(run))
+    """``run_command`` of a recorded run (its ``run`` metadata record); another robot's
+    scenario by its qualified name, ROBOT/NAME."""
+    scenario, robot = run.get("scenario", "SCENARIO"), recorded_robot(run)
+    if robot is not None and robot != DEFAULT_ROBOT:
+        scenario = f"{robot}/{scenario}"
+    return run_command(scenario, run.get("seed", 0), run.get("duration_s"), plant_overrides(run))
