@@ -22,6 +22,8 @@ from pathlib import Path
 
 import cantools
 
+from wheelleg.dbc import load_bus
+
 DEFAULT = "wheel-legged"
 ROBOTS: dict[str, tuple[str, str]] = {
     "wheel-legged": ("wheelleg.hil.robots.wheel_legged", "ROBOT"),
@@ -68,7 +70,6 @@ class Robot:
     controller_program: str  # the module `python -m` runs on the robot: add_arguments(parser), main(args)
     controller_params: str  # the module whose upper-case names are the controller's tuning
     control_period_s: float
-    database: Callable[[str], cantools.database.Database]  # role -> every message on that bus
     build_physics: Callable
     build_plant: Callable
     build_controller: Callable
@@ -80,8 +81,8 @@ class Robot:
         return tuple(bus.role for bus in self.buses)
 
     def databases(self) -> dict[str, cantools.database.Database]:
-        """Role -> the cantools database of that bus."""
-        return {role: self.database(role) for role in self.roles}
+        """Role -> the cantools database of that bus (``wheelleg.dbc.load_bus``: its files per robot)."""
+        return {role: load_bus(role, robot=self.name) for role in self.roles}
 
     def model_files(self) -> list[Path]:
         return sorted(self.model_dir.glob("*.xml"))

@@ -11,7 +11,7 @@ from pathlib import Path
 from wheelleg.controller import params as P
 from wheelleg.controller.node import ControllerNode
 from wheelleg.controller.telemetry import DEBUG_FIELDS
-from wheelleg.dbc import CAN1, CAN2, load_bus
+from wheelleg.dbc import CAN1, CAN2
 from wheelleg.emulators.robot import description as D
 from wheelleg.hil.record.schemas import described_schema
 from wheelleg.hil.robots import Bus, Device, Robot
@@ -51,7 +51,6 @@ ROBOT = Robot(
     controller_program="wheelleg.controller.__main__",
     controller_params="wheelleg.controller.params",
     control_period_s=P.CONTROL_PERIOD,
-    database=load_bus,
     build_physics=build_physics,
     build_plant=build_plant,
     build_controller=build_controller,

@@ -135,7 +135,7 @@ class Rig:
         return {"run": run_record(scenario=self.scenario.name, seed=cfg.seed, control_period_s=cfg.period_s,
                                   physics_dt_s=cfg.physics_dt_s, duration_s=self.scenario.duration_s,
                                   interface=cfg.interface, channels=self.names,
-                                  plant_overrides=cfg.plant.overrides_dict(), robot=self.robot)}
+                                  plant_overrides=cfg.plant.overrides_dict(), robot=self.robot.name)}
 
     def _attachments(self) -> list:
         files = [(p.name, p.read_bytes(), "text/x-dbc") for p in all_dbc_files()]
