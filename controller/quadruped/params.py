@@ -50,21 +50,23 @@ FRICTION = 0.6  # the friction coefficient the reactions are kept under (rubber 
 UPRIGHT_LIMIT = math.radians(30.0)  # rad, roll and pitch under which a stand-up needs no roll-over
 FALL_LIMIT = math.radians(50.0)  # rad, roll or pitch past which a standing robot has fallen
 
-# --- stand-up (joint-space trajectory, seconds) ----------------------------------------------
-TUCK_S = 0.6  # s, from wherever the legs are to folded under the body
-RISE_S = 1.4  # s, from folded to the stand
-# folded: thigh forward of the hip, knee fully bent, feet just under the body's underside
-FOLD_THIGH = 1.0  # rad
-FOLD_CALF = -2.4  # rad
+# --- stand-up (joint-space trajectories, minimum-jerk, seconds) -------------------------------
+GATHER_S = 0.6  # s, from wherever the legs are to the crouch: feet under the hips, body low
+RISE_S = 1.4  # s, from the crouch to the stand (2 s in all, as the MIT Cheetah's start-up)
+CROUCH_HEIGHT = 0.13  # m, body centre over the ground in the crouch (the folded knee's reach)
 
-# --- recovery stand ------------------------------------------------------------------------------
+# --- recovery stand (the MIT Cheetah's: fold the legs, roll over, stand) ----------------------
+FOLD_S = 0.8  # s, from wherever the legs are to folded
+FOLD_POSE = (0.0, 1.0, -2.4)  # rad, abduction, thigh, calf: knee fully bent, foot ahead of the hip
 ROLL_S = 1.2  # s, one roll-over push
-ROLL_SETTLE_S = 0.6  # s, after a push, before looking again
-ROLL_ATTEMPTS = 3  # pushes before it gives up and lies folded (passive needs the remote)
-# the legs of the upper side swing over the back and down to the ground to lever the body;
-# those of the lower side swing out of its way (folded, turned toward the back)
-ROLL_UPPER = (1.3, 2.6, -1.6)  # rad, abduction (toward the ground side, signed per side), thigh, calf
-ROLL_LOWER = (0.8, 2.4, -2.4)  # rad
+SETTLE_S = 0.6  # s, holding after a push before looking again
+ROLL_ATTEMPTS = 3  # pushes before it gives up and lies folded
+# Lying on a side, the legs of the lower side swing over the back and their abduction
+# presses their feet into the ground there: the ground pushes the back up and the body
+# pivots on its belly-side edge onto its belly. The upper legs reach toward the belly
+# side, moving the centre of mass the way the body should turn.
+ROLL_LOWER = (0.68, 2.7, -0.6)  # rad, |abduction| (toward the ground), thigh, calf
+ROLL_UPPER = (0.0, 0.3, -0.8)  # rad
 
 # --- trot ------------------------------------------------------------------------------------------
 GAIT_PERIOD = 0.40  # s, one cycle: each diagonal pair in stance for half of it
