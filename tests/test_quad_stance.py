@@ -152,3 +152,19 @@ def test_height_over_feet_counts_only_stance_feet():
     mask = np.array([False, True, True, True])
     assert height_over_feet(feet, mask) == pytest.approx(0.2)
     assert math.isnan(height_over_feet(feet, np.zeros(4, dtype=bool)))
+
+
+def test_a_foot_caught_in_the_air_is_brought_down_before_it_carries_weight():
+    robot = KinematicRobot()
+    feet = legs.feet_in_body(robot.q)
+    feet[1, 2] += 0.04  # FL mid-swing
+    robot.q = legs.joints_for_feet(feet)
+    stand = BalanceStand()
+    stand.start(robot.sensed())
+    first = stand.step(robot.sensed(), Posture())
+    assert np.all(first.tau[1] == 0.0) and np.all(first.tau[[0, 3], 2] > 0.5)  # FR+RL carry the most
+    for _ in range(int(0.5 / stand.period_s)):
+        commands = stand.step(robot.sensed(), Posture())
+        robot.take(stand, commands)
+    assert legs.feet_in_body(commands.q)[1, 2] == pytest.approx(legs.feet_in_body(commands.q)[0, 2], abs=1e-6)
+    assert np.all(commands.tau[:, 2] > 0.5)

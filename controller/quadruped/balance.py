@@ -1,7 +1,9 @@
 """The balance stand: four feet fixed on the ground, the body posed from the remote.
 
 At ``start`` the feet's points on the ground are taken as they are (the ground
-frame G of stance.py, centred under their centroid, x along the heading).
+frame G of stance.py, centred under their centroid, x along the heading); a
+foot caught in the air (a trot stopped mid-swing) is brought down to the
+ground under where it is.
 Each ``step`` slews the set points (roll, pitch, yaw relative to the start's
 heading, height), adds the trims that integrate what the IMU and the legs
 measure against them, poses the body by IK and carries its weight with the
@@ -19,8 +21,6 @@ from wheelleg.controller.quadruped import legs, stance
 from wheelleg.controller.quadruped.legs import JointCommands
 from wheelleg.controller.quadruped.rotations import rpy_matrix, wrap
 from wheelleg.controller.quadruped.sensed import Sensed, height_over_feet
-
-ALL_FEET = np.ones(4, dtype=bool)
 
 
 @dataclass(frozen=True)
@@ -53,7 +53,8 @@ class BalanceStand:
 
     def __init__(self, period_s: float = P.CONTROL_PERIOD):
         self.period_s = period_s
-        self.feet_ground = stance.footprint()
+        self.feet_ground = stance.footprint()  # m, (4, 3): the feet's set points in G
+        self.feet_goal = self.feet_ground.copy()  # m, (4, 3): the same on the ground
         self.body_xy = np.zeros(2)  # m, the body centre in G (slewed to the feet's centroid: 0)
         self.setpoint = Posture().as_array()  # roll, pitch, yaw, height being slewed
         self.trim = np.zeros(4)
@@ -63,11 +64,14 @@ class BalanceStand:
     def start(self, sensed: Sensed) -> None:
         """Take the feet where they are and the body's posture as the first set point."""
         feet = sensed.feet_level()
-        height = height_over_feet(feet, ALL_FEET)
+        lowest = feet[:, 2] <= feet[:, 2].min() + 0.01  # the feet on the ground
+        height = height_over_feet(feet, lowest)
         feet[:, 2] += height
         centroid = feet[:, :2].mean(axis=0)
         feet[:, :2] -= centroid
         self.feet_ground = feet
+        self.feet_goal = feet.copy()
+        self.feet_goal[:, 2] = C.FOOT_RADIUS
         self.body_xy = -centroid
         self.yaw0 = float(sensed.rpy[2])
         self.trim = np.zeros(4)
@@ -79,9 +83,11 @@ class BalanceStand:
         rates = np.array([P.ATTITUDE_RATE] * 3 + [P.HEIGHT_RATE]) * dt
         self.setpoint = slew(self.setpoint, limited(target).as_array(), rates)
         self.body_xy = slew(self.body_xy, np.zeros(2), np.full(2, P.HEIGHT_RATE * dt))
+        self.feet_ground = slew(self.feet_ground, self.feet_goal, np.full((4, 3), P.FOOT_SETTLE_RATE * dt))
         feet_level = sensed.feet_level()
+        down = np.abs(self.feet_ground[:, 2] - C.FOOT_RADIUS) < 1e-6
         self.measured = np.array([sensed.rpy[0], sensed.rpy[1], wrap(sensed.rpy[2] - self.yaw0),
-                                  height_over_feet(feet_level, ALL_FEET)])
+                                  height_over_feet(feet_level, down)])
         error = self.setpoint - self.measured
         self.trim = trimmed(self.trim, error, dt)
         pose = self.setpoint + self.trim
@@ -89,7 +95,7 @@ class BalanceStand:
         q = legs.joints_for_feet(stance.feet_in_body_for_pose(self.feet_ground, body, rpy_matrix(*pose[:3])))
         wrench = stance.attitude_wrench(C.MASS, error[:3], sensed.gyro, np.array(P.ATTITUDE_KP),
                                         np.array(P.ATTITUDE_KD))
-        tau = stance.stance_torques(sensed.q, feet_level, sensed.level_rotation, wrench, ALL_FEET,
+        tau = stance.stance_torques(sensed.q, feet_level, sensed.level_rotation, wrench, down,
                                     P.DISTRIBUTION_REGULARISATION, P.FRICTION)
         return JointCommands.hold(q, P.STANCE_KP, P.STANCE_KD, tau)
 

@@ -35,6 +35,11 @@ def foot_velocities(q: np.ndarray, qd: np.ndarray, geo: K.LegGeometry = C.GEOMET
     return np.array([K.foot_velocity(q[leg], qd[leg], C.SIDE[leg], geo) for leg in range(4)])
 
 
+def jacobian_of(q: np.ndarray, leg: int, geo: K.LegGeometry = C.GEOMETRY) -> np.ndarray:
+    """Leg ``leg``'s Jacobian (m/rad, (3, 3)) at joint angles ``q`` (rad, (4, 3))."""
+    return K.jacobian(q[leg], C.SIDE[leg], geo)
+
+
 def torques_for_reactions(q: np.ndarray, reactions_body: np.ndarray,
                           geo: K.LegGeometry = C.GEOMETRY) -> np.ndarray:
     """Joint torques (N m, (4, 3)) that make the ground push each foot with ``reactions_body`` (N, (4, 3)).

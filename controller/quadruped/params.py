@@ -69,14 +69,16 @@ ROLL_LOWER = (0.68, 2.7, -0.6)  # rad, |abduction| (toward the ground), thigh, c
 ROLL_UPPER = (0.0, 0.3, -0.8)  # rad
 
 # --- trot ------------------------------------------------------------------------------------------
-GAIT_PERIOD = 0.40  # s, one cycle: each diagonal pair in stance for half of it
-SWING_HEIGHT = 0.06  # m, foot lift at mid-swing
-RAIBERT_GAIN = 0.03  # s, (m per m/s): touchdown shift per unit of velocity error
+GAIT_PERIOD = 0.40  # s, one cycle: each diagonal pair in stance for half of it (MIT mini-class trots: 0.3-0.5 s)
+DUTY = 0.5  # fraction of the cycle a foot is down: a pure trot, one pair always down
+SWING_HEIGHT = 0.06  # m, foot lift at mid-swing: clears a 3 cm step with margin
+RAIBERT_GAIN = 0.03  # s (m per m/s), touchdown shift per unit of velocity error
+TOUCHDOWN_REACH = 0.10  # m, largest touchdown shift from under the hip
 VELOCITY_LIMIT = (0.8, 0.4)  # m/s, forward and lateral speed the trot accepts
 YAW_RATE_LIMIT = 1.5  # rad/s
 ACCELERATION = 1.0  # m/s^2, slew of the velocity set point
 YAW_ACCELERATION = 3.0  # rad/s^2
 VELOCITY_FILTER_S = 0.05  # s, time constant of the leg-odometry velocity estimate
-HEADING_KP = 2.0  # 1/s, heading error -> yaw rate: a turn reaches the heading the rate integrates to
-TRAVEL_KP = 1.0  # 1/s, position error of the integrated velocity -> velocity
-TRAVEL_ERROR_LIMIT = 0.1  # m
+HEADING_KP = 2.0  # 1/s, heading error -> yaw rate: a turn ends at the heading its rate integrates to
+HEADING_ERROR_LIMIT = 0.3  # rad, largest heading error the correction carries (no wind-up)
+FOOT_SETTLE_RATE = 0.3  # m/s, how fast a stand's start brings a raised foot down to the ground
