@@ -100,6 +100,10 @@ class GetUp:
     def done(self) -> bool:
         return self.phase == Phase.DONE
 
+    def stop(self) -> None:
+        """Back to IDLE (the motors went passive): not done, nothing under way."""
+        self.phase, self.elapsed_s = Phase.IDLE, 0.0
+
     def start_stand_up(self, q: np.ndarray, height_m: float) -> None:
         self.height_m, self.attempts = height_m, 0
         self._enter(Phase.GATHER, q, None)
