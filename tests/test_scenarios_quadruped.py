@@ -68,3 +68,12 @@ def test_a_quadruped_log_is_told_apart_by_its_motor_ids(rig_run):
     assert source.channels == {"can1": "vcan0", "can2": "vcan1"}
     with pytest.raises(Exception, match="not of the wheel-legged robot"):
         open_recording(run.trace_path, robot="wheel-legged")
+
+
+def test_inspect_names_the_quadrupeds_modes_and_offline_legs(rig_run):
+    from wheelleg.hil.analyze.inspect_trace import summarize
+
+    run = rig_run("quadruped/quad-offline-joint")
+    lines = [f.text for f in summarize(run.trace_path).faults if f.kind == "heartbeat"]
+    assert any("mode BALANCE_STAND" in line for line in lines)
+    assert lines[-1].startswith("mode PASSIVE") and "offline RL motors" in lines[-1]

@@ -18,8 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
-from wheelleg.controller.constants import CG_HOST_ID, DEVICES
-from wheelleg.controller.modes import Mode
+from wheelleg.controller.constants import CG_HOST_ID
+from wheelleg.hil import robots
 from wheelleg.dbc import cybergear as cg
 from wheelleg.hil.bus.busload import DEFAULT_BITRATE, frame_bits
 from wheelleg.hil.record.decode import FrameDecoder
@@ -188,13 +188,15 @@ class _Pass:
             self.sync_ticks.setdefault(sync_tick(f), f.t_ns)
 
 
-def _heartbeat_findings(rows: list) -> list[Finding]:
+def _heartbeat_findings(rows: list, robot: robots.Robot) -> list[Finding]:
+    """A finding each time the heartbeat's mode, warning level, offline devices or latch change,
+    named with ``robot``'s modes and offline bits."""
     out, last = [], None
     for t, v in rows:
         state = (v["Mode"], v["WarningLevel"], v["OfflineMask"], v["FaultLatched"])
         if state != last:
-            offline = [name for bit, name in enumerate(DEVICES) if v["OfflineMask"] >> bit & 1]
-            mode = Mode(v["Mode"]).name if v["Mode"] in Mode._value2member_map_ else str(v["Mode"])
+            offline = [name for bit, name in enumerate(robot.offline_bits) if v["OfflineMask"] >> bit & 1]
+            mode = robot.mode_names.get(int(v["Mode"]), str(v["Mode"]))
             out.append(Finding(t, "heartbeat", f"mode {mode}, warning level {v['WarningLevel']}, offline "
                                                f"{', '.join(offline) or 'none'}"
                                                + (", fault latched" if v["FaultLatched"] else "")))
@@ -238,7 +240,7 @@ def summarize(path_or_source, *, bitrate: int = DEFAULT_BITRATE, window_s: float
     _loads(summary, p, bitrate, duration)
     summary.signals = [SignalRange(ch, m, s, lo, hi, n) for (ch, m, s), (lo, hi, n) in sorted(p.ranges.items())]
     events = [e for e in source.events if str(e.get("kind", "")).startswith("fault")]
-    summary.faults = sorted(p.faults + _heartbeat_findings(p.hb_rows)
+    summary.faults = sorted(p.faults + _heartbeat_findings(p.hb_rows, robots.get(source.robot))
                             + [Finding(e["t"] - p.t0 / 1e9, "event", _event_text(e)) for e in events],
                             key=lambda x: x.t_s)
     summary.deadline_misses = _deadline_findings(p, source, period_s)

@@ -75,6 +75,8 @@ class Robot:
     build_plant: Callable
     build_controller: Callable
     sim_state_fields: dict[str, str]  # /sim/state fields its ground truth always has, name -> unit
+    mode_names: dict[int, str]  # the heartbeat's Mode values (rig.dbc Heartbeat) -> its controller's mode names
+    offline_bits: tuple[str, ...]  # the heartbeat's OfflineMask: bit i -> the device (or group) it stands for
     debug_schema: dict | None = None  # JSON Schema of /controller/debug, None: no debug records
     plant_override_keys: frozenset | None = None  # plant overrides it honours; None: every key
 

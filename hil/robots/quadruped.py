@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from wheelleg.controller.quadruped.modes import Mode
 from wheelleg.controller.quadruped.telemetry import DEBUG_FIELDS
 from wheelleg.dbc import CAN1, CAN2
 from wheelleg.emulators.quadruped import description as D
@@ -60,6 +61,8 @@ ROBOT = Robot(
     build_controller=build_controller,
     sim_state_fields={**POSE_FIELDS, "height": "m", **{f"{leg}_foot_force": "N" for leg in D.LEGS},
                       **{f"{leg}_foot_z": "m" for leg in D.LEGS}, "body_on_ground": ""},
+    mode_names={int(m): m.name for m in Mode},
+    offline_bits=(*(f"{leg} motors" for leg in D.LEGS), "imu", "remote"),  # controller.quadruped.node.heartbeat_mask
     debug_schema=described_schema("wheelleg.QuadrupedControllerDebug", DEBUG_FIELDS),
     plant_override_keys=frozenset({
         "body_mass_scale", "com_x_m", "com_z_m", "inertia_scale", "imu_tilt_pitch_deg", "imu_tilt_roll_deg",

@@ -9,6 +9,8 @@ from __future__ import annotations
 from pathlib import Path
 
 from wheelleg.controller import params as P
+from wheelleg.controller.constants import DEVICES
+from wheelleg.controller.modes import Mode
 from wheelleg.controller.node import ControllerNode
 from wheelleg.controller.telemetry import DEBUG_FIELDS
 from wheelleg.dbc import CAN1, CAN2
@@ -55,5 +57,7 @@ ROBOT = Robot(
     build_plant=build_plant,
     build_controller=build_controller,
     sim_state_fields=SIM_STATE_FIELDS,
+    mode_names={int(m): m.name for m in Mode},
+    offline_bits=tuple(DEVICES),
     debug_schema=described_schema("wheelleg.ControllerDebug", DEBUG_FIELDS),
 )
