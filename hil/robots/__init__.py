@@ -60,7 +60,9 @@ class Robot:
       ``DeviceNode``), ``devices``, ``remote`` and ``step(now_s)``;
     - ``build_controller(buses, sync, period_s) -> node``: its controller on ``buses``
       (role -> ``can.BusABC``), with ``service()``, ``now()``, ``buses``, ``ticks``,
-      ``last_result`` (``.debug``: a dict, maybe empty), ``run(stop)`` and ``disable()``.
+      ``last_result`` (``.debug``: a dict, maybe empty), ``run(stop)``, ``disable()`` and
+      ``controller``, the program without I/O (``on_frame(msg, bus, now_s)``, ``tick(tick, now_s)``:
+      what replay feeds a robot's log in free-run mode).
     """
 
     name: str
