@@ -20,6 +20,7 @@ from wheelleg.controller import estimate
 from wheelleg.controller import fivebar
 from wheelleg.controller import lqr
 from wheelleg.controller import params as P
+from wheelleg.controller.attitude import euler_zyx
 from wheelleg.controller.state import BusState, ImuReading
 
 LEGS = ("left", "right")
@@ -39,11 +40,7 @@ class Attitude:
 
 def attitude(imu: ImuReading, gyro_bias: tuple = (0.0, 0.0, 0.0)) -> Attitude:
     """Euler angles of the IMU quaternion (ZYX) and its body rates less ``gyro_bias`` (rad/s, (3,))."""
-    w, x, y, z = imu.quat
-    roll = math.atan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
-    pitch = math.asin(max(-1.0, min(1.0, 2 * (w * y - z * x))))
-    yaw = math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
-    return Attitude(roll, pitch, yaw, *(g - b for g, b in zip(imu.gyro, gyro_bias)))
+    return Attitude(*euler_zyx(imu.quat), *(g - b for g, b in zip(imu.gyro, gyro_bias)))
 
 
 @dataclass(frozen=True)

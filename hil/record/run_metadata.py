@@ -12,8 +12,8 @@ import subprocess
 from decimal import Decimal, InvalidOperation
 from pathlib import Path
 
-from wheelleg.controller import params as P
 from wheelleg.dbc import CAN1, CAN2
+from wheelleg.hil import robots
 
 REPLAY_KEYS = ("scenario", "seed", "control_period_s", "git_revision", "controller_params", CAN1, CAN2,
                "epoch_s")
@@ -28,17 +28,6 @@ def git_revision(cwd: Path | None = None) -> str:
         return out.stdout.strip() or "unknown"
     except (OSError, subprocess.SubprocessError):
         return "unknown"
-
-
-def controller_params_json() -> str:
-    """The controller's tuning (every upper-case name of its params module) as sorted JSON."""
-    params = {k: v for k, v in vars(P).items() if k.isupper()}
-    return json.dumps(params, sort_keys=True, default=repr)
-
-
-def current_params() -> dict:
-    """The controller's tuning as a recording holds it (``run.controller_params`` read back)."""
-    return json.loads(controller_params_json())
 
 
 def parse_epoch(text: str) -> int:
@@ -68,17 +57,21 @@ def epoch_text(epoch_ns: int) -> str:
 def run_record(*, scenario: str, seed: int, control_period_s: float, channels: dict[str, str],
                physics_dt_s: float | None = None, duration_s: float | None = None,
                interface: str = "virtual", plant_overrides: dict[str, float] | None = None,
-               epoch_ns: int = 0) -> dict[str, str]:
+               epoch_ns: int = 0, robot: str | None = None) -> dict[str, str]:
     """The ``run`` record of one run; ``channels``: bus role -> interface name;
     ``plant_overrides``: the plant's per-run overrides (key -> SI value), JSON in the record;
-    ``epoch_ns``: what the candump log adds to every time (``epoch_s``; the trace keeps the run's time)."""
-    record = {"scenario": scenario, "seed": str(seed), "control_period_s": repr(control_period_s)}
+    ``epoch_ns``: what the candump log adds to every time (``epoch_s``; the trace keeps the run's time);
+    ``robot``: the name of the registered robot it ran (None: the default)."""
+    spec = robots.get(robot)
+    record = {"scenario": scenario, "seed": str(seed), "control_period_s": repr(control_period_s),
+              "robot": spec.name}
     if physics_dt_s is not None:
         record["physics_dt_s"] = repr(physics_dt_s)
     if duration_s is not None:
         record["duration_s"] = repr(duration_s)
     record.update({"interface": interface, CAN1: channels[CAN1], CAN2: channels[CAN2],
-                   "git_revision": git_revision(), "controller_params": controller_params_json(),
+                   "git_revision": git_revision(),
+                   "controller_params": spec.params_json(),
                    "plant_overrides": json.dumps(plant_overrides or {}, sort_keys=True),
                    "epoch_s": epoch_text(epoch_ns)})
     return record
@@ -118,6 +111,10 @@ def recorded_epoch(run: dict) -> int:
 
 
 def rerun_command(run: dict) -> str:
-    """``run_command`` of a recorded run (its ``run`` metadata record)."""
-    return run_command(run.get("scenario", "SCENARIO"), run.get("seed", 0), run.get("duration_s"),
-                       plant_overrides(run), epoch_ns=recorded_epoch(run))
+    """``run_command`` of a recorded run (its ``run`` metadata record); another robot's
+    scenario by its qualified name, ROBOT/NAME."""
+    scenario, robot = run.get("scenario", "SCENARIO"), run.get("robot")
+    if robot and robot != robots.DEFAULT:
+        scenario = f"{robot}/{scenario}"
+    return run_command(scenario, run.get("seed", 0), run.get("duration_s"), plant_overrides(run),
+                       epoch_ns=recorded_epoch(run))

@@ -1,0 +1,117 @@
+"""The quadruped's stand-up and recovery stand: the phase table in time, the trajectories'
+ends and continuity, the weight feed-forward, and the roll-over pose's sides."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from wheelleg.controller.quadruped import constants as C
+from wheelleg.controller.quadruped import kinematics as K
+from wheelleg.controller.quadruped import legs
+from wheelleg.controller.quadruped import params as P
+from wheelleg.controller.quadruped.getup import (GetUp, Phase, fold_pose, has_fallen, is_upright, min_jerk,
+                                                 roll_pose, stand_pose)
+from wheelleg.controller.quadruped.sensed import Sensed
+
+DT = P.CONTROL_PERIOD
+
+
+def _sensed(q, rpy=(0.0, 0.0, 0.0)) -> Sensed:
+    return Sensed(np.array(q, dtype=float), np.zeros((4, 3)), np.zeros((4, 3)), np.array(rpy), np.zeros(3))
+
+
+def _run(getup: GetUp, seconds: float, rpy_of=lambda t: (0.0, 0.0, 0.0)):
+    """Step ``getup`` on a robot whose joints follow exactly; (times, phases, commands) per tick."""
+    q = getup.q_from.copy()
+    out = []
+    for k in range(round(seconds / DT)):
+        commands = getup.step(_sensed(q, rpy_of(k * DT)))
+        q = commands.q
+        out.append((k * DT, getup.phase, commands))
+    return out
+
+
+def test_min_jerk_starts_and_ends_at_rest():
+    assert min_jerk(0.0) == (0.0, 0.0) and min_jerk(1.0) == (1.0, 0.0)
+    assert min_jerk(0.5)[0] == pytest.approx(0.5) and min_jerk(2.0) == (1.0, 0.0)
+
+
+def test_stand_up_gathers_rises_and_holds_the_stand_in_two_seconds():
+    lying = fold_pose()
+    getup = GetUp()
+    getup.start_stand_up(lying, P.HEIGHT_NOMINAL)
+    ticks = _run(getup, 2.5)
+    phase_at = {round(t, 3): phase for t, phase, _ in ticks}
+    assert phase_at[0.0] == Phase.GATHER and phase_at[0.7] == Phase.RISE and phase_at[2.1] == Phase.DONE
+    first, last = ticks[0][2], ticks[-1][2]
+    assert np.abs(first.q - lying).max() < 0.01  # starts where the legs are
+    assert last.q == pytest.approx(stand_pose(P.HEIGHT_NOMINAL))
+    feet = legs.feet_in_body(last.q)
+    assert -feet[:, 2].mean() + C.FOOT_RADIUS == pytest.approx(P.HEIGHT_NOMINAL, abs=1e-6)
+    steps = [np.abs(b[2].q - a[2].q).max() for a, b in zip(ticks, ticks[1:])]
+    assert max(steps) < 0.03  # rad a tick: no jump anywhere, phase changes included
+
+
+def test_the_weight_is_fed_forward_over_the_rise_only():
+    getup = GetUp()
+    getup.start_stand_up(fold_pose(), P.HEIGHT_NOMINAL)
+    ticks = _run(getup, 2.5)
+    gather = [c.tau for _, phase, c in ticks if phase == Phase.GATHER]
+    done = ticks[-1][2]
+    assert all(np.all(t == 0.0) for t in gather)
+    assert np.all(done.tau[:, 2] > 0.5)  # the knees pushed open by the full weight's share
+    pushed = [np.linalg.solve(K.jacobian(done.q[i], C.SIDE[i], C.GEOMETRY).T, done.tau[i]) for i in range(4)]
+    assert sum(p[2] for p in pushed) == pytest.approx(-C.MASS * C.GRAVITY, rel=1e-3)
+
+
+def test_recovery_of_an_upright_robot_folds_then_stands():
+    getup = GetUp()
+    getup.start_recovery(stand_pose(0.18), P.HEIGHT_NOMINAL)
+    phases = [phase for _, phase, _ in _run(getup, 3.5)]
+    assert phases[0] == Phase.FOLD and Phase.ROLL not in phases and phases[-1] == Phase.DONE
+    assert getup.done
+
+
+@pytest.mark.parametrize("roll", [math.pi / 2, -math.pi / 2, 0.9 * math.pi], ids=["right-down", "left-down", "back"])
+def test_recovery_from_a_side_rolls_then_stands_once_upright(roll):
+    getup = GetUp()
+    getup.start_recovery(fold_pose(), P.HEIGHT_NOMINAL)
+    rolled_at = P.FOLD_S + P.ROLL_S  # the push turns it over
+    ticks = _run(getup, 6.0, lambda t: (roll if t < rolled_at else 0.0, 0.0, 0.0))
+    phases = [phase for _, phase, _ in ticks]
+    order = [p for i, p in enumerate(phases) if i == 0 or phases[i - 1] != p]
+    assert order == [Phase.FOLD, Phase.ROLL, Phase.SETTLE, Phase.FOLD, Phase.GATHER, Phase.RISE, Phase.DONE]
+    push = next(c for _, phase, c in ticks if phase == Phase.SETTLE).q
+    assert push == pytest.approx(roll_pose(roll))
+
+
+def test_recovery_gives_up_after_its_attempts_and_lies_folded():
+    getup = GetUp()
+    getup.start_recovery(fold_pose(), P.HEIGHT_NOMINAL)
+    ticks = _run(getup, 20.0, lambda t: (math.pi / 2, 0.0, 0.0))
+    phases = [phase for _, phase, _ in ticks]
+    assert getup.attempts == P.ROLL_ATTEMPTS and phases[-1] == Phase.GIVEN_UP
+    assert ticks[-1][2].q == pytest.approx(fold_pose())
+
+
+def test_the_lower_legs_push_the_ground_over_the_back():
+    """Lying on the right side (roll > 0, ground toward body -y): the right feet go past the
+    body's side toward the ground, behind the hips' plane (z > 0: the back's side); the left
+    ones do not."""
+    q = roll_pose(math.pi / 2)
+    feet = legs.feet_in_body(q)
+    side_reach = C.HIP_Y + C.ABAD_LINK  # where a leg hanging straight would be
+    for leg in (0, 2):  # FR, RR
+        assert feet[leg, 1] < -side_reach - 0.05 and feet[leg, 2] > 0.0
+    for leg in (1, 3):
+        assert feet[leg, 1] > 0.0 and feet[leg, 2] < 0.0
+    mirrored = roll_pose(-math.pi / 2)
+    assert mirrored[[1, 3]] == pytest.approx(q[[0, 2]] * [-1, 1, 1])
+    assert np.all(q >= legs.LOWER) and np.all(q <= legs.UPPER)
+
+
+def test_upright_and_fallen():
+    assert is_upright((0.1, -0.2, 3.0)) and not is_upright((0.0, 0.6, 0.0))
+    assert has_fallen((0.0, 1.0, 0.0)) and has_fallen((-1.0, 0.0, 0.0)) and not has_fallen((0.5, 0.5, 2.0))
