@@ -1,5 +1,5 @@
 """The rig in lockstep over real SocketCAN (vcan0/vcan1) records what it records over
-python-can's virtual bus, byte for byte (run inside ``bash ci/uml-vcan.sh`` where the
+python-can's virtual bus, byte for byte (run inside ``wheelleg vcan uml --`` where the
 kernel has no CAN)."""
 from __future__ import annotations
 
