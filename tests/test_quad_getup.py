@@ -115,3 +115,12 @@ def test_the_lower_legs_push_the_ground_over_the_back():
 def test_upright_and_fallen():
     assert is_upright((0.1, -0.2, 3.0)) and not is_upright((0.0, 0.6, 0.0))
     assert has_fallen((0.0, 1.0, 0.0)) and has_fallen((-1.0, 0.0, 0.0)) and not has_fallen((0.5, 0.5, 2.0))
+
+
+def test_a_robot_already_standing_rises_without_crouching_first():
+    getup = GetUp()
+    getup.start_stand_up(stand_pose(0.18), P.HEIGHT_NOMINAL)
+    ticks = _run(getup, 1.6)
+    assert ticks[0][1] == Phase.RISE and ticks[-1][1] == Phase.DONE
+    lowest = min(-legs.feet_in_body(c.q)[:, 2].mean() + C.FOOT_RADIUS for _, _, c in ticks)
+    assert lowest == pytest.approx(0.18, abs=1e-3)  # never lower than where it began

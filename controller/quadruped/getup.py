@@ -2,7 +2,8 @@
 
 Stand-up (from lying folded, body upright): GATHER (legs to the crouch, feet
 under the hips) then RISE (crouch to the stand), minimum-jerk in joint space,
-with the weight's feed-forward growing over the rise. Recovery (the MIT
+with the weight's feed-forward growing over the rise. Legs already under the
+hips of a body above the crouch (it was standing) skip the gather. Recovery (the MIT
 Cheetah's recovery stand, from lying on a side or on the back): FOLD the legs;
 if the body is upright go on as the stand-up, else ROLL (the lower side's legs
 swing over the back and press the ground, params.ROLL_LOWER), SETTLE, FOLD
@@ -22,7 +23,7 @@ from wheelleg.controller.quadruped import constants as C
 from wheelleg.controller.quadruped import params as P
 from wheelleg.controller.quadruped import legs, stance
 from wheelleg.controller.quadruped.legs import JointCommands
-from wheelleg.controller.quadruped.sensed import Sensed
+from wheelleg.controller.quadruped.sensed import Sensed, height_over_feet
 
 
 class Phase(enum.IntEnum):
@@ -105,8 +106,12 @@ class GetUp:
         self.phase, self.elapsed_s = Phase.IDLE, 0.0
 
     def start_stand_up(self, q: np.ndarray, height_m: float) -> None:
+        """From lying folded: gather, then rise. Legs already under a body above the crouch rise at once."""
         self.height_m, self.attempts = height_m, 0
-        self._enter(Phase.GATHER, q, None)
+        feet = legs.feet_in_body(q)
+        above_crouch = height_over_feet(feet, np.ones(4, dtype=bool)) > P.CROUCH_HEIGHT + 0.01
+        under_hips = np.all(np.abs(feet[:, :2] - stance.footprint()[:, :2]) < P.UNDER_HIP_TOLERANCE)
+        self._enter(Phase.RISE if above_crouch and under_hips else Phase.GATHER, q, None)
 
     def start_recovery(self, q: np.ndarray, height_m: float) -> None:
         self.height_m, self.attempts = height_m, 0

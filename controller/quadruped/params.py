@@ -54,6 +54,7 @@ FALL_LIMIT = math.radians(50.0)  # rad, roll or pitch past which a standing robo
 GATHER_S = 0.6  # s, from wherever the legs are to the crouch: feet under the hips, body low
 RISE_S = 1.4  # s, from the crouch to the stand (2 s in all, as the MIT Cheetah's start-up)
 CROUCH_HEIGHT = 0.13  # m, body centre over the ground in the crouch (the folded knee's reach)
+UNDER_HIP_TOLERANCE = 0.05  # m, feet this close (x and y) to under their hips need no gather
 
 # --- recovery stand (the MIT Cheetah's: fold the legs, roll over, stand) ----------------------
 FOLD_S = 0.8  # s, from wherever the legs are to folded
