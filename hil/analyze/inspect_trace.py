@@ -24,7 +24,7 @@ from wheelleg.dbc import cybergear as cg
 from wheelleg.hil.bus.busload import DEFAULT_BITRATE, frame_bits
 from wheelleg.hil.record.decode import FrameDecoder
 from wheelleg.hil.record.frame import Frame
-from wheelleg.hil.record.sources import (CAN1, DBS, HEARTBEAT, Recording, is_heartbeat, is_sync,
+from wheelleg.hil.record.sources import (CAN1, HEARTBEAT, Recording, is_heartbeat, is_sync,
                               open_recording, sync_tick)
 
 KIND_NAMES = {"mcap": "MCAP trace", "candump": "candump log", "python-can": "log read by python-can"}
@@ -108,7 +108,8 @@ class _Pass:
     def __init__(self, source: Recording, bitrate: int, window_s: float):
         self.source, self.bitrate, self.window_ns = source, bitrate, max(int(window_s * 1e9), 1)
         self.t0 = min((f.t_ns for f in source.frames), default=0)
-        self.decoder = FrameDecoder({name: DBS[role] for role, name in source.channels.items()})
+        dbs = source.dbs  # the recording's robot's
+        self.decoder = FrameDecoder({name: dbs[role] for role, name in source.channels.items()})
         self.counts: dict = {}
         self.bits: dict = defaultdict(lambda: defaultdict(int))  # channel -> window -> bits
         self.ranges: dict = {}
@@ -221,10 +222,10 @@ def _deadline_findings(p: _Pass, source: Recording, period_s: float) -> list[Fin
 
 
 def summarize(path_or_source, *, bitrate: int = DEFAULT_BITRATE, window_s: float = 0.1,
-              channels: dict | None = None, period_s: float = 0.002) -> TraceSummary:
-    """Read a trace or log and compute everything ``wheelleg inspect`` prints."""
+              channels: dict | None = None, period_s: float = 0.002, robot: str | None = None) -> TraceSummary:
+    """Read a trace or log and compute everything ``wheelleg inspect`` prints; ``robot`` as ``open_recording``."""
     source = path_or_source if isinstance(path_or_source, Recording) else \
-        open_recording(path_or_source, channels, strict=False)
+        open_recording(path_or_source, channels, strict=False, robot=robot)
     p = _Pass(source, bitrate, window_s)
     p.run()
     duration = source.duration_s

@@ -33,9 +33,8 @@ from dataclasses import dataclass, field
 
 import can
 
-from wheelleg.controller import params as P
 from wheelleg.controller.modes import Mode
-from wheelleg.controller.node import Controller, ControllerNode
+from wheelleg.hil import robots
 from wheelleg.hil.analyze.bug_report import environment_warnings
 from wheelleg.hil.record.run_metadata import plant_overrides, rerun_command
 from wheelleg.hil.record.decode import FrameDecoder
@@ -44,7 +43,6 @@ from wheelleg.hil.record.sources import (CAN1, CAN2, CONTROLLER_NODES, DBS, HEAR
                               TraceError, Recording, heartbeat_tick, is_heartbeat, is_sync,
                               open_recording, sent_by_controller)
 
-_DECODER = FrameDecoder(DBS)
 _START_MODES = (Mode.IDLE, Mode.ESTOP)  # what a fresh controller can report on its first tick
 
 
@@ -88,13 +86,14 @@ class Schedule:
     notes: list[str] = field(default_factory=list)
 
 
-def _groups(frames: list[Frame]):
-    """Per role: [(tick, [frame indices])] closed by each heartbeat; inputs; leftovers."""
+def _groups(frames: list[Frame], dbs: dict):
+    """Per role: [(tick, [frame indices])] closed by each heartbeat; inputs; leftovers.
+    ``dbs``: the robot's bus databases (which frames are the controller's)."""
     groups = {r: [] for r in ROLES}
     pending = {r: [] for r in ROLES}
     inputs = []
     for i, f in enumerate(frames):
-        if sent_by_controller(f):
+        if sent_by_controller(f, dbs):
             pending[f.bus].append(i)
             if is_heartbeat(f):
                 groups[f.bus].append((heartbeat_tick(f), pending[f.bus]))
@@ -177,7 +176,7 @@ def _check_drops(source: Recording) -> None:
 
 def detect_mode(source: Recording) -> str:
     """'sync' when SYNC frames reach the controller on both buses, else 'free-run'."""
-    seen = {f.bus for f in source.frames if is_sync(f) and not sent_by_controller(f)}
+    seen = {f.bus for f in source.frames if is_sync(f) and not sent_by_controller(f, source.dbs)}
     return "sync" if seen >= set(ROLES) else "free-run"
 
 
@@ -188,7 +187,7 @@ def build_schedule(source: Recording, mode: str | None = None, allow_drops: bool
     if not source.frames:
         raise TraceError(f"{source.path}: no CAN frames on {sorted(source.channels.values())}")
     order_notes = _check_order(source)
-    groups, inputs, trailing = _groups(source.frames)
+    groups, inputs, trailing = _groups(source.frames, source.dbs)
     order_notes += _check_pairing(source, groups)
     mode = mode or detect_mode(source)
     frames = source.frames
@@ -212,7 +211,8 @@ def build_schedule(source: Recording, mode: str | None = None, allow_drops: bool
 
 # -- comparing frames ------------------------------------------------------------------------
 def _controller_signals() -> dict[str, tuple[float, str]]:
-    """Signal name -> (scale, unit) over every message a controller node sends."""
+    """Signal name -> (scale, unit) over every message a controller node sends (the default robot's
+    buses: CyberGear, C620 and rig frames; every registered robot's controller sends a subset)."""
     out = {}
     for db in DBS.values():
         for message in db.messages:
@@ -291,8 +291,8 @@ def _show(value) -> str:
     return str(value)
 
 
-def _decode(role: str, arbitration_id: int, is_extended: bool, data: bytes):
-    hit = _DECODER.decode(role, arbitration_id, is_extended, data)
+def _decode(decoder: FrameDecoder, role: str, arbitration_id: int, is_extended: bool, data: bytes):
+    hit = decoder.decode(role, arbitration_id, is_extended, data)
     return (hit[0].name, hit[1]) if hit is not None else ("?", None)
 
 
@@ -300,20 +300,22 @@ def _tolerance(tolerances: dict, message: str, signal: str) -> float:
     return tolerances.get(f"{message}.{signal}", tolerances.get(signal, 0.0))
 
 
-def _frame_difference(role: str, exp: Frame | None, got: can.Message | None, tolerances: dict):
-    """(signal, expected, got, tolerance, unit, message name) of the first mismatch, or None."""
+def _frame_difference(decoder: FrameDecoder, role: str, exp: Frame | None, got: can.Message | None,
+                      tolerances: dict):
+    """(signal, expected, got, tolerance, unit, message name) of the first mismatch, or None;
+    ``decoder``: the robot's (role -> database)."""
     if exp is None:
-        name, _ = _decode(role, got.arbitration_id, got.is_extended_id, bytes(got.data))
+        name, _ = _decode(decoder, role, got.arbitration_id, got.is_extended_id, bytes(got.data))
         return "<extra frame>", "nothing", f"{name} {_ident(got.arbitration_id, got.is_extended_id)}", 0.0, "", name
     if got is None:
-        name, _ = _decode(role, exp.arbitration_id, exp.is_extended, exp.data)
+        name, _ = _decode(decoder, role, exp.arbitration_id, exp.is_extended, exp.data)
         return "<missing frame>", f"{name} {_ident(exp.arbitration_id, exp.is_extended)}", "nothing", 0.0, "", name
     got_data = bytes(got.data[:got.dlc])
     if (exp.arbitration_id, exp.is_extended, exp.dlc, exp.data) == \
             (got.arbitration_id, got.is_extended_id, got.dlc, got_data):
         return None
-    exp_name, exp_values = _decode(role, exp.arbitration_id, exp.is_extended, exp.data)
-    got_name, got_values = _decode(role, got.arbitration_id, got.is_extended_id, got_data)
+    exp_name, exp_values = _decode(decoder, role, exp.arbitration_id, exp.is_extended, exp.data)
+    got_name, got_values = _decode(decoder, role, got.arbitration_id, got.is_extended_id, got_data)
     if exp_name != got_name or exp_values is None or got_values is None:
         return ("<message>", f"{exp_name} {_ident(exp.arbitration_id, exp.is_extended)} {exp.data.hex().upper()}",
                 f"{got_name} {_ident(got.arbitration_id, got.is_extended_id)} {got_data.hex().upper()}",
@@ -350,18 +352,23 @@ class ReplayResult:
     notes: list[str] = field(default_factory=list)
     sent: list[dict[str, list[can.Message]]] = field(default_factory=list)  # per step, for --update
     debug: list[dict] = field(default_factory=list)  # controller internals per step, for --update
+    decoder: FrameDecoder | None = None  # the recording's robot's (role -> database)
 
     @property
     def identical(self) -> bool:
         return self.first is None
 
 
-class _SyncDriver:
-    """A real ControllerNode in sync mode on in-memory buses."""
+def _memory_buses() -> dict[str, MemoryBus]:
+    return {role: MemoryBus(f"replay-{role}") for role in ROLES}
 
-    def __init__(self, period_s: float, t0_ns: int):
-        self.buses = {CAN1: MemoryBus("replay-can1"), CAN2: MemoryBus("replay-can2")}
-        self.node = ControllerNode(self.buses[CAN1], self.buses[CAN2], sync=True, period_s=period_s)
+
+class _SyncDriver:
+    """The robot's real controller node in sync mode on in-memory buses."""
+
+    def __init__(self, robot: robots.Robot, period_s: float, t0_ns: int):
+        self.buses = _memory_buses()
+        self.node = robot.build_controller(self.buses, True, period_s)
 
     def step(self, step: TickStep):
         for f in step.inputs:
@@ -377,10 +384,14 @@ class _SyncDriver:
 
 
 class _FreeRunDriver:
-    """``Controller`` with the log's timestamps as its clock (ns since the log's first frame)."""
+    """The robot's controller without I/O (its node's ``controller``: ``on_frame``, ``tick``) with the
+    log's timestamps as its clock (ns since the log's first frame)."""
 
-    def __init__(self, period_s: float, t0_ns: int):
-        self.controller = Controller(period_s)
+    def __init__(self, robot: robots.Robot, period_s: float, t0_ns: int):
+        buses = _memory_buses()
+        self.controller = robot.build_controller(buses, False, period_s).controller
+        for bus in buses.values():  # the node only made the controller: its buses are never used
+            bus.shutdown()
         self.t0_ns = t0_ns
 
     def clock(self, t_ns: int) -> float:
@@ -399,21 +410,25 @@ class _FreeRunDriver:
 
 def replay(path_or_source, *, tolerances: dict | None = None, exact: bool = False,
            channels: dict | None = None, period_s: float | None = None, allow_drops: bool = False,
-           keep_sent: bool = False) -> ReplayResult:
-    """Replay a trace or log into a fresh controller; see the module docstring.
+           keep_sent: bool = False, robot: str | None = None) -> ReplayResult:
+    """Replay a trace or log into a fresh controller of its robot; see the module docstring.
 
     ``tolerances``: signal (or 'Message.Signal') -> allowed |difference| in signal
-    units, on top of ``default_tolerances()`` unless ``exact``. Raises ``TraceError``.
+    units, on top of ``default_tolerances()`` unless ``exact``. ``robot``: whose
+    recording (default: the trace's record, else the default robot). Raises ``TraceError``.
     """
-    source = path_or_source if isinstance(path_or_source, Recording) else open_recording(path_or_source, channels)
+    source = path_or_source if isinstance(path_or_source, Recording) else \
+        open_recording(path_or_source, channels, robot=robot)
+    spec = robots.get(source.robot)
     schedule = build_schedule(source, allow_drops=allow_drops)
-    period = period_s or _recorded_period(source) or P.CONTROL_PERIOD
-    result = ReplayResult(source, schedule, period, warnings=environment_warnings(source))
+    period = period_s or _recorded_period(source) or spec.control_period_s
+    result = ReplayResult(source, schedule, period, warnings=environment_warnings(source),
+                          decoder=FrameDecoder(source.dbs))
     result.notes += _schedule_notes(source, schedule, period)
     tol = {} if exact else default_tolerances()
     tol.update(tolerances or {})
     t0 = min(f.t_ns for f in source.frames)
-    driver = (_SyncDriver if schedule.mode == "sync" else _FreeRunDriver)(period, t0)
+    driver = (_SyncDriver if schedule.mode == "sync" else _FreeRunDriver)(spec, period, t0)
     try:
         for step in schedule.steps:
             sent, now, debug = driver.step(step)
@@ -436,7 +451,7 @@ def _compare_step(result: ReplayResult, step: TickStep, sent: dict, now: float, 
         got = sent.get(role, [])
         for j in range(max(len(expected), len(got))):
             exp = expected[j] if j < len(expected) else None
-            diff = _frame_difference(role, exp, got[j] if j < len(got) else None, tol)
+            diff = _frame_difference(result.decoder, role, exp, got[j] if j < len(got) else None, tol)
             if diff is None:
                 continue
             result.differing_frames += 1
@@ -471,7 +486,7 @@ def _schedule_notes(source: Recording, schedule: Schedule, period: float) -> lis
     if overrides:  # replay feeds the recorded frames, so the plant needs no rebuilding; a rerun does
         notes.append(f"recorded on a changed plant ({', '.join(f'{k}={v!r}' for k, v in overrides.items())}); "
                      f"to run it again: {rerun_command(source.run)}")
-    if schedule.steps:
+    if schedule.steps and source.robot == robots.DEFAULT:  # its modes: controller/modes.py
         first = frames[schedule.steps[0].expected[CAN1][-1]]
         mode = HEARTBEAT.decode(first.data, decode_choices=False)["Mode"]
         if mode not in _START_MODES:

@@ -24,6 +24,7 @@ from typing import Callable, Iterator
 
 from wheelleg.hil.campaign.sampling import Job
 from wheelleg.hil.record.run_metadata import run_command
+from wheelleg.hil.robots import split_name
 
 _NUMBER = re.compile(r"[-+]?(?:nan|inf|(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)", re.IGNORECASE)
 
@@ -112,7 +113,8 @@ def finish_files(row: dict, job: Job, settings: RunSettings) -> dict:
         shutil.rmtree(where, ignore_errors=True)
         row["trace"] = None
     else:
-        row["trace"] = str((where / f"{job.scenario}.mcap").relative_to(settings.out_dir))
+        name = split_name(job.scenario)[1]  # the rig names its files by the bare scenario name
+        row["trace"] = str((where / f"{name}.mcap").relative_to(settings.out_dir))
     row["rerun"] = rerun_command(job, settings)
     return row
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from wheelleg.hil import scenarios
+from wheelleg.hil import robots, scenarios
 from wheelleg.hil.campaign import analysis, execution, journal, report, sampling
 from wheelleg.hil.campaign.progress import Progress
 
@@ -20,7 +20,10 @@ HELP = ("run scenarios over many drawn plant overrides (all local cores, or --ad
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("scenarios", nargs="+", metavar="SCENARIO", help="scenario names (see `wheelleg list`)")
+    parser.add_argument("scenarios", nargs="+", metavar="SCENARIO",
+                        help="scenario names (see `wheelleg list`); ROBOT/NAME for another robot's")
+    robots.add_argument(parser, "the robot whose scenarios they are (default: the wheel-legged robot, or the "
+                                "one robot with a scenario of each name)")
     parser.add_argument("--samples", type=int, default=10, help="samples per scenario (default 10)")
     parser.add_argument("--seed", type=int, default=0, help="campaign seed: draws and run seeds (default 0)")
     parser.add_argument("--vary", action="append", default=[], metavar="KEY=LOW..HIGH",
@@ -50,12 +53,16 @@ def canonical_command(args: argparse.Namespace) -> str:
 
 
 def campaign_spec(args: argparse.Namespace) -> dict:
-    """What makes this campaign (checked on resume); ValueError (one line) on bad input."""
-    for name in args.scenarios:
-        try:
-            scenarios.get(name)
-        except KeyError as exc:
-            raise ValueError(exc.args[0]) from None
+    """What makes this campaign (checked on resume); ValueError (one line) on bad input.
+
+    Scenario names become qualified (``scenarios.qualified_name``: ROBOT/NAME for
+    a robot other than the default), so a worker finds each without ``--robot``.
+    """
+    try:
+        args.scenarios = [scenarios.qualified_name(scenarios.get(name, getattr(args, "robot", None)))
+                          for name in args.scenarios]
+    except KeyError as exc:
+        raise ValueError(exc.args[0]) from None
     if len(set(args.scenarios)) != len(args.scenarios):
         raise ValueError("a scenario is named twice")
     if args.samples < 1:

@@ -10,7 +10,7 @@ from pathlib import Path
 from wheelleg.controller.bus_args import add_bus_arguments, bus_choice
 from wheelleg.emulators.overrides import help_text, parse_assignment
 from wheelleg.emulators.plant import PlantConfig
-from wheelleg.hil import cli, scenarios
+from wheelleg.hil import cli, robots, scenarios
 from wheelleg.hil.run.loop_timing import describe, describe_plant
 from wheelleg.hil.analyze.plot import plot_run
 from wheelleg.hil.run.progress import RunProgress
@@ -40,7 +40,9 @@ def positive_seconds(text: str) -> float:
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("scenario", help="scenario name (see `wheelleg list`)")
+    parser.add_argument("scenario", help="scenario name (see `wheelleg list`); ROBOT/NAME for another robot's")
+    robots.add_argument(parser, "the robot whose scenario it is (default: the wheel-legged robot, or the one "
+                                "robot with a scenario of this name)")
     parser.add_argument("--out", type=Path, default=Path("out"), help="output directory (default out/)")
     parser.add_argument("--seed", type=int, default=0, help="random seed (noise, faults)")
     parser.add_argument("--duration", type=positive_seconds, default=None, help="override the duration (s)")
@@ -76,7 +78,7 @@ def execute(args: argparse.Namespace, started_s: float | None = None):
     the outcome's ``startup_s`` includes the imports that came before.
     """
     started_s = time.perf_counter() if started_s is None else started_s
-    scenario = scenarios.get(args.scenario)
+    scenario = scenarios.get(args.scenario, getattr(args, "robot", None))
     if args.duration is not None:
         scenario = replace(scenario, duration_s=args.duration)
     try:

@@ -11,8 +11,8 @@ import shlex
 import subprocess
 from pathlib import Path
 
-from wheelleg.controller import params as P
 from wheelleg.dbc import CAN1, CAN2
+from wheelleg.hil import robots
 
 REPLAY_KEYS = ("scenario", "seed", "control_period_s", "git_revision", "controller_params", CAN1, CAN2)
 
@@ -27,29 +27,23 @@ def git_revision(cwd: Path | None = None) -> str:
         return "unknown"
 
 
-def controller_params_json() -> str:
-    """The controller's tuning (every upper-case name of its params module) as sorted JSON."""
-    params = {k: v for k, v in vars(P).items() if k.isupper()}
-    return json.dumps(params, sort_keys=True, default=repr)
-
-
-def current_params() -> dict:
-    """The controller's tuning as a recording holds it (``run.controller_params`` read back)."""
-    return json.loads(controller_params_json())
-
-
 def run_record(*, scenario: str, seed: int, control_period_s: float, channels: dict[str, str],
                physics_dt_s: float | None = None, duration_s: float | None = None,
-               interface: str = "virtual", plant_overrides: dict[str, float] | None = None) -> dict[str, str]:
+               interface: str = "virtual", plant_overrides: dict[str, float] | None = None,
+               robot: str | None = None) -> dict[str, str]:
     """The ``run`` record of one run; ``channels``: bus role -> interface name;
-    ``plant_overrides``: the plant's per-run overrides (key -> SI value), JSON in the record."""
-    record = {"scenario": scenario, "seed": str(seed), "control_period_s": repr(control_period_s)}
+    ``plant_overrides``: the plant's per-run overrides (key -> SI value), JSON in the record;
+    ``robot``: the name of the registered robot it ran (None: the default)."""
+    spec = robots.get(robot)
+    record = {"scenario": scenario, "seed": str(seed), "control_period_s": repr(control_period_s),
+              "robot": spec.name}
     if physics_dt_s is not None:
         record["physics_dt_s"] = repr(physics_dt_s)
     if duration_s is not None:
         record["duration_s"] = repr(duration_s)
     record.update({"interface": interface, CAN1: channels[CAN1], CAN2: channels[CAN2],
-                   "git_revision": git_revision(), "controller_params": controller_params_json(),
+                   "git_revision": git_revision(),
+                   "controller_params": spec.params_json(),
                    "plant_overrides": json.dumps(plant_overrides or {}, sort_keys=True)})
     return record
 
@@ -77,6 +71,9 @@ def run_command(scenario: str, seed: int | str, duration_s: float | str | None =
 
 
 def rerun_command(run: dict) -> str:
-    """``run_command`` of a recorded run (its ``run`` metadata record)."""
-    return run_command(run.get("scenario", "SCENARIO"), run.get("seed", 0), run.get("duration_s"),
-                       plant_overrides(run))
+    """``run_command`` of a recorded run (its ``run`` metadata record); another robot's
+    scenario by its qualified name, ROBOT/NAME."""
+    scenario, robot = run.get("scenario", "SCENARIO"), run.get("robot")
+    if robot and robot != robots.DEFAULT:
+        scenario = f"{robot}/{scenario}"
+    return run_command(scenario, run.get("seed", 0), run.get("duration_s"), plant_overrides(run))

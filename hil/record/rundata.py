@@ -8,7 +8,8 @@ from pathlib import Path
 import numpy as np
 
 from wheelleg.dbc import cybergear as cg
-from wheelleg.dbc import CAN1, CAN2
+from wheelleg.dbc import CAN1
+from wheelleg.hil import robots
 from wheelleg.hil.bus.busload import LOAD_TOPIC
 from wheelleg.hil.record.frame import Frame
 from wheelleg.hil.record.sources import TraceError, open_recording
@@ -25,6 +26,11 @@ def _commands(frames: Iterable[Frame]) -> dict:
             t.append(frame.t_ns / 1e9)
             tau.append(cg.motion_torque(frame.arbitration_id))
     return {k: (np.array(t), np.array(v)) for k, (t, v) in series.items()}
+
+
+def _motor_roles(robot: str) -> list[str]:
+    """The buses that carry CyberGear motors on ``robot`` (its registry entry)."""
+    return [bus.role for bus in robots.get(robot).buses if any(d.kind == "cybergear" for d in bus.devices)]
 
 
 def _currents(reader: TraceReader, wheels_channel: str) -> dict:
@@ -46,7 +52,7 @@ def load_run(path: Path | str) -> RunData:
     return RunData(
         state=reader.sim_state(),
         heartbeat=reader.decoded(can1, "Heartbeat"),
-        hip_torque=_commands(recording.bus_frames(CAN2)),
+        hip_torque=_commands(f for role in _motor_roles(recording.robot) for f in recording.bus_frames(role)),
         wheel_current=_currents(reader, can1),
         events=recording.events,
         meta=dict(recording.run, truncated=recording.truncated),

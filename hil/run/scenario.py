@@ -69,6 +69,7 @@ class Scenario:
     checks: tuple = ()
     terrain: tuple = ()  # wheelleg.emulators.physics.TerrainFeature
     tags: tuple = ()
+    robot: str = "wheel-legged"  # the registered robot it runs on (wheelleg.hil.robots)
 
 
 @dataclass
