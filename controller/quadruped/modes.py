@@ -54,6 +54,7 @@ class Inputs:
     upright: bool  # body z up, roll and pitch small: standing up needs no roll-over
     fallen: bool  # roll or pitch past the fall limits while on the feet
     motion_done: bool  # the stand-up or recovery trajectory has ended
+    gait_settled: bool  # the trot, asked to stop, has all four feet down
 
 
 def _enabled(mode: Mode, i: Inputs) -> bool:
@@ -78,7 +79,8 @@ TRANSITIONS: tuple = (
     ((Mode.STAND_UP, Mode.BALANCE_STAND, Mode.LOCOMOTION), lambda m, i: i.fallen, Mode.RECOVERY_STAND),
     (tuple(GETTING_UP), lambda m, i: i.motion_done and i.request in ON_FEET, Mode.BALANCE_STAND),
     ((Mode.BALANCE_STAND,), lambda m, i: i.request == Mode.LOCOMOTION, Mode.LOCOMOTION),
-    ((Mode.LOCOMOTION,), lambda m, i: i.request in (Mode.BALANCE_STAND, Mode.STAND_UP), Mode.BALANCE_STAND),
+    ((Mode.LOCOMOTION,), lambda m, i: i.request in (Mode.BALANCE_STAND, Mode.STAND_UP) and i.gait_settled,
+     Mode.BALANCE_STAND),
 )
 
 
