@@ -16,6 +16,7 @@ import time
 
 import can
 
+from wheelleg.controller import bus_args
 from wheelleg.controller.bus_args import BusChoice, add_bus_arguments, bus_choice
 from wheelleg.dbc import CAN1, CAN2
 
@@ -24,8 +25,8 @@ def open_bus(choice: BusChoice, index: int) -> can.BusABC:
     """Bus ``index`` (0: CAN1, 1: CAN2) of ``choice``; SystemExit with the reason when it cannot be had."""
     channel = choice.channels[index]
     try:
-        return can.Bus(interface=choice.interface, channel=channel, receive_own_messages=False,
-                       **choice.kwargs_of(index))
+        return bus_args.open_bus(interface=choice.interface, channel=channel, receive_own_messages=False,
+                                 **choice.kwargs_of(index))
     except (can.CanError, OSError, ValueError, ImportError) as exc:
         raise SystemExit(f"cannot open {choice.interface} channel {channel!r}: {exc}") from exc
 

@@ -3,12 +3,14 @@ every signal's range (hypothesis), and the CyberGear byte orders and id fields p
 with vectors from docs/protocols.md."""
 from __future__ import annotations
 
+import gzip
 import logging
 import math
 import struct
 import subprocess
 import sys
 import warnings
+from pathlib import Path
 
 import cantools
 import pytest
@@ -21,6 +23,7 @@ from wheelleg.dbc import cybergear as cg
 from wheelleg.dbc.codec import MessageCodec
 
 FILES = all_dbc_files()
+TRACES = Path(__file__).resolve().parent / "traces"
 
 
 def _cases() -> list[tuple]:
@@ -55,8 +58,8 @@ def _close(sig, got, want) -> bool:
 
 # -- loading -----------------------------------------------------------------------------
 def test_every_dbc_is_found():
-    assert {p.name for p in FILES} == {"c620.dbc", "cybergear.dbc", "cybergear_4pi.dbc", "quadruped.dbc",
-                                        "rig.dbc"}
+    assert {p.name for p in FILES} == {"c620.dbc", "cybergear.dbc", "cybergear_4pi.dbc", "cybergear_id.dbc",
+                                        "quadruped.dbc", "rig.dbc"}
 
 
 @pytest.mark.parametrize("path", FILES, ids=lambda p: p.name)
@@ -77,6 +80,20 @@ def test_cantools_dump_reads_every_file(path):
     for msg in load_file(path.name).messages:
         assert msg.name in result.stdout
     assert "Traceback" not in result.stderr
+
+
+@pytest.mark.parametrize("name", sorted(dbc.CYBERGEAR_FILES.values()))
+def test_cantools_decode_matches_a_rig_log_by_the_type_alone(name):
+    """`cantools decode cybergear.dbc -m 0x1F000000 < run.log`: one message per type, no overwriting
+    warning, every CyberGear frame of a rig log decoded (the standard ids are rig.dbc's and c620.dbc's)."""
+    log = gzip.decompress((TRACES / "motor-fault.log.gz").read_bytes()).decode()
+    result = subprocess.run([sys.executable, "-m", "cantools", "decode", "--single-line", str(dbc.dbc_path(name)),
+                             "-m", "0x1F000000"], input=log, capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0 and result.stderr == ""
+    extended = [line for line in result.stdout.splitlines() if len(line.split()[2].partition("#")[0]) == 8]
+    assert len(extended) > 5000
+    names = {line.split(" :: ")[1].partition("(")[0] for line in extended}
+    assert names == {"CG_Enable", "CG_Feedback", "CG_MotionCmd", "CG_ParamWrite", "CG_Stop"}
 
 
 @pytest.mark.parametrize("robot", ["wheel-legged", "quadruped"])

@@ -195,3 +195,10 @@ def test_joint_torque_signs_for_a_known_foot_force(leg):
                     # the knee extends, the thigh has no arm, the abduction holds the foot's offset l1
                     assert ours[2] > 0.0 and ours[1] == pytest.approx(0.0, abs=1e-9), (leg, ours)
                     assert ours[0] == pytest.approx(-D.side_sign(leg) * D.ABDUCTION_LINK_M * reaction[2])
+
+
+def test_the_body_overrides_reach_the_quadrupeds_model():
+    nominal = QuadrupedPhysics().model
+    changed = QuadrupedPhysics(overrides={"body_mass_scale": 1.2, "com_x_m": 0.02}).model
+    assert changed.body("body").mass[0] == pytest.approx(1.2 * nominal.body("body").mass[0])
+    np.testing.assert_allclose(changed.body("body").ipos, [0.02, 0.0, 0.0])

@@ -141,7 +141,7 @@ def test_changed_lqr_gain_names_wheel_current_and_tolerance_hides_it(rig, monkey
 
 
 def test_tolerance_parsing():
-    scale = dbc.load_file("cybergear.dbc").get_message_by_name("CG_Id_Motion").get_signal_by_name("TorqueRef").scale
+    scale = dbc.load_file(cg.ID_DBC).get_message_by_name("CG_Id_Motion").get_signal_by_name("TorqueRef").scale
     assert parse_tolerance("TorqueRef=2lsb") == ("TorqueRef", pytest.approx(2 * scale))
     assert parse_tolerance("C620_Cmd_1_4.ESC1_Current=0.5") == ("C620_Cmd_1_4.ESC1_Current", 0.5)
     assert default_tolerances()["TorqueRef"] == pytest.approx(scale)

@@ -113,3 +113,32 @@ def test_a_plant_override_a_robot_does_not_model_is_refused(fake_robot):
     narrow.check_overrides({"com_x_m": 0.01})
     with pytest.raises(ValueError, match="plant override wheel_kt_scale is not modelled for the fake robot"):
         narrow.check_overrides({"wheel_kt_scale": 1.1})
+
+
+def test_a_campaign_names_another_robots_scenarios_qualified(tmp_path):
+    from wheelleg.hil.campaign import execution, sampling
+    from wheelleg.hil.commands import campaign
+
+    args = cli.build_parser().parse_args(["campaign", "quad-push", "balance", "--samples", "1", "--vary",
+                                          "com_x_m=-0.01..0.01", "--out", str(tmp_path)])
+    spec = campaign.campaign_spec(args)
+    assert spec["scenarios"] == ["quadruped/quad-push", "balance"]
+    assert "wheelleg campaign quadruped/quad-push balance" in campaign.canonical_command(args)
+    job = sampling.plan(spec["scenarios"], 1, 0, spec["ranges"])[0]
+    settings = execution.RunSettings(tmp_path, None, False)
+    row = execution.finish_files(execution.failed_row(job, "x"), job, settings)
+    assert row["trace"] == "runs/quadruped/quad-push/sample-0000/quad-push.mcap"
+    assert row["rerun"].startswith("wheelleg run quadruped/quad-push --seed ")
+    bad = cli.build_parser().parse_args(["campaign", "quad-push", "--robot", "wheel-legged", "--out", str(tmp_path)])
+    with pytest.raises(ValueError, match="no scenario 'quad-push' for the wheel-legged robot"):
+        campaign.campaign_spec(bad)
+
+
+def test_a_run_with_an_override_its_robots_plant_does_not_model_is_bad_input(tmp_path):
+    from wheelleg.hil.commands.run import UsageError, execute
+
+    args = cli.build_parser().parse_args(["run", "quadruped/quad-push", "--plant", "wheel_kt_scale=1.1",
+                                          "--out", str(tmp_path), "--no-plot"])
+    with pytest.raises(UsageError, match="wheel_kt_scale is not modelled for the quadruped robot"):
+        execute(args)
+    assert not list(tmp_path.iterdir())  # refused before anything was written

@@ -13,7 +13,7 @@ Sources:
           damping and 0.1 N m friction per joint, the 0.019 m foot sphere
   [CG]    Xiaomi CyberGear manual (as for the wheel-legged robot,
           emulators/robot/description.py): 12 N m peak, 30 rad/s, 24 V
-  [seed]  the team's leg convention (Unitree's): legs FR, FL, RR, RL; per leg
+  [conv]  the leg convention (Unitree's): legs FR, FL, RR, RL; per leg
           abduction (hip roll, about x), thigh (hip pitch, about y), calf (knee,
           about y); x forward, y left, z up; every joint 0 with the legs straight down
   [est]   estimated where no public figure exists (said at each number)
@@ -32,8 +32,8 @@ from dataclasses import dataclass
 
 GRAVITY_M_S2 = 9.81
 
-LEGS = ("FR", "FL", "RR", "RL")  # [seed] index 0..3
-JOINTS = ("abduction", "thigh", "calf")  # [seed] index 0..2 within a leg
+LEGS = ("FR", "FL", "RR", "RL")  # [conv] index 0..3
+JOINTS = ("abduction", "thigh", "calf")  # [conv] index 0..2 within a leg
 
 # --- geometry [CD2] ----------------------------------------------------------------------
 HIP_X_M = 0.164  # abduction axis from the body centre, forward (front legs) / back (rear)

@@ -8,8 +8,10 @@ at the body centre; the remote sends QuadOperator (dbc/quadruped.dbc).
 
 Wiring (description.JOINT_MOTORS): bus 0 (``CAN1``) carries the FR and FL
 motors (ids 1..6), the IMU and the remote; bus 1 (``CAN2``) the RR and RL
-motors (ids 7..12). The plant's numbers are its own (description.py); the
-per-run overrides it honours are ``PLANT_OVERRIDE_KEYS``.
+motors (ids 7..12). The plant's numbers are its own (description.py); of the per-run overrides it
+honours those of the body and the IMU site (emulators/model_overrides.py) and of
+the devices (torque scale, supply, IMU noise and bias, latency): the quadruped's
+registry entry (wheelleg.hil.robots.quadruped) lists them.
 """
 from __future__ import annotations
 
@@ -26,13 +28,8 @@ from wheelleg.emulators.quadruped.physics import QuadrupedPhysics
 from wheelleg.emulators.remote import Remote
 
 QUAD_OPERATOR = load_bus(CAN1, robot="quadruped").get_message_by_name("QuadOperator")
-REMOTE_START = {"Mode": 0, "EStop": 0, "VelX": 0.0, "VelY": 0.0, "YawRate": 0.0, "Height": 0.25,
-                "Roll": 0.0, "Pitch": 0.0, "Yaw": 0.0}  # passive, the nominal stand height
-# the model keys touch only the body and the IMU site (emulators/model_overrides.py); the rest the devices
-PLANT_OVERRIDE_KEYS = frozenset({
-    "body_mass_scale", "com_x_m", "com_z_m", "inertia_scale", "imu_tilt_pitch_deg", "imu_tilt_roll_deg",
-    "hip_kt_scale", "imu_gyro_bias", "imu_gyro_bias_x", "imu_gyro_bias_y", "imu_gyro_bias_z", "imu_noise_scale",
-    "feedback_delay_s", "command_delay_s", "supply_voltage_v"})
+REMOTE_START = {"Mode": 0, "EStop": 0, "VelX": 0.0, "VelY": 0.0, "YawRate": 0.0, "Height": 0.21,
+                "Roll": 0.0, "Pitch": 0.0, "Yaw": 0.0}  # passive, a 0.21 m stand (body centre over the floor)
 
 
 class QuadrupedPlant:

@@ -93,7 +93,7 @@ def _id_key(frame: Frame, plan) -> tuple[str, str, bool]:
     """(id label, message label, is a CyberGear reply): CyberGear per type and motor, others per id."""
     if frame.is_extended and plan is not None:
         ident = f"0x{cg.canonical_id(frame.arbitration_id):08X}"
-        if cg.is_reply(frame.arbitration_id, CG_HOST_ID):  # the motor id sits in bits 15..8
+        if cg.from_motor(frame.arbitration_id, CG_HOST_ID):  # the motor id sits in bits 15..8
             return ident, f"{plan.name} from motor {cg.reply_motor(frame.arbitration_id)}", True
         return ident, f"{plan.name} to motor {cg.target(frame.arbitration_id)}", False
     ident = f"0x{frame.arbitration_id:08X}" if frame.is_extended else f"0x{frame.arbitration_id:03X}"

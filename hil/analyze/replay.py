@@ -33,7 +33,9 @@ from dataclasses import dataclass, field
 
 import can
 
+from wheelleg import dbc
 from wheelleg.controller.modes import Mode
+from wheelleg.dbc import cybergear as cg
 from wheelleg.hil import robots
 from wheelleg.hil.analyze.bug_report import environment_warnings
 from wheelleg.hil.record.run_metadata import plant_overrides, rerun_command
@@ -211,10 +213,11 @@ def build_schedule(source: Recording, mode: str | None = None, allow_drops: bool
 
 # -- comparing frames ------------------------------------------------------------------------
 def _controller_signals() -> dict[str, tuple[float, str]]:
-    """Signal name -> (scale, unit) over every message a controller node sends (the default robot's
-    buses: CyberGear, C620 and rig frames; every registered robot's controller sends a subset)."""
+    """Signal name -> (scale, unit) over every message a controller node sends, the CyberGear id
+    fields included (a type-1 command's TorqueRef lives in its id): the default robot's buses
+    (CyberGear, C620 and rig frames); every registered robot's controller sends a subset."""
     out = {}
-    for db in DBS.values():
+    for db in (*DBS.values(), dbc.load_file(cg.ID_DBC)):
         for message in db.messages:
             if CONTROLLER_NODES.intersection(message.senders or ()):
                 for s in message.signals:

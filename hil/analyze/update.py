@@ -112,7 +112,7 @@ def _write_mcap(result: ReplayResult, frames: list[Frame], out: Path) -> None:
     channels = result.source.channels
     dbs = {channels[role]: result.source.dbs[role] for role in ROLES}
     with TraceWriter(out, metadata=_metadata(result), attachments=_attachments(result), dbs=dbs,
-                     flush_interval_s=None) as trace:
+                     flush_interval_s=None, sim_state_fields=robots.get(result.source.robot).sim_state_fields) as trace:
         for t_ns, _, kind, item in records:
             if kind == "frame":
                 trace.frame(item)

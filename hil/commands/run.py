@@ -84,6 +84,7 @@ def execute(args: argparse.Namespace, started_s: float | None = None):
     try:
         buses = bus_choice(args, DEFAULT_INTERFACE, DEFAULT_CHANNELS)
         plant = plant_config(getattr(args, "plant", None) or [])
+        robots.get(scenario.robot).check_overrides(plant.overrides_dict())  # what its plant models
     except ValueError as exc:
         raise UsageError(str(exc)) from exc
     if args.external_controller and buses.interface == "virtual":

@@ -116,6 +116,13 @@ def format_timestamp(t_ns: int) -> str:
     return "(%010d.%06d)" % (sec, ns // _NS_PER_US)
 
 
+def format_line(frame: Frame) -> str:
+    """``frame`` as a ``candump -L`` line without its newline: ``(sec.usec) channel frame``."""
+    return "%s %s %s" % (format_timestamp(frame.t_ns), frame.channel, format_frame(
+        frame.arbitration_id, frame.is_extended, frame.data, frame.is_error, is_remote=frame.is_remote,
+        remote_dlc=frame.dlc if frame.is_remote else 0, is_fd=frame.is_fd, fd_flags=frame.fd_flags))
+
+
 class CandumpWriter:
     """Writes a ``candump -L`` log that canplayer and python-can's can.player replay as is.
 
@@ -145,10 +152,7 @@ class CandumpWriter:
         channel = frame.channel
         if channel not in self._channels:
             self._check_channel(channel)
-        text = "%s %s %s\n" % (format_timestamp(frame.t_ns), channel, format_frame(
-            frame.arbitration_id, frame.is_extended, frame.data, frame.is_error, is_remote=frame.is_remote,
-            remote_dlc=frame.dlc if frame.is_remote else 0, is_fd=frame.is_fd, fd_flags=frame.fd_flags))
-        self._file.write(text)
+        self._file.write(format_line(frame) + "\n")
         self.frames += 1
         if time.monotonic() >= self._flush_at:
             self.flush()

@@ -20,7 +20,7 @@ Which frames are the controller's: the DBC says it. A frame is the
 controller's when its DBC message lists a controller node among its senders
 (``HOST`` in cybergear.dbc and c620.dbc, ``CONTROLLER`` in rig.dbc); CyberGear
 frames are looked up at their canonical id (``wheelleg.dbc.cybergear.canonical_id``)
-and a frame addressed to the host (a reply) is never the host's.
+and a frame a motor sent (``cg.from_motor``: a reply to any host) is never the host's.
 """
 from __future__ import annotations
 
@@ -145,7 +145,7 @@ def sent_by_controller(frame: Frame, dbs: dict | None = None) -> bool:
     message = dbc_message(frame.bus, frame.arbitration_id, frame.is_extended, dbs)
     if message is None or not CONTROLLER_NODES.intersection(message.senders or ()):
         return False
-    return not (frame.is_extended and cg.is_reply(frame.arbitration_id, CG_HOST_ID))
+    return not (frame.is_extended and cg.from_motor(frame.arbitration_id, CG_HOST_ID))
 
 
 def is_heartbeat(frame: Frame) -> bool:

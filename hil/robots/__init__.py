@@ -27,6 +27,7 @@ from wheelleg.dbc import load_bus
 DEFAULT = "wheel-legged"
 ROBOTS: dict[str, tuple[str, str]] = {
     "wheel-legged": ("wheelleg.hil.robots.wheel_legged", "ROBOT"),
+    "quadruped": ("wheelleg.hil.robots.quadruped", "ROBOT"),
 }
 
 
@@ -73,6 +74,7 @@ class Robot:
     build_physics: Callable
     build_plant: Callable
     build_controller: Callable
+    sim_state_fields: dict[str, str]  # /sim/state fields its ground truth always has, name -> unit
     debug_schema: dict | None = None  # JSON Schema of /controller/debug, None: no debug records
     plant_override_keys: frozenset | None = None  # plant overrides it honours; None: every key
 

@@ -13,7 +13,7 @@ from wheelleg.controller.node import ControllerNode
 from wheelleg.controller.telemetry import DEBUG_FIELDS
 from wheelleg.dbc import CAN1, CAN2
 from wheelleg.emulators.robot import description as D
-from wheelleg.hil.record.schemas import described_schema
+from wheelleg.hil.record.schemas import SIM_STATE_FIELDS, described_schema
 from wheelleg.hil.robots import Bus, Device, Robot
 
 MODEL_DIR = Path(D.__file__).resolve().parent  # emulators/robot/: robot.xml, scene.xml
@@ -54,5 +54,6 @@ ROBOT = Robot(
     build_physics=build_physics,
     build_plant=build_plant,
     build_controller=build_controller,
+    sim_state_fields=SIM_STATE_FIELDS,
     debug_schema=described_schema("wheelleg.ControllerDebug", DEBUG_FIELDS),
 )

@@ -110,7 +110,7 @@ class Rig:
         self.trace = TraceWriter(self.trace_path, metadata=self._metadata(),
                                  attachments=attachments,
                                  dbs={self.names[role]: db for role, db in robot.databases().items()},
-                                 decode=config.decode)
+                                 decode=config.decode, sim_state_fields=robot.sim_state_fields)
         self.log = CandumpWriter(self.log_path)
         self.recorder = Recorder([self.trace, self.log], self.clock, load_to=self.trace)
         self.bus_faults = {k: BusFaults(self.clock) for k in self._raw}

@@ -17,8 +17,8 @@ from wheelleg.controller import params as P
 from wheelleg.controller.modes import Mode
 from wheelleg.emulators.physics import TerrainFeature
 from wheelleg.hil.run.scenario import Check, NotJudged, RunData, Scenario
-from wheelleg.hil.scenarios.common import (CURRENT_OFF_A, DEG, TORQUE_OFF_NM, no_deadline_miss, push, remote, stand,
-                                  torque_after)
+from wheelleg.hil.scenarios.common import (CURRENT_OFF_A, DEG, TORQUE_OFF_NM, first_mode, no_deadline_miss, push,
+                                  remote, stand, torque_after, tracks)
 
 # rig.dbc Heartbeat.Mode carries the controller's Mode values
 ESTOP, STAND_UP, BALANCE, MOVE, JUMP, AIRBORNE, FALLEN = (
@@ -35,13 +35,6 @@ def standing(leg_length: float = NOMINAL, drop_height_m: float = 0.0, x_m: float
 
 
 # -- trace helpers -------------------------------------------------------------------
-def first_mode(run: RunData, mode: int, after_s: float = 0.0) -> float | None:
-    """Time (s) of the first heartbeat in ``mode`` at or after ``after_s``, or None."""
-    t, m = run.heartbeat["t"], run.heartbeat["Mode"]
-    hits = t[(m == mode) & (t >= after_s)]
-    return float(hits[0]) if len(hits) else None
-
-
 def airborne_spans(run: RunData) -> list[tuple[float, float]]:
     """(start, end) s of the spans with both wheels' normal force below OFF_GROUND_N."""
     s = run.state
@@ -170,19 +163,6 @@ def estops_cut_torque(expected_modes: tuple) -> Check:
         return ok, "; ".join(notes)
 
     return Check("E-stop cuts torque from every mode", fn)
-
-
-def tracks(field: str, target: float, t0: float, t1: float, tol: float, unit: str = "deg",
-           scale: float = 1 / DEG) -> Check:
-    """Mean of a /sim/state field over [t0, t1) within tol of target; also its spread."""
-
-    def fn(run: RunData):
-        values = run.window(field, t0, t1)
-        mean, worst = float(np.mean(values)), float(np.max(np.abs(values - target)))
-        return worst < tol, (f"{field} {mean * scale:.2f} {unit} (target {target * scale:.2f}), "
-                             f"worst error {worst * scale:.2f} over {t0:g}-{t1:g} s (limit {tol * scale:g})")
-
-    return Check(f"{field} holds {target * scale:.1f} {unit} over {t0:g}-{t1:g} s", fn)
 
 
 def mean_leg_tracks(target: float, t0: float, t1: float, tol: float = 0.01) -> Check:
