@@ -57,10 +57,6 @@ class Inputs:
     gait_settled: bool  # the trot, asked to stop, has all four feet down
 
 
-def _enabled(mode: Mode, i: Inputs) -> bool:
-    return mode in ENABLED
-
-
 def _may_start(i: Inputs) -> bool:
     return i.armed and i.devices_ok and not i.estop
 
@@ -68,7 +64,7 @@ def _may_start(i: Inputs) -> bool:
 # (from modes, condition, to). "*" means any mode.
 TRANSITIONS: tuple = (
     ("*", lambda m, i: i.estop and m != Mode.PASSIVE, Mode.PASSIVE),
-    ("*", lambda m, i: _enabled(m, i) and not i.devices_ok, Mode.PASSIVE),
+    ("*", lambda m, i: m in ENABLED and not i.devices_ok, Mode.PASSIVE),
     (tuple(ENABLED), lambda m, i: i.request == Mode.PASSIVE, Mode.PASSIVE),
     ((Mode.PASSIVE,), lambda m, i: _may_start(i) and i.request == Mode.RECOVERY_STAND, Mode.RECOVERY_STAND),
     ((Mode.PASSIVE,), lambda m, i: _may_start(i) and i.request in STANDING_REQUESTS and i.upright,

@@ -113,6 +113,8 @@ class QuadController:
             self._start_motors(result, now_s)
         else:
             result.commands = self._commands(previous, sensed)
+            if not all(np.all(np.isfinite(a)) for a in vars(result.commands).values()):
+                result.commands = JointCommands.damped(P.PASSIVE_KD)  # a fault of the controller's own
             self._send_commands(result, result.commands, now_s)
         if self.record_debug:
             result.debug = debug_record(self._summary(sensed))
