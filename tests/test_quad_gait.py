@@ -132,3 +132,21 @@ def test_a_turn_in_place_reaches_the_heading_its_rate_integrates_to():
     robot.run(trot, Velocity(yaw_rate=1.0), turn_s, yaw_rate_of=lambda t: 0.7 * t.feet_yaw_rate)
     robot.run(trot, Velocity(), 2.0, yaw_rate_of=lambda t: 0.7 * t.feet_yaw_rate)
     assert math.degrees(robot.yaw) == pytest.approx(90.0, abs=2.0)
+
+
+def test_stopping_puts_every_foot_down_within_one_swing_and_keeps_them_down():
+    robot = FollowingRobot()
+    trot = Trot()
+    trot.start(robot.sensed())
+    robot.run(trot, Velocity(vx=0.4), 1.1)  # mid-cycle
+    assert not trot.settled
+    ground = -(P.HEIGHT_NOMINAL - C.FOOT_RADIUS)
+    steps = 0
+    while not trot.settled:
+        trot.step(robot.sensed(), Velocity(vx=0.4), P.HEIGHT_NOMINAL, stopping=True)
+        steps += 1
+    assert steps * DT <= (1.0 - P.DUTY) * P.GAIT_PERIOD + DT
+    for _ in range(100):
+        trot.step(robot.sensed(), Velocity(vx=0.4), P.HEIGHT_NOMINAL, stopping=True)
+        assert trot.feet[:, 2] == pytest.approx(np.full(4, ground))
+    assert trot.velocity_set == pytest.approx(np.zeros(3))  # slowed to rest, whatever is asked

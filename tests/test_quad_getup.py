@@ -66,52 +66,67 @@ def test_the_weight_is_fed_forward_over_the_rise_only():
     assert sum(p[2] for p in pushed) == pytest.approx(-C.MASS * C.GRAVITY, rel=1e-3)
 
 
-def test_recovery_of_an_upright_robot_folds_then_stands():
+def _recovering(q, rpy):
     getup = GetUp()
-    getup.start_recovery(stand_pose(0.18), P.HEIGHT_NOMINAL)
+    getup.start_recovery(_sensed(q, rpy), P.HEIGHT_NOMINAL)
+    return getup
+
+
+def test_recovery_of_an_upright_robot_folds_then_stands():
+    getup = _recovering(stand_pose(0.18), (0.0, 0.0, 0.0))
     phases = [phase for _, phase, _ in _run(getup, 3.5)]
     assert phases[0] == Phase.FOLD and Phase.ROLL not in phases and phases[-1] == Phase.DONE
     assert getup.done
 
 
 @pytest.mark.parametrize("roll", [math.pi / 2, -math.pi / 2, 0.9 * math.pi], ids=["right-down", "left-down", "back"])
-def test_recovery_from_a_side_rolls_then_stands_once_upright(roll):
-    getup = GetUp()
-    getup.start_recovery(fold_pose(), P.HEIGHT_NOMINAL)
-    rolled_at = P.FOLD_S + P.ROLL_S  # the push turns it over
-    ticks = _run(getup, 6.0, lambda t: (roll if t < rolled_at else 0.0, 0.0, 0.0))
+def test_recovery_from_a_side_rolls_over_first_then_folds_and_stands(roll):
+    getup = _recovering(fold_pose(), (roll, 0.0, 0.0))
+    rolled_at = P.ROLL_S + P.FLIP_S  # the roll-over turns it onto its belly
+    ticks = _run(getup, 7.0, lambda t: (roll if t < rolled_at else 0.1, 0.0, 0.0))
     phases = [phase for _, phase, _ in ticks]
     order = [p for i, p in enumerate(phases) if i == 0 or phases[i - 1] != p]
-    assert order == [Phase.FOLD, Phase.ROLL, Phase.SETTLE, Phase.FOLD, Phase.GATHER, Phase.RISE, Phase.DONE]
-    push = next(c for _, phase, c in ticks if phase == Phase.SETTLE).q
-    assert push == pytest.approx(roll_pose(roll))
+    assert order == [Phase.ROLL, Phase.FLIP, Phase.SETTLE, Phase.FOLD, Phase.GATHER, Phase.RISE, Phase.DONE]
+    rolled = next(c for _, phase, c in ticks if phase == Phase.FLIP).q
+    flipped = next(c for _, phase, c in ticks if phase == Phase.SETTLE).q
+    assert rolled == pytest.approx(roll_pose(roll, flip=False), abs=1e-3)
+    assert flipped == pytest.approx(roll_pose(roll, flip=True))
 
 
 def test_recovery_gives_up_after_its_attempts_and_lies_folded():
-    getup = GetUp()
-    getup.start_recovery(fold_pose(), P.HEIGHT_NOMINAL)
+    getup = _recovering(fold_pose(), (math.pi / 2, 0.0, 0.0))
     ticks = _run(getup, 20.0, lambda t: (math.pi / 2, 0.0, 0.0))
     phases = [phase for _, phase, _ in ticks]
     assert getup.attempts == P.ROLL_ATTEMPTS and phases[-1] == Phase.GIVEN_UP
     assert ticks[-1][2].q == pytest.approx(fold_pose())
 
 
-def test_the_lower_legs_push_the_ground_over_the_back():
-    """Lying on the right side (roll > 0, ground toward body -y): the right feet go past the
-    body's side toward the ground, behind the hips' plane (z > 0: the back's side); the left
-    ones do not."""
-    q = roll_pose(math.pi / 2)
+def test_the_roll_over_levers_with_the_lower_legs_behind_the_back():
+    """Lying on the left side (roll < 0, ground toward body +y): in ROLL the left feet are behind the
+    back (z > 0) and pressed toward the ground's side past the body; the right ones reach toward the
+    belly (z < 0). The right side down is the mirror image."""
+    q = roll_pose(-math.pi / 2, flip=False)
     feet = legs.feet_in_body(q)
-    side_reach = C.HIP_Y + C.ABAD_LINK  # where a leg hanging straight would be
-    for leg in (0, 2):  # FR, RR
-        assert feet[leg, 1] < -side_reach - 0.05 and feet[leg, 2] > 0.0
-    for leg in (1, 3):
-        assert feet[leg, 1] > 0.0 and feet[leg, 2] < 0.0
-    mirrored = roll_pose(-math.pi / 2)
-    assert mirrored[[1, 3]] == pytest.approx(q[[0, 2]] * [-1, 1, 1])
-    assert np.all(q >= legs.LOWER) and np.all(q <= legs.UPPER)
+    for leg in (1, 3):  # FL, RL
+        assert feet[leg, 2] > 0.0 and feet[leg, 1] > C.HIP_Y + C.ABAD_LINK
+    for leg in (0, 2):
+        assert feet[leg, 2] < 0.0
+    mirrored = roll_pose(math.pi / 2, flip=False)
+    assert mirrored[[0, 2]] == pytest.approx(q[[1, 3]] * [-1, 1, 1])
+    for flip in (False, True):
+        pose = roll_pose(-math.pi / 2, flip)
+        assert np.all(pose >= legs.LOWER) and np.all(pose <= legs.UPPER)
 
 
 def test_upright_and_fallen():
     assert is_upright((0.1, -0.2, 3.0)) and not is_upright((0.0, 0.6, 0.0))
     assert has_fallen((0.0, 1.0, 0.0)) and has_fallen((-1.0, 0.0, 0.0)) and not has_fallen((0.5, 0.5, 2.0))
+
+
+def test_a_robot_already_standing_rises_without_crouching_first():
+    getup = GetUp()
+    getup.start_stand_up(stand_pose(0.18), P.HEIGHT_NOMINAL)
+    ticks = _run(getup, 1.6)
+    assert ticks[0][1] == Phase.RISE and ticks[-1][1] == Phase.DONE
+    lowest = min(-legs.feet_in_body(c.q)[:, 2].mean() + C.FOOT_RADIUS for _, _, c in ticks)
+    assert lowest == pytest.approx(0.18, abs=1e-3)  # never lower than where it began

@@ -1,6 +1,6 @@
 """The quadruped leg's kinematics (Unitree's convention): FK(IK(p)) = p over the workspace,
 IK(FK(q)) = q on the knee-back branch, the Jacobian against finite differences, the
-mirror signs of both sides, and the sign of tau = J^T F (the seed's trap), per leg."""
+mirror signs of both sides, and the sign of tau = J^T F (the sign trap), per leg."""
 from __future__ import annotations
 
 import math

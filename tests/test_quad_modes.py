@@ -11,7 +11,7 @@ from wheelleg.controller.quadruped.modes import (ENABLED, TRANSITIONS, Inputs, M
 
 M = Mode
 CALM = Inputs(request=M.PASSIVE, estop=False, devices_ok=True, armed=True, upright=True, fallen=False,
-              motion_done=False)
+              motion_done=False, gait_settled=False)
 
 
 def given(**changes) -> Inputs:
@@ -54,8 +54,9 @@ CASES = [
     (M.BALANCE_STAND, given(request=M.RECOVERY_STAND), M.RECOVERY_STAND),
     (M.BALANCE_STAND, given(request=M.BALANCE_STAND, fallen=True), M.RECOVERY_STAND),
     (M.LOCOMOTION, given(request=M.LOCOMOTION), M.LOCOMOTION),
-    (M.LOCOMOTION, given(request=M.BALANCE_STAND), M.BALANCE_STAND),
-    (M.LOCOMOTION, given(request=M.STAND_UP), M.BALANCE_STAND),
+    (M.LOCOMOTION, given(request=M.BALANCE_STAND), M.LOCOMOTION),  # not with a foot in the air
+    (M.LOCOMOTION, given(request=M.BALANCE_STAND, gait_settled=True), M.BALANCE_STAND),
+    (M.LOCOMOTION, given(request=M.STAND_UP, gait_settled=True), M.BALANCE_STAND),
     (M.LOCOMOTION, given(request=M.RECOVERY_STAND), M.RECOVERY_STAND),
     (M.LOCOMOTION, given(request=M.LOCOMOTION, fallen=True), M.RECOVERY_STAND),
     # asked for passive: every enabled mode goes

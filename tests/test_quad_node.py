@@ -234,3 +234,23 @@ def test_the_lockstep_node_ticks_on_sync_from_both_buses():
     finally:
         for bus in rig + ctl:
             bus.shutdown()
+
+
+def test_commands_that_are_not_numbers_become_passive_damping(monkeypatch):
+    """A fault of the controller's own (NaN out of a law) never reaches a motor: it damps them."""
+    robot = FakeQuadruped()
+    robot.remote["Mode"] = int(Mode.STAND_UP)
+    robot.run(0.5)
+    real = robot.ctl.getup.step
+
+    def broken(sensed):
+        commands = real(sensed)
+        commands.q[2, 1] = float("nan")
+        return commands
+
+    monkeypatch.setattr(robot.ctl.getup, "step", broken)
+    robot.step()
+    assert robot.ctl.mode == Mode.STAND_UP
+    for _, msg in robot.motion_frames():
+        fields = MOTION.decode(msg.data)
+        assert fields["Kp"] == 0.0 and fields["Kd"] == pytest.approx(P.PASSIVE_KD, abs=1e-3)

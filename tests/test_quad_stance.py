@@ -168,3 +168,17 @@ def test_a_foot_caught_in_the_air_is_brought_down_before_it_carries_weight():
         robot.take(stand, commands)
     assert legs.feet_in_body(commands.q)[1, 2] == pytest.approx(legs.feet_in_body(commands.q)[0, 2], abs=1e-6)
     assert np.all(commands.tau[:, 2] > 0.5)
+
+
+def test_a_tilted_imu_at_the_start_leaves_no_foot_unsupported():
+    """Half a degree of pitch the IMU reads but the body has not: the feet differ in height by
+    millimetres in the level frame. All four carry the weight from the first step on (a stand that
+    waited for them to be 'exactly' on the ground had no foot down, and no height: NaN)."""
+    robot = KinematicRobot()
+    sensed = robot.sensed()
+    tilted = Sensed(sensed.q, sensed.qd, sensed.tau, sensed.rpy + [0.0, math.radians(0.5), 0.0], sensed.gyro)
+    stand = BalanceStand()
+    stand.start(tilted)
+    commands = stand.step(tilted, Posture())
+    assert np.all(np.isfinite(commands.q)) and np.all(np.isfinite(commands.tau))
+    assert np.all(commands.tau[:, 2] > 0.5)

@@ -9,10 +9,13 @@ alone. docs/quadruped-control.md describes the laws; the modules:
 - ``constants``: what the controller believes about the robot (geometry, mass,
   wiring), each number with its source; ``params``: the tuning choices.
 - ``kinematics``: one leg's forward/inverse kinematics, Jacobian and the
-  joint torques of a foot force (the sign trap); ``rotations``: body frames.
-- ``modes``: the mode machine as a table; ``stance``: the balance stand's
-  foot positions and force distribution; ``gait``: the trot; ``getup``: the
-  stand-up and recovery joint trajectories.
-- ``state``: frames in -> what the controller knows; ``commands``: MIT frames
-  out; ``node``: the tick and the node the rig or the robot runs.
+  joint torques of a foot force (the sign trap); ``legs``: the four legs at
+  once and the joint commands; ``rotations``, ``sensed``: body frames and
+  what a tick has measured.
+- ``modes``: the mode machine as a table; ``stance`` and ``balance``: foot
+  positions by IK and the force distribution, the balance stand; ``getup``:
+  the stand-up and recovery trajectories; ``gait``: the trot.
+- ``state``: frames in -> what the controller knows; ``node``: the tick (MIT
+  frames and heartbeats out) and the node the rig or the robot runs;
+  ``telemetry``: the debug record.
 """

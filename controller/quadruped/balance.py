@@ -55,6 +55,7 @@ class BalanceStand:
         self.period_s = period_s
         self.feet_ground = stance.footprint()  # m, (4, 3): the feet's set points in G
         self.feet_goal = self.feet_ground.copy()  # m, (4, 3): the same on the ground
+        self.down = np.ones(4, dtype=bool)  # the feet on the ground (carrying weight)
         self.body_xy = np.zeros(2)  # m, the body centre in G (slewed to the feet's centroid: 0)
         self.setpoint = Posture().as_array()  # roll, pitch, yaw, height being slewed
         self.trim = np.zeros(4)
@@ -64,9 +65,10 @@ class BalanceStand:
     def start(self, sensed: Sensed) -> None:
         """Take the feet where they are and the body's posture as the first set point."""
         feet = sensed.feet_level()
-        lowest = feet[:, 2] <= feet[:, 2].min() + 0.01  # the feet on the ground
-        height = height_over_feet(feet, lowest)
+        self.down = feet[:, 2] <= feet[:, 2].min() + 0.01  # the feet on the ground: on it exactly
+        height = height_over_feet(feet, self.down)
         feet[:, 2] += height
+        feet[self.down, 2] = C.FOOT_RADIUS
         centroid = feet[:, :2].mean(axis=0)
         feet[:, :2] -= centroid
         self.feet_ground = feet
@@ -85,7 +87,8 @@ class BalanceStand:
         self.body_xy = slew(self.body_xy, np.zeros(2), np.full(2, P.HEIGHT_RATE * dt))
         self.feet_ground = slew(self.feet_ground, self.feet_goal, np.full((4, 3), P.FOOT_SETTLE_RATE * dt))
         feet_level = sensed.feet_level()
-        down = np.abs(self.feet_ground[:, 2] - C.FOOT_RADIUS) < 1e-6
+        self.down = self.down | (np.abs(self.feet_ground[:, 2] - C.FOOT_RADIUS) < 1e-9)
+        down = self.down
         self.measured = np.array([sensed.rpy[0], sensed.rpy[1], wrap(sensed.rpy[2] - self.yaw0),
                                   height_over_feet(feet_level, down)])
         error = self.setpoint - self.measured

@@ -112,6 +112,7 @@ class Trot:
         self.feet = stance.footprint()  # m, (4, 3) level frame: this period's foot set points
         self.lift_off = self.feet.copy()  # where each swing began
         self.was_stance = np.ones(4, dtype=bool)
+        self.parked = np.zeros(4, dtype=bool)  # feet kept down while stopping
         self.velocity_set = np.zeros(3)  # vx, vy (m/s), yaw rate (rad/s) after the slew
         self.velocity = np.zeros(2)  # m/s, the filtered leg-odometry estimate
         self.heading_ref = 0.0
@@ -124,6 +125,7 @@ class Trot:
         self.feet = sensed.feet_level()
         self.lift_off = self.feet.copy()
         self.was_stance = np.ones(4, dtype=bool)
+        self.parked = np.zeros(4, dtype=bool)
         self.velocity_set = np.zeros(3)
         self.velocity = np.zeros(2)
         self.heading_ref = float(sensed.rpy[2])
@@ -134,17 +136,26 @@ class Trot:
     def stance_s(self) -> float:
         return P.DUTY * P.GAIT_PERIOD
 
-    def step(self, sensed: Sensed, asked: Velocity, height_m: float) -> JointCommands:
+    @property
+    def settled(self) -> bool:
+        """Stopping has put every foot down: a stand can take the feet where they are."""
+        return bool(np.all(self.parked))
+
+    def step(self, sensed: Sensed, asked: Velocity, height_m: float, stopping: bool = False) -> JointCommands:
+        """This period's joint commands. ``stopping``: slow to rest, and let each foot that is
+        down (or lands) stay down, so that after at most one swing all four are (``settled``)."""
         dt = self.period_s
         self._estimate(sensed)
-        target = asked.limited()
+        target = Velocity() if stopping else asked.limited()
         limits = np.array([P.ACCELERATION, P.ACCELERATION, P.YAW_ACCELERATION]) * dt
         self.velocity_set = slew(self.velocity_set, np.array([target.vx, target.vy, target.yaw_rate]), limits)
         self.height = float(slew(np.array([self.height]), np.array([height_m]), np.array([P.HEIGHT_RATE * dt]))[0])
         yaw_rate = self.feet_yaw_rate = self._yaw_rate(float(sensed.rpy[2]))
         self.clock = (self.clock + dt / P.GAIT_PERIOD) % 1.0
         phases = leg_phases(self.clock)
-        stance_mask = in_stance(phases)
+        stance_mask = in_stance(phases) | self.parked
+        if stopping:
+            self.parked = self.parked | stance_mask
         velocities = np.zeros((4, 3))
         for leg in range(4):
             if stance_mask[leg]:
@@ -195,9 +206,17 @@ class Trot:
         return velocity
 
     def _commands(self, sensed: Sensed, stance_mask: np.ndarray, velocities: np.ndarray) -> JointCommands:
-        """IK of the foot set points (the body held level), joint rates by J^-1, stance feed-forward."""
-        q = legs.joints_for_feet(self.feet)
-        qd = np.array([np.linalg.lstsq(legs.jacobian_of(q, leg), velocities[leg], rcond=None)[0]
+        """IK of the foot set points, joint rates by J^-1, stance feed-forward.
+
+        Stance feet are set as if the body were level: their PD pulls a tilted
+        body back. Swing feet are set through the measured tilt, so that they
+        land where planned on the ground whatever the body's roll and pitch.
+        """
+        tilt = sensed.level_rotation
+        feet_body = np.where(stance_mask[:, None], self.feet, self.feet @ tilt)
+        body_velocities = np.where(stance_mask[:, None], velocities, velocities @ tilt)
+        q = legs.joints_for_feet(feet_body)
+        qd = np.array([np.linalg.lstsq(legs.jacobian_of(q, leg), body_velocities[leg], rcond=None)[0]
                        for leg in range(4)])
         kp = np.where(stance_mask[:, None], P.STANCE_KP, P.SWING_KP) * np.ones((4, 3))
         kd = np.where(stance_mask[:, None], P.STANCE_KD, P.SWING_KD) * np.ones((4, 3))

@@ -2,15 +2,19 @@
 
 Stand-up (from lying folded, body upright): GATHER (legs to the crouch, feet
 under the hips) then RISE (crouch to the stand), minimum-jerk in joint space,
-with the weight's feed-forward growing over the rise. Recovery (the MIT
-Cheetah's recovery stand, from lying on a side or on the back): FOLD the legs;
-if the body is upright go on as the stand-up, else ROLL (the lower side's legs
-swing over the back and press the ground, params.ROLL_LOWER), SETTLE, FOLD
-and look again, at most ``params.ROLL_ATTEMPTS`` times (then GIVEN_UP: lie
-folded, damped by the joint PD, until the remote asks again).
+with the weight's feed-forward growing over the rise. Legs already under the
+hips of a body above the crouch (it was standing) skip the gather.
+
+Recovery (the MIT Cheetah's recovery stand): a body not upright (on a side,
+on its back) first rolls over: ROLL (the legs of the side it lies on press the
+ground behind its back, levering it up), FLIP (they fold under while the
+other side's legs swing over the back: it rolls onto its belly), SETTLE; then
+FOLD the legs and look again: upright, it goes on as the stand-up; still not,
+it rolls again, at most ``params.ROLL_ATTEMPTS`` times (then GIVEN_UP: lie
+folded, held by the joint PD, until the remote asks again).
 
 Each phase runs for its time; at its end ``NEXT`` (a table of functions of
-whether the body is upright and of the attempts made) names the next one.
+whether the body is upright and of the roll-overs made) names the next one.
 """
 from __future__ import annotations
 
@@ -22,28 +26,30 @@ from wheelleg.controller.quadruped import constants as C
 from wheelleg.controller.quadruped import params as P
 from wheelleg.controller.quadruped import legs, stance
 from wheelleg.controller.quadruped.legs import JointCommands
-from wheelleg.controller.quadruped.sensed import Sensed
+from wheelleg.controller.quadruped.sensed import Sensed, height_over_feet
 
 
 class Phase(enum.IntEnum):
     IDLE = 0
     FOLD = 1
     ROLL = 2
-    SETTLE = 3
-    GATHER = 4
-    RISE = 5
-    DONE = 6
-    GIVEN_UP = 7
+    FLIP = 3
+    SETTLE = 4
+    GATHER = 5
+    RISE = 6
+    DONE = 7
+    GIVEN_UP = 8
 
 
-DURATION_S = {Phase.FOLD: P.FOLD_S, Phase.ROLL: P.ROLL_S, Phase.SETTLE: P.SETTLE_S, Phase.GATHER: P.GATHER_S,
-              Phase.RISE: P.RISE_S}
+DURATION_S = {Phase.FOLD: P.FOLD_S, Phase.ROLL: P.ROLL_S, Phase.FLIP: P.FLIP_S, Phase.SETTLE: P.SETTLE_S,
+              Phase.GATHER: P.GATHER_S, Phase.RISE: P.RISE_S}
 
 # phase that ended -> next phase, given (upright, attempts made so far)
 NEXT = {
     Phase.FOLD: lambda upright, attempts: (Phase.GATHER if upright else
                                            Phase.ROLL if attempts < P.ROLL_ATTEMPTS else Phase.GIVEN_UP),
-    Phase.ROLL: lambda upright, attempts: Phase.SETTLE,
+    Phase.ROLL: lambda upright, attempts: Phase.FLIP,
+    Phase.FLIP: lambda upright, attempts: Phase.SETTLE,
     Phase.SETTLE: lambda upright, attempts: Phase.FOLD,
     Phase.GATHER: lambda upright, attempts: Phase.RISE,
     Phase.RISE: lambda upright, attempts: Phase.DONE,
@@ -68,19 +74,16 @@ def fold_pose() -> np.ndarray:
     return np.tile(np.array(P.FOLD_POSE, dtype=float), (4, 1))
 
 
-def roll_pose(roll_rad: float) -> np.ndarray:
-    """Joint angles (rad, (4, 3)) of a roll-over push while lying with body roll ``roll_rad``.
+def roll_pose(roll_rad: float, flip: bool) -> np.ndarray:
+    """Joint angles (rad, (4, 3)) of the roll-over's ROLL (``flip`` False) or FLIP pose while lying
+    with body roll ``roll_rad`` (> 0: on the right side, the right legs are the lower ones).
 
-    roll > 0 lies on the right side: the right legs are the lower ones. A leg
-    pointing over the back (thigh past pi/2) moves its foot toward side s of
-    the body with abduction -s |a|; the lower legs push toward the ground's side.
+    The poses are given for the left side down; a leg's abduction is mirrored with its side.
     """
     ground_side = -1.0 if roll_rad > 0 else 1.0  # +1 the left side is down
-    q = np.zeros((4, 3))
-    for leg in range(4):
-        lower = C.SIDE[leg] == ground_side
-        abduction, thigh, calf = P.ROLL_LOWER if lower else P.ROLL_UPPER
-        q[leg] = (-ground_side * abduction if lower else 0.0, thigh, calf)
+    lower, upper = (P.FLIP_LOWER, P.FLIP_UPPER) if flip else (P.ROLL_LOWER, P.ROLL_UPPER)
+    q = np.array([lower if C.SIDE[leg] == ground_side else upper for leg in range(4)], dtype=float)
+    q[:, 0] *= np.array(C.SIDE)
     return np.clip(q, legs.LOWER, legs.UPPER)
 
 
@@ -92,6 +95,7 @@ class GetUp:
         self.phase = Phase.IDLE
         self.elapsed_s = 0.0
         self.attempts = 0
+        self.roll_rad = 0.0  # the body's roll when the roll-over began: which side is down
         self.height_m = P.HEIGHT_NOMINAL
         self.q_from = fold_pose()
         self.q_to = fold_pose()
@@ -105,21 +109,27 @@ class GetUp:
         self.phase, self.elapsed_s = Phase.IDLE, 0.0
 
     def start_stand_up(self, q: np.ndarray, height_m: float) -> None:
+        """From lying folded: gather, then rise. Legs already under a body above the crouch rise at once."""
         self.height_m, self.attempts = height_m, 0
-        self._enter(Phase.GATHER, q, None)
+        feet = legs.feet_in_body(q)
+        above_crouch = height_over_feet(feet, np.ones(4, dtype=bool)) > P.CROUCH_HEIGHT + 0.01
+        under_hips = np.all(np.abs(feet[:, :2] - stance.footprint()[:, :2]) < P.UNDER_HIP_TOLERANCE)
+        self._enter(Phase.RISE if above_crouch and under_hips else Phase.GATHER, q, None)
 
-    def start_recovery(self, q: np.ndarray, height_m: float) -> None:
+    def start_recovery(self, sensed: Sensed, height_m: float) -> None:
+        """Roll over first when the body is not upright, else fold; then as the stand-up."""
         self.height_m, self.attempts = height_m, 0
-        self._enter(Phase.FOLD, q, None)
+        self._enter(Phase.FOLD if is_upright(sensed.rpy) else Phase.ROLL, sensed.q, sensed)
 
     def _enter(self, phase: Phase, q_from: np.ndarray, sensed: Sensed | None) -> None:
         self.phase, self.elapsed_s = phase, 0.0
         self.q_from = np.array(q_from, dtype=float)
         if phase == Phase.FOLD or phase == Phase.GIVEN_UP:
             self.q_to = fold_pose()
-        elif phase == Phase.ROLL:
-            self.attempts += 1
-            self.q_to = roll_pose(float(sensed.rpy[0]) if sensed is not None else 0.0)
+        elif phase in (Phase.ROLL, Phase.FLIP):
+            self.attempts += phase == Phase.ROLL
+            self.roll_rad = float(sensed.rpy[0]) if phase == Phase.ROLL else self.roll_rad
+            self.q_to = roll_pose(self.roll_rad, flip=phase == Phase.FLIP)
         elif phase == Phase.GATHER:
             self.q_to = stand_pose(P.CROUCH_HEIGHT)
         elif phase == Phase.RISE:

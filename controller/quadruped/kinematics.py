@@ -104,7 +104,7 @@ def torques_for_reaction(q, side: float, geo: LegGeometry, reaction_n) -> np.nda
     ``reaction_n`` (N, shape (3,), leg/body axes) is the ground's force ON the
     foot, as a stance force distribution computes it. The virtual-work law
     tau = J^T F holds for the foot's force on the ground, F = -reaction: hence
-    the minus (the seed's sign trap).
+    the minus (the sign trap).
     """
     return -jacobian(q, side, geo).T @ np.asarray(reaction_n, dtype=float)
 

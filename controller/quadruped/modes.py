@@ -54,10 +54,7 @@ class Inputs:
     upright: bool  # body z up, roll and pitch small: standing up needs no roll-over
     fallen: bool  # roll or pitch past the fall limits while on the feet
     motion_done: bool  # the stand-up or recovery trajectory has ended
-
-
-def _enabled(mode: Mode, i: Inputs) -> bool:
-    return mode in ENABLED
+    gait_settled: bool  # the trot, asked to stop, has all four feet down
 
 
 def _may_start(i: Inputs) -> bool:
@@ -67,7 +64,7 @@ def _may_start(i: Inputs) -> bool:
 # (from modes, condition, to). "*" means any mode.
 TRANSITIONS: tuple = (
     ("*", lambda m, i: i.estop and m != Mode.PASSIVE, Mode.PASSIVE),
-    ("*", lambda m, i: _enabled(m, i) and not i.devices_ok, Mode.PASSIVE),
+    ("*", lambda m, i: m in ENABLED and not i.devices_ok, Mode.PASSIVE),
     (tuple(ENABLED), lambda m, i: i.request == Mode.PASSIVE, Mode.PASSIVE),
     ((Mode.PASSIVE,), lambda m, i: _may_start(i) and i.request == Mode.RECOVERY_STAND, Mode.RECOVERY_STAND),
     ((Mode.PASSIVE,), lambda m, i: _may_start(i) and i.request in STANDING_REQUESTS and i.upright,
@@ -78,7 +75,8 @@ TRANSITIONS: tuple = (
     ((Mode.STAND_UP, Mode.BALANCE_STAND, Mode.LOCOMOTION), lambda m, i: i.fallen, Mode.RECOVERY_STAND),
     (tuple(GETTING_UP), lambda m, i: i.motion_done and i.request in ON_FEET, Mode.BALANCE_STAND),
     ((Mode.BALANCE_STAND,), lambda m, i: i.request == Mode.LOCOMOTION, Mode.LOCOMOTION),
-    ((Mode.LOCOMOTION,), lambda m, i: i.request in (Mode.BALANCE_STAND, Mode.STAND_UP), Mode.BALANCE_STAND),
+    ((Mode.LOCOMOTION,), lambda m, i: i.request in (Mode.BALANCE_STAND, Mode.STAND_UP) and i.gait_settled,
+     Mode.BALANCE_STAND),
 )
 
 

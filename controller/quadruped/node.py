@@ -105,7 +105,7 @@ class QuadController:
         op = self.bus.operator
         inputs = Inputs(request=requested_mode(op.mode), estop=op.estop, devices_ok=report.balance_ok,
                         armed=not self.latched, upright=is_upright(sensed.rpy), fallen=has_fallen(sensed.rpy),
-                        motion_done=self.getup.done)
+                        motion_done=self.getup.done, gait_settled=self.trot.settled)
         previous, self.mode = self.mode, next_mode(self.mode, inputs)
         self.latched = latched_after(self.latched, previous, self.mode, inputs)
         result = QuadTickResult(mode=self.mode, report=report)
@@ -113,6 +113,8 @@ class QuadController:
             self._start_motors(result, now_s)
         else:
             result.commands = self._commands(previous, sensed)
+            if not all(np.all(np.isfinite(a)) for a in vars(result.commands).values()):
+                result.commands = JointCommands.damped(P.PASSIVE_KD)  # a fault of the controller's own
             self._send_commands(result, result.commands, now_s)
         if self.record_debug:
             result.debug = debug_record(self._summary(sensed))
@@ -145,8 +147,11 @@ class QuadController:
             return JointCommands.damped(P.PASSIVE_KD)
         if self.mode in (Mode.STAND_UP, Mode.RECOVERY_STAND):
             if entered:
-                start = self.getup.start_stand_up if self.mode == Mode.STAND_UP else self.getup.start_recovery
-                start(sensed.q, float(np.clip(op.height, *P.HEIGHT_RANGE)))
+                height = float(np.clip(op.height, *P.HEIGHT_RANGE))
+                if self.mode == Mode.STAND_UP:
+                    self.getup.start_stand_up(sensed.q, height)
+                else:
+                    self.getup.start_recovery(sensed, height)
             return self.getup.step(sensed)
         if self.mode == Mode.BALANCE_STAND:
             if entered:
@@ -154,7 +159,8 @@ class QuadController:
             return self.balance.step(sensed, Posture(op.roll, op.pitch, op.yaw, op.height))
         if entered:
             self.trot.start(sensed)
-        return self.trot.step(sensed, Velocity(op.vx, op.vy, op.yaw_rate), op.height)
+        stopping = requested_mode(op.mode) != Mode.LOCOMOTION  # finish the swing, then stand
+        return self.trot.step(sensed, Velocity(op.vx, op.vy, op.yaw_rate), op.height, stopping)
 
     def _send_commands(self, result: QuadTickResult, commands: JointCommands, now_s: float) -> None:
         tau = np.clip(commands.tau, -C.TORQUE_LIMIT, C.TORQUE_LIMIT)

@@ -31,12 +31,12 @@ GETUP_KD = 1.5  # N m s/rad
 HEIGHT_NOMINAL = 0.21  # m, body centre over the ground: knees at ~100 deg, and +3 cm with 10 deg of roll and pitch still in reach
 HEIGHT_RANGE = (0.16, 0.25)  # m, what the remote may ask
 ATTITUDE_LIMIT = math.radians(12.0)  # rad, largest roll/pitch/yaw set point honoured (the task asks +-10 deg)
-ATTITUDE_RATE = 0.5  # rad/s, slew of the attitude set points (no jerk on a step from the remote)
-HEIGHT_RATE = 0.10  # m/s, slew of the height set point
+ATTITUDE_RATE = 1.0  # rad/s, slew of the attitude set points (no jerk on a step from the remote; 20 deg in 0.35 s)
+HEIGHT_RATE = 0.15  # m/s, slew of the height set point (6 cm in 0.4 s)
 
 # --- posture integrators (the IMU and leg kinematics correct what PD and belief leave) --------
-ATTITUDE_KI = 2.0  # 1/s, roll/pitch/yaw error -> pose trim rate
-HEIGHT_KI = 2.0  # 1/s, height error -> pose trim rate
+ATTITUDE_KI = 4.0  # 1/s, roll/pitch/yaw error -> pose trim rate
+HEIGHT_KI = 4.0  # 1/s, height error -> pose trim rate
 ATTITUDE_TRIM_LIMIT = math.radians(5.0)  # rad
 HEIGHT_TRIM_LIMIT = 0.02  # m
 
@@ -54,19 +54,28 @@ FALL_LIMIT = math.radians(50.0)  # rad, roll or pitch past which a standing robo
 GATHER_S = 0.6  # s, from wherever the legs are to the crouch: feet under the hips, body low
 RISE_S = 1.4  # s, from the crouch to the stand (2 s in all, as the MIT Cheetah's start-up)
 CROUCH_HEIGHT = 0.13  # m, body centre over the ground in the crouch (the folded knee's reach)
+UNDER_HIP_TOLERANCE = 0.05  # m, feet this close (x and y) to under their hips need no gather
 
-# --- recovery stand (the MIT Cheetah's: fold the legs, roll over, stand) ----------------------
+# --- recovery stand (the MIT Cheetah's: roll over if need be, fold the legs, stand) ------------
 FOLD_S = 0.8  # s, from wherever the legs are to folded
 FOLD_POSE = (0.0, 1.0, -2.4)  # rad, abduction, thigh, calf: knee fully bent, foot ahead of the hip
-ROLL_S = 1.2  # s, one roll-over push
-SETTLE_S = 0.6  # s, holding after a push before looking again
-ROLL_ATTEMPTS = 3  # pushes before it gives up and lies folded
-# Lying on a side, the legs of the lower side swing over the back and their abduction
-# presses their feet into the ground there: the ground pushes the back up and the body
-# pivots on its belly-side edge onto its belly. The upper legs reach toward the belly
-# side, moving the centre of mass the way the body should turn.
-ROLL_LOWER = (0.68, 2.7, -0.6)  # rad, |abduction| (toward the ground), thigh, calf
-ROLL_UPPER = (0.0, 0.3, -0.8)  # rad
+ROLL_S = 0.6  # s, lever the body off its side
+FLIP_S = 0.6  # s, roll it over onto its belly
+SETTLE_S = 0.8  # s, holding after a roll-over before looking again
+ROLL_ATTEMPTS = 3  # roll-overs before it gives up and lies folded
+# The two roll-over poses, (abduction, thigh, calf) in rad for the legs of the side the body
+# lies on ("lower") and of the other ("upper"), abduction as for the left side down (mirrored
+# when the right side is down). ROLL: the lower legs swing over the back and press their feet
+# into the ground behind it, the upper legs reach down toward the belly's side: the body is
+# levered up off its side. FLIP: the lower legs fold back under the body while the upper legs
+# swing over the back: the body rolls over its lower legs onto its belly. Found by search on
+# the rig's model lying on its side (the remaining tilt ~15 deg; +-0.15 rad on any angle, +-30%
+# body mass or 2 cm of CoM offset change the outcome by < 5 deg); folding first, or swinging the
+# lower legs over the back without the upper legs' counterweight, tips the body onto its back.
+ROLL_LOWER = (-0.41, 2.65, -0.98)  # rad
+ROLL_UPPER = (-0.19, 1.3, -1.74)  # rad
+FLIP_LOWER = (-0.16, 0.76, -2.47)  # rad
+FLIP_UPPER = (-0.01, 2.59, -1.93)  # rad
 
 # --- trot ------------------------------------------------------------------------------------------
 GAIT_PERIOD = 0.40  # s, one cycle: each diagonal pair in stance for half of it (MIT mini-class trots: 0.3-0.5 s)
