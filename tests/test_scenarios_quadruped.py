@@ -2,9 +2,7 @@
 
 The runs go through the pytest plugin's ``rig_run`` with qualified names
 (``quadruped/NAME``), so they also show that a second robot runs through the
-same rig, commands and plugin as the first. Scenarios the quadruped's
-controller does not pass yet are strict xfails naming the failing check: they
-turn red the day it passes, and the marker goes.
+same rig, commands and plugin as the first. Every scenario passes.
 """
 from __future__ import annotations
 
@@ -16,16 +14,12 @@ from wheelleg.hil import scenarios
 from wheelleg.hil.analyze.replay import replay
 from wheelleg.hil.record.sources import open_recording
 
-PASSING = ("quad-stand-up", "quad-push", "quad-turn", "quad-estop", "quad-offline-joint")
-NOT_YET = {  # scenario -> the check the controller (branch quadctrl) does not pass yet
-    "quad-balance-stand": "yaw holds -10 deg (about 1.1 deg off)",
-    "quad-trot": "tilts past 10 deg at the stop and falls",
-    "quad-recovery": "the recovery stand does not roll it off its side",
-}
+PASSING = ("quad-stand-up", "quad-balance-stand", "quad-push", "quad-trot", "quad-turn", "quad-recovery",
+           "quad-estop", "quad-offline-joint")
 
 
 def test_every_quadruped_scenario_is_judged_here():
-    assert set(scenarios.all_scenarios("quadruped")) == set(PASSING) | set(NOT_YET)
+    assert set(scenarios.all_scenarios("quadruped")) == set(PASSING)
     assert scenarios.get("quad-trot") is scenarios.get("quadruped/quad-trot")  # a unique bare name is found
 
 
@@ -34,15 +28,6 @@ def test_scenario_passes_its_checks(rig_run, name):
     run = rig_run(f"quadruped/{name}")
     run.assert_passed()
     assert run.meta["robot"] == "quadruped" and run.meta["control_period_s"] == "0.004"
-
-
-@pytest.mark.parametrize("name", sorted(NOT_YET))
-def test_scenario_the_controller_does_not_pass_yet(rig_run, name):
-    run = rig_run(name, robot="quadruped")
-    if run.failed_checks:
-        pytest.xfail(f"{name}: {NOT_YET[name]} ({'; '.join(c.detail for c in run.failed_checks)})")
-    run.assert_passed()
-    pytest.fail(f"{name} passes now: move it to PASSING")
 
 
 def test_stand_up_rises_from_lying_folded_within_3_s(rig_run):
