@@ -82,6 +82,8 @@ def run_program(args: argparse.Namespace, name: str, default_interface: str, def
     node = make_node(bus1, bus2, sync=args.sync, period_s=args.period, listener=listener)
     stop = threading.Event()
     stop_on_signals(stop)
+    print(f"{name}: running on {choice.interface} {'/'.join(choice.channels)}, "
+          f"{'ticking on the rig SYNC' if args.sync else f'every {args.period:g} s'}", file=sys.stderr, flush=True)
     try:
         node.run(stop)  # disables the motors on the way out
     finally:

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import argparse
 import random
+import subprocess
+import sys
 from dataclasses import replace
 
 import pytest
@@ -158,3 +160,28 @@ def test_late_delivery_on_either_bus_still_logs_the_virtual_bus_bytes(tmp_path, 
     got = rig_module.Rig(scenario, rig_module.RigConfig(interface="in-flight"), tmp_path / "late").run()
     assert got.deadline_misses == 0
     assert got.log_path.read_bytes() == expected.log_path.read_bytes()
+
+
+@pytest.mark.socketcan
+def test_the_quadrupeds_program_runs_as_on_a_robot_over_vcan(tmp_path):
+    """The quadruped's controller as its own process on vcan0/vcan1 (``wheelleg controller
+    --robot quadruped``), the rig waiting for it (``--external-controller``): it stands up."""
+    reason = vcan.unavailable_reason()
+    if reason is not None:
+        pytest.fail(reason)
+    program = subprocess.Popen([sys.executable, "-m", "wheelleg.hil.cli", "controller", "--robot", "quadruped",
+                                "-i", "socketcan", "-c", "vcan0", "-c", "vcan1", "--sync"],
+                               stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    said = [program.stdout.readline()]  # the program says when it runs (imports are slow under UML)
+    try:
+        assert "running on socketcan vcan0/vcan1" in said[0], said
+        args = argparse.Namespace(scenario="quadruped/quad-stand-up", out=tmp_path, interface="socketcan",
+                                  channel=list(CHANNELS), seed=0, duration=None, realtime=False,
+                                  external_controller=True, no_plot=True)
+        outcome, checks, _ = execute(args)
+    finally:
+        program.terminate()
+        said.append(program.communicate(timeout=30)[0])
+    assert outcome.deadline_misses == 0, said
+    assert all(c.passed for c in checks), [f"{c.name}: {c.detail}" for c in checks] + said
+    assert "quadruped controller stopped" in said[-1]
