@@ -13,17 +13,11 @@ CanutilsLogWriter: the robot carries no part of the rig).
 from __future__ import annotations
 
 import argparse
-import signal
 import sys
-import threading
-import time
-
-import can
 
 from wheelleg.controller import params as P
-from wheelleg.controller.bus_args import BusChoice, add_bus_arguments, bus_choice
 from wheelleg.controller.node import ControllerNode
-from wheelleg.dbc import CAN1, CAN2
+from wheelleg.controller.program import add_program_arguments, run_program
 
 
 DEFAULT_INTERFACE, DEFAULT_CHANNELS = "socketcan", ("can0", "can1")  # the robot's
@@ -36,70 +30,11 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    add_bus_arguments(parser, DEFAULT_INTERFACE, DEFAULT_CHANNELS)
-    parser.add_argument("--sync", action="store_true", help="tick on the rig's SYNC frames (lockstep)")
-    parser.add_argument("--period", type=float, default=P.CONTROL_PERIOD, help="control period (s)")
-    parser.add_argument("--log", default=None, help="candump-format log of every frame seen and sent")
-
-
-def open_bus(choice: BusChoice, index: int) -> can.BusABC:
-    """Bus ``index`` (0: CAN1, 1: CAN2) of ``choice``; SystemExit with the reason when it cannot be had."""
-    channel = choice.channels[index]
-    try:
-        return can.Bus(interface=choice.interface, channel=channel, receive_own_messages=False,
-                       **choice.kwargs_of(index))
-    except (can.CanError, OSError, ValueError, ImportError) as exc:
-        raise SystemExit(f"cannot open {choice.interface} channel {channel!r}: {exc}") from exc
-
-
-def log_copy(msg: can.Message, channel: str, sent: bool) -> can.Message:
-    """What the log keeps of one frame: a copy (the frame the node holds is not touched)
-    named by its channel, ``is_rx`` False for frames we sent, and for those the wall-clock
-    time of sending (their own timestamp is controller time; a received frame keeps the
-    time the interface stamped on it)."""
-    return can.Message(timestamp=time.time() if sent else msg.timestamp, arbitration_id=msg.arbitration_id,
-                       is_extended_id=msg.is_extended_id, is_remote_frame=msg.is_remote_frame,
-                       is_error_frame=msg.is_error_frame, channel=channel, dlc=msg.dlc, data=bytes(msg.data),
-                       is_fd=msg.is_fd, bitrate_switch=msg.bitrate_switch,
-                       error_state_indicator=msg.error_state_indicator, is_rx=not sent, check=False)
-
-
-def log_listener(writer: can.Listener, names: dict):
-    """A ``ControllerNode`` listener that hands ``writer`` a ``log_copy`` of each frame;
-    ``names`` maps the node's bus names (can1, can2) to channel names."""
-    def listener(bus: str, msg: can.Message, sent: bool) -> None:
-        writer.on_message_received(log_copy(msg, names[bus], sent))
-    return listener
-
-
-def stop_on_signals(stop: threading.Event) -> None:
-    """SIGINT and SIGTERM set ``stop``: the loop ends and disables the motors."""
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(sig, lambda *_: stop.set())
+    add_program_arguments(parser, DEFAULT_INTERFACE, DEFAULT_CHANNELS, P.CONTROL_PERIOD)
 
 
 def main(args: argparse.Namespace) -> int:
-    try:
-        choice = bus_choice(args, DEFAULT_INTERFACE, DEFAULT_CHANNELS)
-    except ValueError as exc:
-        print(f"controller: {exc}", file=sys.stderr)
-        return 2
-    wheels, joints = open_bus(choice, 0), open_bus(choice, 1)
-    writer = can.CanutilsLogWriter(args.log) if args.log else None
-    names = {CAN1: choice.channels[0], CAN2: choice.channels[1]}
-    listener = log_listener(writer, names) if writer is not None else None
-    node = ControllerNode(wheels, joints, sync=args.sync, period_s=args.period, listener=listener)
-    stop = threading.Event()
-    stop_on_signals(stop)
-    try:
-        node.run(stop)  # disables the motors on the way out
-    finally:
-        if writer is not None:
-            writer.stop()
-        wheels.shutdown()
-        joints.shutdown()
-    print(f"controller stopped after {node.ticks} ticks; motors disabled", file=sys.stderr)
-    return 0
+    return run_program(args, "controller", DEFAULT_INTERFACE, DEFAULT_CHANNELS, ControllerNode)
 
 
 if __name__ == "__main__":

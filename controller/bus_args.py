@@ -11,7 +11,8 @@ Only the interface and the bus keyword arguments are taken from there: a
 configuration names one channel, the robot has two.
 
 Used by ``wheelleg run`` and ``wheelleg controller`` (= ``python -m
-wheelleg.controller``); it lives with the controller because the robot's
+wheelleg.controller``), and ``open_bus`` by every command that opens a bus
+(``wheelleg emulate`` too); it lives with the controller because the robot's
 program must not import the rig.
 """
 from __future__ import annotations
@@ -23,8 +24,6 @@ import can
 import can.util
 
 UDP_MULTICAST_PORT = 43113  # python-can's udp_multicast default port
-
-
 
 
 @dataclass(frozen=True)
@@ -105,3 +104,18 @@ def bus_choice(args: argparse.Namespace, default_interface: str,
         if interface == config.get("interface") else {}
     kwargs.update(dict(getattr(args, "bus_kwargs", None) or ()))
     return BusChoice(interface, tuple(channels), kwargs)
+
+
+def open_bus(**config) -> can.BusABC:
+    """``can.Bus(**config)``, python-can's configuration filling what ``config`` leaves out
+    (None values count as left out), except that ``udp_multicast`` opens
+    ``EchoFreeUdpMulticastBus``: python-can's multicast bus hears every frame it sends
+    and a node must not take its own frames for the bus's. Raises what ``can.Bus`` raises
+    (and ImportError without msgpack)."""
+    config = can.util.load_config(config={k: v for k, v in config.items() if v is not None})
+    if config["interface"] != "udp_multicast":
+        return can.Bus(ignore_config=True, **config)
+    from wheelleg.controller.udp_bus import EchoFreeUdpMulticastBus  # noqa: PLC0415 (needs msgpack)
+
+    del config["interface"]
+    return EchoFreeUdpMulticastBus(**config)

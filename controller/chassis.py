@@ -16,9 +16,11 @@ import math
 from dataclasses import dataclass, field
 
 from wheelleg.controller import constants as C
+from wheelleg.controller import estimate
 from wheelleg.controller import fivebar
 from wheelleg.controller import lqr
 from wheelleg.controller import params as P
+from wheelleg.controller.attitude import euler_zyx
 from wheelleg.controller.state import BusState, ImuReading
 
 LEGS = ("left", "right")
@@ -36,13 +38,9 @@ class Attitude:
     wz: float
 
 
-def attitude(imu: ImuReading) -> Attitude:
-    """Euler angles of the IMU quaternion (ZYX) and its body rates."""
-    w, x, y, z = imu.quat
-    roll = math.atan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
-    pitch = math.asin(max(-1.0, min(1.0, 2 * (w * y - z * x))))
-    yaw = math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
-    return Attitude(roll, pitch, yaw, *imu.gyro)
+def attitude(imu: ImuReading, gyro_bias: tuple = (0.0, 0.0, 0.0)) -> Attitude:
+    """Euler angles of the IMU quaternion (ZYX) and its body rates less ``gyro_bias`` (rad/s, (3,))."""
+    return Attitude(*euler_zyx(imu.quat), *(g - b for g, b in zip(imu.gyro, gyro_bias)))
 
 
 @dataclass(frozen=True)
@@ -70,6 +68,8 @@ class Command:
     leg_force: float | None = None  # N per leg, open-loop push replacing the leg PID (jump)
     hip_torque_limit: float = P.HIP_TORQUE_LIMIT  # N m, raised only for a jump's thrust
     air_leg_hold: bool = True  # in the air, hold the legs vertical (False: Tp 0, legs swing free)
+    air_pitch_hold: bool = False  # in the air, level the body with the wheels' reaction (flight only)
+    trim: bool = False  # standing or moving on the wheels: integrate the position error (``_trim``)
 
 
 @dataclass(frozen=True)
@@ -89,7 +89,9 @@ class ChassisReport:
 
     x_m: float  # wheel travel since reset
     x_ref_m: float
-    speed_m_s: float  # mean axle speed along the ground
+    x_integral_m_s: float  # the position error's integral, the LQR's trim state
+    speed_m_s: float  # mean axle speed along the ground (the IMU's figure while the wheels slip)
+    slipping: bool  # the wheels' speed and the IMU's part (estimate.SlipObserver)
     speed_ref_m_s: float
     pitch_rad: float  # nose down positive
     roll_rad: float
@@ -109,6 +111,7 @@ class Output:
 
 
 _LEG_WHEEL = {w.leg: w for w in C.WHEELS}
+_TRAVEL = tuple(lqr.GAIN_NAMES.index(name) for name in ("x", "dx", "ix"))  # LQR states of the travel
 
 
 def leg_state(bus: BusState, leg: str, att: Attitude) -> LegState:
@@ -130,6 +133,17 @@ def leg_state(bus: BusState, leg: str, att: Attitude) -> LegState:
     wheel = _LEG_WHEEL[leg]
     spin = wheel.forward_sign * bus.wheels[wheel.esc_id].speed + att.wy - dphi2
     return LegState(kin, kin.L0, dL0, theta, dtheta, spin * C.WHEEL_RADIUS)
+
+
+def _mean_speed(legs: dict) -> float:
+    """Mean axle speed (m/s) the two wheels report."""
+    return 0.5 * (legs["left"].wheel_speed + legs["right"].wheel_speed)
+
+
+def _legs_under_body(legs: dict) -> float:
+    """Mean forward speed (m/s) of the axles relative to the hips, from the legs'
+    motion: the axle sits L0 sin(theta) behind the hip."""
+    return -0.5 * sum(s.dL0 * math.sin(s.theta) + s.L0 * math.cos(s.theta) * s.dtheta for s in legs.values())
 
 
 def _wrap(angle: float) -> float:
@@ -184,11 +198,31 @@ class ChassisController:
         self.roll_offset = 0.0  # m, integral levelling: left minus right leg length
         self.lean = 0.0  # rad, roll set point into a turn, lagging the command (TURN_LEAN_TAU)
         self.leg_integral = {leg: 0.0 for leg in LEGS}  # N
+        self.x_integral = 0.0  # m s, integral of the position error (the LQR's ix state)
+        self.trim_hold_s = 0.0  # s left before the integral may move again after a stop (TRIM_SETTLE_S)
+        self.u_prev = {leg: (0.0, 0.0) for leg in LEGS}  # (T, Tp) N m sent last period (the LQR's delay states)
+        self.gyro = estimate.GyroBiasObserver(dt, P.GYRO_BIAS_OMEGA, P.GYRO_BIAS_LIMIT)
+        self.slip = estimate.SlipObserver(dt, P.SLIP_GAIN, P.SLIP_ON, P.SLIP_GRIP_WINDOW, P.SLIP_GRIP_TOL)
+
+    def observe(self, bus: BusState) -> None:
+        """Every tick, enabled or not: follow the gyro's bias against the IMU's orientation
+        and the wheels' grip against its acceleration (so neither is stale on enabling)."""
+        if not math.isfinite(bus.imu.received_s):
+            return
+        self.gyro.update(bus.imu.quat, bus.imu.gyro)
+        legs = {leg: leg_state(bus, leg, self.attitude(bus)) for leg in LEGS}
+        self.slip.update(estimate.forward_accel(bus.imu.quat, bus.imu.accel),
+                         _mean_speed(legs) - _legs_under_body(legs))
+
+    def attitude(self, bus: BusState) -> Attitude:
+        """The body's attitude with the gyro's estimated bias taken out."""
+        return attitude(bus.imu, self.gyro.bias)
 
     def reset(self, bus: BusState) -> None:
         """Take the present pose as the reference (on enable, after a fall)."""
-        att = attitude(bus.imu)
-        self.x = self.x_ref = 0.0
+        att = self.attitude(bus)
+        self.x = self.x_ref = self.x_integral = self.trim_hold_s = 0.0
+        self.u_prev = {leg: (0.0, 0.0) for leg in LEGS}
         self.speed_ref = 0.0
         self.lean = 0.0
         self.yaw_ref = att.yaw
@@ -199,17 +233,19 @@ class ChassisController:
         self.roll_offset = _clamp(self.leg_ref["left"] - self.leg_ref["right"], P.ROLL_LEVEL_LIMIT)
 
     def step(self, bus: BusState, cmd: Command) -> Output:
-        att = attitude(bus.imu)
+        att = self.attitude(bus)
         legs = {leg: leg_state(bus, leg, att) for leg in LEGS}
-        speed = 0.5 * (legs["left"].wheel_speed + legs["right"].wheel_speed)
+        speed = self._ground_speed(legs)
         self.x += speed * self.dt
         if cmd.airborne:
             return self._air_step(legs, att, speed, cmd)
         self._track_references(cmd, att)
+        self._trim(speed, cmd)
         out = Output(legs=legs)
         wheel_t, tp = {}, {}
         for leg in LEGS:
-            wheel_t[leg], tp[leg] = self._lqr(legs[leg], speed, att, cmd)
+            wheel_t[leg], tp[leg] = self._lqr(legs[leg], leg, speed, att, cmd)
+            self.u_prev[leg] = (_clamp(wheel_t[leg], P.WHEEL_TORQUE_LIMIT), tp[leg])
         split = self._split(legs)
         tp["left"] += split
         tp["right"] -= split
@@ -227,6 +263,13 @@ class ChassisController:
         out.report = self._report(legs, att, speed, wheel_t, tp)
         return out
 
+    def _ground_speed(self, legs: dict) -> float:
+        """Mean axle speed along the ground (m/s): the wheels' own while they grip,
+        the IMU's (plus the legs' motion) while they slip (``observe`` this tick)."""
+        if self.slip.slipping:
+            return self.slip.speed_m_s + _legs_under_body(legs)
+        return _mean_speed(legs)
+
     def _air_step(self, legs: dict, att: Attitude, speed: float, cmd: Command) -> Output:
         """In the air (docs/control.md, in the air): wheel torque 0, a leg-angle PD holds each
         leg vertical (theta -> 0), a leg PD without gravity feed-forward holds
@@ -238,15 +281,27 @@ class ChassisController:
         for leg in LEGS:
             s = legs[leg]
             self.leg_ref[leg] = min(max(cmd.leg_length, P.LEG_LENGTH_MIN), P.LEG_LENGTH_MAX)
-            wheel_t[leg] = 0.0
+            wheel_t[leg] = self._air_pitch_torque(att, cmd) if cmd.air_pitch_hold else 0.0
             tp[leg] = -(P.AIR_THETA_KP * s.theta + P.AIR_THETA_KD * s.dtheta) if cmd.air_leg_hold else 0.0
+            # the wheel's reaction acts on its leg: the hip passes it on to the body
+            tp[leg] += wheel_t[leg]
+            self.u_prev[leg] = (0.0, tp[leg])
             force = cmd.leg_force if cmd.leg_force is not None else _clamp(
                 P.LEG_KP * (self.leg_ref[leg] - s.L0) - P.LEG_KD * s.dL0, P.AIR_LEG_FORCE_LIMIT)
             self._hips(out, leg, s, force, tp[leg])
-            out.wheel_torque[_LEG_WHEEL[leg].esc_id] = 0.0
+            wheel = _LEG_WHEEL[leg]
+            out.wheel_torque[wheel.esc_id] = wheel.forward_sign * wheel_t[leg]
         self._limit_hips(out, cmd.hip_torque_limit)
         out.report = self._report(legs, att, speed, wheel_t, tp)
         return out
+
+    @staticmethod
+    def _air_pitch_torque(att: Attitude, cmd: Command) -> float:
+        """Wheel torque (N m, each wheel) whose reaction turns the body towards ``cmd.pitch``.
+
+        A wheel torque T (forward rolling positive) turns the body nose up by T:
+        T = kp (pitch - pitch_ref) + kd pitch_rate, nose down positive."""
+        return _clamp(P.AIR_PITCH_KP * (att.pitch - cmd.pitch) + P.AIR_PITCH_KD * att.wy, P.WHEEL_TORQUE_LIMIT)
 
     def follow_position(self) -> None:
         """The position reference jumps to where the robot is (no pull back this tick)."""
@@ -255,7 +310,7 @@ class ChassisController:
     def touchdown(self, bus: BusState) -> None:
         """Landing: the position reference resets to where the robot is and each leg's
         set point starts from the length it landed with (it then slews back)."""
-        att = attitude(bus.imu)
+        att = self.attitude(bus)
         self.x_ref, self.yaw_ref = self.x, att.yaw
         for leg in LEGS:
             self.leg_ref[leg] = leg_state(bus, leg, att).L0
@@ -271,6 +326,12 @@ class ChassisController:
             # moving: speed alone is tracked (a position lead would overshoot the speed
             # and wind up against a wall); the spot to hold is where it stops
             self.x_ref = self.x
+        elif self.trim_hold_s > 0.0:
+            # just stopped: the braking overshoots the spot where the set point reached 0
+            # (0.5 m from 2 m/s). The LQR sees the error clamped (_lqr), so dragging the spot
+            # to within the clamp changes no braking torque; it only spares the walk back
+            # at the clamp's speed (0.3 m/s), which left `sprint` still moving 3.5 s later
+            self.x_ref = self.x - _clamp(self.x - self.x_ref, P.POSITION_ERROR_LIMIT)
         # standing, it stays put: pushed away, the robot comes back to its spot, with the
         # error the LQR sees clamped (_lqr), so at a bounded speed
         self.yaw_ref = _wrap(self.yaw_ref + _clamp(cmd.yaw_rate, P.YAW_RATE_LIMIT) * self.dt)
@@ -281,17 +342,48 @@ class ChassisController:
         for leg in LEGS:
             self.leg_ref[leg] += _clamp(targets[leg] - self.leg_ref[leg], P.LEG_LENGTH_RATE * self.dt)
 
+    def _trim(self, speed: float, cmd: Command) -> None:
+        """Integrate the position error into ``x_integral`` (the LQR's ix state).
+
+        A constant disturbance (the CoM off the axle, an IMU mounted tilted, a
+        drive's torque constant) is held by this integral instead of a standing
+        position error; the trim found standing holds moving. It integrates only
+        standing still and settled, inside the LQR's position clamp:
+        - moving (speed set point not 0) it is frozen: the speed error integrated
+          there, 0.5 s x 0.5 s^-1, made `drive` miss its speed by 0.23 m/s;
+        - for TRIM_SETTLE_S after a stop it stays frozen: the overshoot past the
+          stop and the walk back are the braking's, not a disturbance's (integrated
+          they left 0.04 m s, and `drive` then missed its reverse speed by 0.07 m/s);
+        - outside the clamp (pushed away) the robot walks back on the clamp and the
+          integral keeps what it had (integrating there wound it up to 0.3 m s);
+        - with ``cmd.trim`` off (in the air, jumping, standing up).
+        Bounded by POSITION_INTEGRAL_LIMIT (anti-windup).
+        """
+        if self.speed_ref != 0.0:
+            self.trim_hold_s = P.TRIM_SETTLE_S
+            return
+        self.trim_hold_s = max(0.0, self.trim_hold_s - self.dt)
+        error = self.x - self.x_ref
+        if not cmd.trim or self.trim_hold_s > 0.0 or abs(error) >= P.POSITION_ERROR_LIMIT:
+            return
+        self.x_integral = _clamp(self.x_integral + error * self.dt, P.POSITION_INTEGRAL_LIMIT)
+
     def roll_set_point(self, cmd: Command) -> float:
         """Roll set point (rad, > 0 left side up): the command plus the lean into a turn."""
         return cmd.roll + self.lean
 
-    def _lqr(self, leg: LegState, speed: float, att: Attitude, cmd: Command) -> tuple[float, float]:
-        """u = -K (x - x_ref): wheel torque T and virtual hip torque Tp (N m)."""
+    def _lqr(self, leg: LegState, name: str, speed: float, att: Attitude, cmd: Command) -> tuple[float, float]:
+        """u = -K (s - s_ref): wheel torque T and virtual hip torque Tp (N m) of leg ``name``."""
         k = lqr.gain_matrix(leg.L0)
         phi, dphi = -att.pitch, -att.wy  # nose-up body angle and rate
         err = (leg.theta, leg.dtheta, _clamp(self.x - self.x_ref, P.POSITION_ERROR_LIMIT), speed - self.speed_ref,
-               phi - (-cmd.pitch), dphi)
-        t = -sum(g * e for g, e in zip(k[0], err))
+               phi - (-cmd.pitch), dphi, self.x_integral, *self.u_prev[name])
+        # the wheel's share for where the robot is and goes (position, speed and their
+        # integral) is limited apart: a hard push asks for far more than the wheel has, and
+        # saturating the whole sum would give away the torque that keeps the legs upright
+        travel = -sum(k[0][i] * err[i] for i in _TRAVEL)
+        t = -sum(g * e for i, (g, e) in enumerate(zip(k[0], err)) if i not in _TRAVEL)
+        t += _clamp(travel, P.SLIP_TRAVEL_TORQUE_LIMIT if self.slip.slipping else P.TRAVEL_TORQUE_LIMIT)
         tp = -sum(g * e for g, e in zip(k[1], err))
         return t, tp
 
@@ -337,7 +429,7 @@ class ChassisController:
 
     def _report(self, legs: dict, att: Attitude, speed: float, wheel_t: dict, tp: dict) -> ChassisReport:
         return ChassisReport(
-            x_m=self.x, x_ref_m=self.x_ref, speed_m_s=speed, speed_ref_m_s=self.speed_ref,
+            x_m=self.x, x_ref_m=self.x_ref, x_integral_m_s=self.x_integral, speed_m_s=speed, slipping=self.slip.slipping, speed_ref_m_s=self.speed_ref,
             pitch_rad=att.pitch, roll_rad=att.roll, yaw_rad=att.yaw, yaw_ref_rad=self.yaw_ref,
             legs={leg: LegReport(legs[leg].L0, self.leg_ref[leg], legs[leg].theta, wheel_t[leg], tp[leg])
                   for leg in LEGS})

@@ -45,16 +45,18 @@ class Report:
     balance_ok: bool  # no device the balance needs is offline or faulted
 
 
-def check(last_seen_s: dict[str, float], now_s: float, faulted=frozenset()) -> Report:
+def check(last_seen_s: dict[str, float], now_s: float, faulted=frozenset(), rules=RULES) -> Report:
     """Which devices are offline at ``now_s`` given when each was last heard (s).
 
     A device named in ``faulted`` (a CyberGear reporting fault bits, a C620
     latched by ``EscWatch``) counts as offline: the design document's detect task flags a device whose data is in error
-    the same way as one that went silent (``error_exist``).
+    the same way as one that went silent (``error_exist``). ``rules`` are the
+    robot's devices (default: the wheel-legged robot's ``RULES``); bit i of the
+    mask is ``rules[i]``.
     """
     mask = count = level = 0
     balance_ok = True
-    for bit, rule in enumerate(RULES):
+    for bit, rule in enumerate(rules):
         silent_s = now_s - last_seen_s.get(rule.name, float("-inf"))
         if rule.name in faulted or silent_s >= rule.offline_after_s - _ROUNDING_S:
             mask |= 1 << bit

@@ -10,6 +10,7 @@ import can
 from wheelleg.controller import constants as C
 from wheelleg.dbc import cybergear as cg
 from wheelleg.dbc import CAN1, CAN2, load_bus, truncating_raw
+from wheelleg.dbc.codec import MessageCodec
 
 _CAN1 = load_bus(CAN1)
 _CAN2 = load_bus(CAN2)
@@ -23,6 +24,7 @@ _MOTION_ZERO_RAW = {s.name: truncating_raw(s, 0.0) for s in _MOTION.signals}
 _MOTION_ZERO_RAW["Kp"] = 0
 _MOTION_ZERO_RAW["Kd"] = 0
 _MOTION_DATA = _MOTION.encode(_MOTION_ZERO_RAW, scaling=False)
+_MOTION_CODEC = MessageCodec.of(_MOTION)
 
 
 def _frame(arbitration_id: int, data: bytes, extended: bool, t_s: float) -> can.Message:
@@ -33,6 +35,21 @@ def _frame(arbitration_id: int, data: bytes, extended: bool, t_s: float) -> can.
 def joint_torque(motor_id: int, torque_nm: float, t_s: float = 0.0) -> can.Message:
     """CyberGear type-1 motion command carrying only a torque (Kp = Kd = 0)."""
     return _frame(cg.motion_id(torque_nm, motor_id), _MOTION_DATA, True, t_s)
+
+
+def joint_mit(motor_id: int, position_rad: float, velocity_rad_s: float, kp: float, kd: float,
+              torque_nm: float, t_s: float = 0.0) -> can.Message:
+    """CyberGear type-1 motion command with the whole MIT law: the motor applies
+    kp (position - q) + kd (velocity - qdot) + torque (N m/rad, N m s/rad, N m).
+
+    Set points and gains in the payload, the torque in the identifier, each
+    clamped to its field by the manual's truncating encoder (``dbc.codec.truncate``).
+    """
+    fields = _MOTION_CODEC.signals
+    data = _MOTION_CODEC.encode_raw({
+        "PosRef": fields["PosRef"].truncated(position_rad), "VelRef": fields["VelRef"].truncated(velocity_rad_s),
+        "Kp": fields["Kp"].truncated(kp), "Kd": fields["Kd"].truncated(kd)})
+    return _frame(cg.motion_id(torque_nm, motor_id), data, True, t_s)
 
 
 def joint_enable(motor_id: int, t_s: float = 0.0) -> can.Message:

@@ -2,19 +2,13 @@
 
 ``Controller`` is the program without I/O: ``on_frame`` takes each received
 frame, ``tick`` returns the frames to send (the rig's replay feeds it recorded
-frames the same way). ``ControllerNode`` owns the two buses and the clock:
-
-- sync mode (the rig's lockstep, docs/design.md): a tick runs when SYNC with the
-  same counter has arrived on both buses; the controller's clock is the tick
-  count times the control period;
-- free-run mode (the robot, real time): a tick runs every control period of
-  the monotonic clock.
+frames the same way). ``ControllerNode`` puts it on its two buses with the
+clock of ``can_node.CanNode`` (SYNC lockstep or free-running).
 Each tick ends with a heartbeat on both buses.
 """
 from __future__ import annotations
 
 import math
-import time
 from dataclasses import dataclass, field
 
 import can
@@ -24,8 +18,9 @@ from wheelleg.controller import detect
 from wheelleg.controller import messages
 from wheelleg.controller import posture
 from wheelleg.controller import support
+from wheelleg.controller.can_node import CanNode
 from wheelleg.controller import params as P
-from wheelleg.controller.chassis import Attitude, ChassisController, Command, attitude
+from wheelleg.controller.chassis import Attitude, ChassisController, Command
 from wheelleg.controller.jump import JumpSequencer, Phase
 from wheelleg.controller.recovery import Phase as RecoveryPhase
 from wheelleg.controller.recovery import RecoverySequencer
@@ -95,6 +90,7 @@ class Controller:
         return seen
 
     def tick(self, tick: int, now_s: float) -> TickResult:
+        self.chassis.observe(self.bus)
         faulted = self._faulted(now_s)
         report = detect.check(self.last_seen(), now_s, faulted)
         inputs = self._inputs(report.balance_ok, now_s)
@@ -152,7 +148,7 @@ class Controller:
         self._last_buttons = (op.reenable, op.jump, op.jump_forward)
         if jump_edge or forward_edge:
             self._jump_forward = forward_edge
-        att = attitude(self.bus.imu)
+        att = self.chassis.attitude(self.bus)
         in_air = self.mode in (Mode.JUMP, Mode.AIRBORNE)  # tumbling in the air: wider limits
         pitch_limit, roll_limit = (P.FALL_PITCH_AIR, P.FALL_ROLL_AIR) if in_air else (P.FALL_PITCH, P.FALL_ROLL)
         fallen = abs(att.pitch) > pitch_limit or abs(att.roll) > roll_limit
@@ -216,9 +212,10 @@ class Controller:
         op = self.bus.operator
         moving = self.mode == Mode.MOVE
         cmd = Command(speed=op.speed if moving else 0.0, yaw_rate=op.yaw_rate if moving else 0.0,
-                      leg_length=op.leg_length, pitch=op.pitch, roll=op.roll)
+                      leg_length=op.leg_length, pitch=op.pitch, roll=op.roll,
+                      trim=self.mode in (Mode.BALANCE, Mode.MOVE))
         if self.mode == Mode.AIRBORNE:
-            cmd.airborne, cmd.leg_length = True, P.AIR_LEG_LENGTH
+            cmd.airborne, cmd.air_pitch_hold, cmd.leg_length = True, True, P.AIR_LEG_LENGTH
         elif self.mode == Mode.JUMP:
             self._jump_command(cmd)
         elif self.mode == Mode.STAND_UP and self.recovery.active:
@@ -227,13 +224,13 @@ class Controller:
 
     def _lying(self) -> bool:
         """Past the fall limit on pitch, not on its side: stand-up starts with a recovery."""
-        att = attitude(self.bus.imu)
+        att = self.chassis.attitude(self.bus)
         return abs(att.pitch) > P.FALL_PITCH and abs(att.roll) < P.FALL_ROLL
 
     def _recovery_command(self, cmd: Command) -> None:
         """Fill ``cmd`` from the recovery table's phase (controller/recovery.py)."""
         lengths = self._leg_lengths_m(P.LEG_LENGTH_MAX)
-        rc = self.recovery.step(lengths, attitude(self.bus.imu).pitch, cmd.pitch)
+        rc = self.recovery.step(lengths, self.chassis.attitude(self.bus).pitch, cmd.pitch)
         if self.recovery.entered == RecoveryPhase.TILT_UP:
             self.chassis.reset(self.bus)
         cmd.airborne, cmd.air_leg_hold = rc.airborne, False
@@ -263,6 +260,7 @@ class Controller:
         ahead = self._jump_forward and jc.phase in (Phase.SQUAT, Phase.THRUST, Phase.RETRACT, Phase.FLIGHT)
         cmd.speed, cmd.yaw_rate = (P.JUMP_FORWARD_SPEED if ahead else 0.0), 0.0
         cmd.airborne, cmd.leg_force, cmd.hip_torque_limit = jc.airborne, jc.leg_force, jc.hip_torque_limit
+        cmd.air_pitch_hold = jc.airborne
         if jc.leg_length is not None:
             cmd.leg_length = jc.leg_length
 
@@ -294,97 +292,10 @@ class Controller:
                 CAN1: [messages.wheel_currents({}, t_s=now_s)]}
 
 
-class ControllerNode:
-    """The controller on its two buses: CAN1 = wheels (``wheels_bus``), CAN2 = joints."""
+class ControllerNode(CanNode):
+    """The wheel-legged controller on its two buses: CAN1 = wheels (``wheels_bus``), CAN2 = joints."""
 
     def __init__(self, wheels_bus: can.BusABC, joints_bus: can.BusABC, *, sync: bool = True,
                  period_s: float = P.CONTROL_PERIOD, listener=None):
-        self.buses = {CAN1: wheels_bus, CAN2: joints_bus}
-        self.sync = sync
-        self.controller = Controller(period_s)
-        self.period_s = period_s
-        self.listener = listener  # called as listener(bus, msg, sent: bool) for logging
-        self._sync_tick = {CAN1: None, CAN2: None}
-        self._last_tick = -1
-        self._start = time.monotonic()
-        self.ticks = 0
-        self.last_result: TickResult | None = None
-        # When a list: (tick, monotonic s at its start) per tick, for the loop's timing statistics.
-        self.tick_log: list[tuple[int, float]] | None = None
-
-    def now(self) -> float:
-        if self.sync:
-            return max(self._last_tick, 0) * self.period_s
-        return time.monotonic() - self._start
-
-    def service(self, timeout_s: float = 0.0) -> bool:
-        """Drain both buses; run a tick if one is due. True when a tick ran."""
-        for name, bus in self.buses.items():
-            while True:
-                msg = bus.recv(timeout=0.0)
-                if msg is None:
-                    break
-                self._received(name, msg)
-        if self.sync:
-            tick = self._sync_tick[CAN1]
-            if tick is not None and tick == self._sync_tick[CAN2] and tick != self._last_tick:
-                self._run_tick(tick, tick * self.period_s)
-                return True
-            return False
-        now = self.now()
-        due = int(now / self.period_s)
-        if due > self._last_tick:
-            self._run_tick(due, now)
-            return True
-        return False
-
-    def _received(self, name: str, msg: can.Message) -> None:
-        if self.listener:
-            self.listener(name, msg, False)
-        stamp = self._sync_tick[name]
-        now = self.now() if not self.sync else ((stamp + 1) if stamp is not None else 0) * self.period_s
-        tick = self.controller.on_frame(msg, name, now)
-        if tick is not None:
-            self._sync_tick[name] = tick
-
-    def _run_tick(self, tick: int, now_s: float) -> None:
-        if self.tick_log is not None:
-            self.tick_log.append((tick, time.monotonic()))
-        self._last_tick = tick
-        result = self.controller.tick(tick, now_s)
-        self.ticks += 1
-        self.last_result = result
-        for name, frames in result.frames.items():
-            for msg in frames:
-                self._send(name, msg)
-
-    def _send(self, name: str, msg: can.Message) -> None:
-        try:
-            self.buses[name].send(msg)
-        except can.CanError:
-            pass  # a full queue or bus-off: the next tick sends again; detect notices silence
-        if self.listener:
-            self.listener(name, msg, True)
-
-    def run(self, stop, idle_s: float = 0.0002) -> None:
-        """Blocking loop until ``stop`` (a threading.Event) is set; disables on exit."""
-        try:
-            while not stop.is_set():
-                if not self.service():
-                    time.sleep(self._idle_s(idle_s))
-        finally:
-            self.disable()
-
-    def _idle_s(self, poll_s: float) -> float:
-        """How long to sleep when no tick ran: in sync mode poll every ``poll_s`` for
-        SYNC; free-running, sleep to the next period boundary (frames that arrive
-        meanwhile wait in the socket and are drained at the start of the tick)."""
-        if self.sync:
-            return poll_s
-        return min(max(0.0, (self._last_tick + 1) * self.period_s - self.now()), self.period_s)
-
-    def disable(self) -> None:
-        """Send the frames that stop every motor (SIGINT/SIGTERM, end of a run)."""
-        for name, frames in self.controller.shutdown_frames(self.now()).items():
-            for msg in frames:
-                self._send(name, msg)
+        super().__init__(wheels_bus, joints_bus, Controller(period_s), sync=sync, period_s=period_s,
+                         listener=listener)

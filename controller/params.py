@@ -12,7 +12,15 @@ from __future__ import annotations
 CONTROL_PERIOD = 0.002  # s
 
 # --- LQR design (controller/design/lqr.py reads these) ------------------------
-LQR_Q = (1.0, 10.0, 100.0, 20.0, 1000.0, 1.0)  # theta, theta_dot, x, x_dot, phi, phi_dot (Skythinker/LJW0401)
+LQR_Q = (1.0, 5.0, 100.0, 20.0, 1000.0, 1.0)  # theta, theta_dot, x, x_dot, phi, phi_dot (Skythinker/LJW0401; theta_dot 10 -> 5, below)
+# ix, the position error's integral (m s): the weight sets how fast a constant
+# disturbance (CoM off the axis, IMU tilt) is trimmed out. Tuned with the CoM 3 cm
+# off: 1000 leaves no creep (10.8 cm in the first second, then back); 20000 keeps that
+# under 4.1 cm but its stiffer position/speed gains saturate the wheel in `push` (FALLEN).
+LQR_Q_INTEGRAL = 1000.0
+# theta_dot 10 -> 5: with the integral in the design the leg's rate weight slowed the
+# lean back that brakes a stop ( `drive` travelled 0.502 m past its stop command, limit
+# 0.5; 0.474 m with 5, 0.454 m with 3; a linear model of the stop gives 0.563/0.536/0.518)
 LQR_R = (1.0, 1.0)  # T (wheel), Tp (virtual hip)
 LEG_LENGTH_MIN = 0.12  # m, lower end of the K(L0) fit and of leg commands
 LEG_LENGTH_MAX = 0.26  # m, upper end (geometric max 0.28, singular at 0.2865)
@@ -60,11 +68,37 @@ YAW_TORQUE_LIMIT = 2.0  # N m
 SPEED_LIMIT = 2.0  # m/s
 ACCEL_LIMIT = 4.0  # m/s^2, slew of the speed set point (Reborn)
 POSITION_ERROR_LIMIT = 0.15  # m, position error fed to the LQR is clamped (Skythinker)
+# m s, bound of the position error's integral (the LQR's ix state, anti-windup): holds
+# a CoM ~5 cm off the axle (3 cm needs ~0.6 m s with the designed gains)
+POSITION_INTEGRAL_LIMIT = 1.0
+# s after the speed set point returns to 0 before the position integral moves again:
+# the stop's overshoot and the walk back (~1.5 s from 1 m/s in `drive`) are left out
+TRIM_SETTLE_S = 2.0
 YAW_RATE_LIMIT = 4.0  # rad/s
+# N m per wheel, largest LQR wheel torque for the travel (position, speed, their integral),
+# limited before the balance terms are added: a 5 N s push asks for far more there, and
+# summed first the balance terms drowned in the saturation (push FALLEN with a stiffer
+# integral). 3 N m kept it upright but too slow to walk back; the wheel's own limit
+# keeps the nominal push and lets balance win when they disagree.
+TRAVEL_TORQUE_LIMIT = 5.5
 
 # --- torque limits ----------------------------------------------------------------
 HIP_TORQUE_LIMIT = 10.0  # N m, normal clamp below the CyberGear's 12 (docs/control.md)
 WHEEL_TORQUE_LIMIT = 5.5  # N m, below the C620's 20 A x 0.3 N m/A
+
+# --- sensor estimators (controller/estimate.py) ----------------------------------------
+# rad/s, the gyro-bias observer's natural frequency: a bias is found in ~5 s;
+# the IMU orientation's noise enters the bias only below it
+GYRO_BIAS_OMEGA = 1.0
+GYRO_BIAS_LIMIT = 0.2  # rad/s, largest bias believed (a calibrated MEMS gyro is within ~0.05)
+# Slip: the wheels' speed against the IMU's integrated acceleration (estimate.SlipObserver).
+SLIP_GAIN = 10.0  # 1/s, pull of the IMU speed towards the wheels' while they grip
+SLIP_ON = 0.3  # m/s apart: slipping (a hard stop's ~0.1 m/s of leg swing stays below)
+SLIP_GRIP_WINDOW = 0.1  # s; gripping again when over it the wheels' speed changed as the IMU's ...
+SLIP_GRIP_TOL = 0.05  # m/s ... did, within this
+# N m, while slipping the wheel's share for position and speed (the LQR's travel) is held
+# to this: the floor cannot take more, and asking more only spins the wheel further
+SLIP_TRAVEL_TORQUE_LIMIT = 1.0
 
 # --- safety -------------------------------------------------------------------------
 FALL_PITCH = 0.6  # rad, beyond it the robot has fallen (rm_controllers)
@@ -102,6 +136,13 @@ AIR_THETA_KP = 5.0  # N m/rad, leg-angle PD on Tp (I ~0.014 kg m^2 -> ~20 rad/s)
 AIR_THETA_KD = 0.4  # N m s/rad
 AIR_LEG_LENGTH = 0.20  # m, long legs in the air leave stroke to absorb the landing
 AIR_LEG_FORCE_LIMIT = 40.0  # N, leg PD clamp in the air (no gravity feed-forward there)
+# The wheels as reaction wheels in flight: a spin picked up at take-off (a jump with the CoM
+# off the hips: lifting the wheels pulls below and behind it) would land the robot on its
+# tail. Whole robot ~0.035 kg m^2 about its pitch axis at ~15 rad/s: kp = I w^2, kd = 2 I w,
+# split over two wheels. Each wheel's ~0.0024 kg m^2 (rotor reflected) takes up 0.14 N m s
+# (4 rad/s of body spin) in ~30 rad/s of its own speed, well inside the M3508's ~50 rad/s.
+AIR_PITCH_KP = 4.0  # N m/rad per wheel
+AIR_PITCH_KD = 0.5  # N m s/rad per wheel
 
 # --- jump (controller/jump.py; public jumps mapped to this robot) ---------------------------
 JUMP_SQUAT_LENGTH = 0.12  # m, lowest leg length of the K(L0) fit: the longest stroke

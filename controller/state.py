@@ -20,9 +20,8 @@ from wheelleg.dbc import CAN1, CAN2, load_bus
 
 _DBS = {CAN1: load_bus(CAN1), CAN2: load_bus(CAN2)}
 _SYNC_ID = _DBS[CAN1].get_message_by_name("SYNC").frame_id
-_JOINT_BY_ID = {j.motor_id: j for j in C.JOINTS}
 _WHEEL_BY_FEEDBACK_ID = {0x200 + w.esc_id: w for w in C.WHEELS}
-_IMU_PARTS = {"IMU_Orientation": "quat", "IMU_Gyro": "gyro", "IMU_Accel": "accel"}
+IMU_PARTS = {"IMU_Orientation": "quat", "IMU_Gyro": "gyro", "IMU_Accel": "accel"}
 RPM_TO_OUTPUT_RAD_S = 2 * math.pi / 60 / C.M3508_GEAR
 
 
@@ -84,9 +83,7 @@ class BusState:
     operator: OperatorCommand = field(default_factory=OperatorCommand)
     bad_frames: int = 0
     frames: int = 0
-    _imu_parts: dict = field(default_factory=dict)
-    _imu_last_data: dict = field(default_factory=dict)  # part -> last payload
-    _imu_changed_s: float = -math.inf  # last time any IMU payload differed from the one before
+    _imu_frames: "ImuFrames" = field(default_factory=lambda: ImuFrames())
 
     def update(self, msg: can.Message, bus: str, now_s: float) -> int | None:
         """Take one received frame; returns the SYNC tick when it is a SYNC."""
@@ -103,29 +100,13 @@ class BusState:
                 return self._decode(CAN1, msg)["Tick"] if bus in _DBS else None
             if bus == CAN1:
                 self._can1(msg, now_s)
-        except _BadFrame:
-            self.bad_frames += 1
-        except Exception:  # never let a frame take the controller down
+        except Exception:  # a BadFrame, or anything else: never let a frame take the controller down
             self.bad_frames += 1
         return None
 
     # -- per-bus parsers -------------------------------------------------------
     def _cybergear(self, msg: can.Message, now_s: float) -> None:
-        rid = cg.parse_reply_id(msg.arbitration_id)
-        joint = _JOINT_BY_ID.get(rid.motor_id)
-        if joint is None or rid.host != C.CG_HOST_ID:
-            return  # not one of ours, or a request from another host
-        if rid.ctype == cg.T_FEEDBACK:
-            sig = self._decode(CAN2, msg, cg.canonical_id(msg.arbitration_id))
-            fb = self.joints[joint.motor_id]
-            fb.position, fb.speed, fb.torque = sig["Pos"], sig["Vel"], sig["Torque"]
-            fb.temperature, fb.mode, fb.faults = sig["Temp"], rid.mode, rid.faults
-            fb.received_s = now_s
-        elif rid.ctype == cg.T_FAULT_WARN:
-            sig = self._decode(CAN2, msg, cg.canonical_id(msg.arbitration_id))
-            if any(v for k, v in sig.items() if k.startswith("Fault")):
-                fb = self.joints[joint.motor_id]
-                fb.faults = fb.faults | {"FaultWord"}
+        take_cybergear(msg, now_s, self.joints, C.CG_HOST_ID, _DBS[CAN2])
 
     def _can1(self, msg: can.Message, now_s: float) -> None:
         wheel = _WHEEL_BY_FEEDBACK_ID.get(msg.arbitration_id)
@@ -137,31 +118,13 @@ class BusState:
             fb.temperature, fb.received_s = sig["MotorTemp"], now_s
             return
         name = _MESSAGE_NAMES.get(msg.arbitration_id)
-        if name in _IMU_PARTS:
+        if name in IMU_PARTS:
             self._imu(name, self._decode(CAN1, msg), now_s, bytes(msg.data))
         elif name == "Operator":
             self._operator(self._decode(CAN1, msg), now_s)
 
     def _imu(self, name: str, sig: dict, now_s: float, data: bytes) -> None:
-        part = _IMU_PARTS[name]
-        if part == "quat":
-            quat = (sig["QuatW"], sig["QuatX"], sig["QuatY"], sig["QuatZ"])
-            norm = math.sqrt(sum(q * q for q in quat))
-            if abs(norm - 1.0) > 0.05:
-                raise _BadFrame("quaternion not unit")
-            self.imu.quat = tuple(q / norm for q in quat)
-        elif part == "gyro":
-            self.imu.gyro = (sig["RateX"], sig["RateY"], sig["RateZ"])
-        else:
-            self.imu.accel = (sig["AccX"], sig["AccY"], sig["AccZ"])
-        self._imu_parts[part] = now_s
-        if data != self._imu_last_data.get(part):
-            self._imu_last_data[part] = data
-            self._imu_changed_s = now_s
-        if len(self._imu_parts) == 3:
-            # a frozen IMU (hung firmware repeating its frames) is not heard: a real
-            # sensor's noise changes some bit of its three frames every sample
-            self.imu.received_s = min(min(self._imu_parts.values()), self._imu_changed_s)
+        self._imu_frames.take(self.imu, name, sig, now_s, data)
 
     def _operator(self, sig: dict, now_s: float) -> None:
         op = self.operator
@@ -172,27 +135,91 @@ class BusState:
 
     @staticmethod
     def _decode(bus: str, msg: can.Message, frame_id: int | None = None) -> dict:
-        """DBC-decode with the checks every frame gets: DLC, finite, in range."""
-        try:
-            message = _DBS[bus].get_message_by_frame_id(
-                msg.arbitration_id if frame_id is None else frame_id)
-        except KeyError:
-            raise _BadFrame("unknown id") from None
-        if msg.dlc != message.length or len(msg.data) < message.length:
-            raise _BadFrame("wrong DLC")
-        values = message.decode(bytes(msg.data[:message.length]), decode_choices=False)
-        for sig in message.signals:
-            value = values.get(sig.name)
-            if value is None:
-                continue
-            if not math.isfinite(value) or (sig.minimum is not None and value < sig.minimum - 1e-9) \
-                    or (sig.maximum is not None and value > sig.maximum + 1e-9):
-                raise _BadFrame(f"{sig.name} out of range")
-        return values
+        return checked_decode(_DBS[bus], msg, frame_id)
 
 
-class _BadFrame(Exception):
+class BadFrame(Exception):
     """A frame that failed its checks; counted, never propagated."""
+
+
+def checked_decode(db, msg: can.Message, frame_id: int | None = None) -> dict:
+    """DBC-decode (``db``: a cantools database) with the checks every frame gets: DLC, finite, in range.
+
+    ``frame_id`` is the id the layout sits at when it is not the frame's own
+    (a CyberGear payload sits at its type). BadFrame when a check fails.
+    """
+    try:
+        message = db.get_message_by_frame_id(msg.arbitration_id if frame_id is None else frame_id)
+    except KeyError:
+        raise BadFrame("unknown id") from None
+    if msg.dlc != message.length or len(msg.data) < message.length:
+        raise BadFrame("wrong DLC")
+    values = message.decode(bytes(msg.data[:message.length]), decode_choices=False)
+    for sig in message.signals:
+        value = values.get(sig.name)
+        if value is None:
+            continue
+        if not math.isfinite(value) or (sig.minimum is not None and value < sig.minimum - 1e-9) \
+                or (sig.maximum is not None and value > sig.maximum + 1e-9):
+            raise BadFrame(f"{sig.name} out of range")
+    return values
+
+
+def take_cybergear(msg: can.Message, now_s: float, feedback: dict, host_id: int, db) -> None:
+    """Update ``feedback`` (motor id -> JointFeedback) from one CyberGear frame addressed to ``host_id``.
+
+    Type-2 feedback sets position, speed, torque, temperature, mode and the
+    fault bits of the id; a type-21 fault word with any fault set adds
+    "FaultWord". Frames of other motors or to other hosts are ignored;
+    ``db`` is the bus's cantools database (BadFrame when a payload fails its checks).
+    """
+    rid = cg.parse_reply_id(msg.arbitration_id)
+    fb = feedback.get(rid.motor_id)
+    if fb is None or rid.host != host_id:
+        return  # not one of ours, or a request from another host
+    if rid.ctype == cg.T_FEEDBACK:
+        sig = checked_decode(db, msg, cg.canonical_id(msg.arbitration_id))
+        fb.position, fb.speed, fb.torque = sig["Pos"], sig["Vel"], sig["Torque"]
+        fb.temperature, fb.mode, fb.faults = sig["Temp"], rid.mode, rid.faults
+        fb.received_s = now_s
+    elif rid.ctype == cg.T_FAULT_WARN:
+        sig = checked_decode(db, msg, cg.canonical_id(msg.arbitration_id))
+        if any(v for k, v in sig.items() if k.startswith("Fault")):
+            fb.faults = fb.faults | {"FaultWord"}
+
+
+class ImuFrames:
+    """Assembles rig.dbc's three IMU frames into an ``ImuReading``, heard only while they change."""
+
+    def __init__(self):
+        self.parts: dict = {}  # part -> controller time (s) it last arrived
+        self.last_data: dict = {}  # part -> last payload
+        self.changed_s = -math.inf  # last time any IMU payload differed from the one before
+
+    def take(self, imu: ImuReading, name: str, sig: dict, now_s: float, data: bytes) -> None:
+        """One decoded IMU frame (message ``name``, signals ``sig``, raw ``data``) into ``imu``.
+
+        BadFrame for a quaternion that is not unit (then nothing changes).
+        """
+        part = IMU_PARTS[name]
+        if part == "quat":
+            quat = (sig["QuatW"], sig["QuatX"], sig["QuatY"], sig["QuatZ"])
+            norm = math.sqrt(sum(q * q for q in quat))
+            if abs(norm - 1.0) > 0.05:
+                raise BadFrame("quaternion not unit")
+            imu.quat = tuple(q / norm for q in quat)
+        elif part == "gyro":
+            imu.gyro = (sig["RateX"], sig["RateY"], sig["RateZ"])
+        else:
+            imu.accel = (sig["AccX"], sig["AccY"], sig["AccZ"])
+        self.parts[part] = now_s
+        if data != self.last_data.get(part):
+            self.last_data[part] = data
+            self.changed_s = now_s
+        if len(self.parts) == 3:
+            # a frozen IMU (hung firmware repeating its frames) is not heard: a real
+            # sensor's noise changes some bit of its three frames every sample
+            imu.received_s = min(min(self.parts.values()), self.changed_s)
 
 
 _MESSAGE_NAMES = {m.frame_id: m.name for m in _DBS[CAN1].messages if not m.is_extended_frame}

@@ -37,7 +37,9 @@ class LastOutput:
 DEBUG_FIELDS = {
     "x": "wheel travel since the last reset (m)",
     "x_ref": "position reference (m)",
-    "speed": "axle speed along the ground, mean of both wheels (m/s)",
+    "x_integral": "integral of the position error, the LQR's trim state (m s)",
+    "speed": "axle speed along the ground, mean of both wheels; the IMU's figure while they slip (m/s)",
+    "slipping": "1 while the wheels' speed and the IMU's part (estimate.SlipObserver), else 0",
     "speed_ref": "speed reference after the acceleration limit (m/s)",
     "pitch": "body pitch from the IMU, nose down positive (rad)",
     "roll": "body roll from the IMU, left side up positive (rad)",
@@ -56,7 +58,8 @@ DEBUG_FIELDS = {
 def debug_record(last: LastOutput) -> dict:
     """The trace's flat debug record (key -> number) of ``last``; read by no control path."""
     c = last.chassis
-    record = {"x": c.x_m, "x_ref": c.x_ref_m, "speed": c.speed_m_s, "speed_ref": c.speed_ref_m_s,
+    record = {"x": c.x_m, "x_ref": c.x_ref_m, "x_integral": c.x_integral_m_s, "speed": c.speed_m_s,
+              "slipping": float(c.slipping), "speed_ref": c.speed_ref_m_s,
               "pitch": c.pitch_rad, "roll": c.roll_rad, "yaw": c.yaw_rad, "yaw_ref": c.yaw_ref_rad}
     for leg in LEGS:
         s = c.legs[leg]

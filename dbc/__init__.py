@@ -11,6 +11,10 @@ the IMU, the remote, SYNC and heartbeat; CAN2 (``CAN2 = "can2"``) carries the
 four CyberGear joint motors, SYNC and heartbeat. These two names are the
 buses' names everywhere in the project (controller, emulators, traces),
 defined here only.
+
+The quadruped (``QUADRUPED_BUS_FILES``) has two buses too, under the same two
+names: CAN1 is its bus 0 (front legs' CyberGears, IMU, remote), CAN2 its bus 1
+(rear legs' CyberGears); its remote frame is ``quadruped.dbc``'s QuadOperator.
 """
 from __future__ import annotations
 
@@ -29,6 +33,11 @@ BUS_FILES = {
     CAN1: ("c620.dbc", "rig.dbc"),
     CAN2: ("cybergear.dbc", "rig.dbc"),
 }
+QUADRUPED_BUS_FILES = {
+    CAN1: ("cybergear.dbc", "rig.dbc", "quadruped.dbc"),
+    CAN2: ("cybergear.dbc", "rig.dbc"),
+}
+ROBOT_BUS_FILES = {"wheel-legged": BUS_FILES, "quadruped": QUADRUPED_BUS_FILES}
 CYBERGEAR_FILES = {"12.5": "cybergear.dbc", "4pi": "cybergear_4pi.dbc"}
 
 
@@ -55,16 +64,20 @@ def load_file(name: str) -> cantools.database.Database:
 
 
 @functools.lru_cache(maxsize=None)
-def load_bus(bus: str, position_range: str = "12.5") -> cantools.database.Database:
-    """One cantools database holding every message that can appear on ``bus``.
+def load_bus(bus: str, position_range: str = "12.5", robot: str = "wheel-legged") -> cantools.database.Database:
+    """One cantools database holding every message that can appear on ``bus`` of ``robot``.
 
-    ``bus`` is ``"can1"`` (wheels) or ``"can2"`` (joints); ``position_range``
-    picks the CyberGear position scale (``"12.5"`` default or ``"4pi"``).
+    ``bus`` is ``"can1"`` (wheels) or ``"can2"`` (joints) of the wheel-legged
+    robot, bus 0 or bus 1 of the quadruped (``robot="quadruped"``);
+    ``position_range`` picks the CyberGear position scale (``"12.5"`` default or ``"4pi"``).
     """
-    if bus not in BUS_FILES:
-        raise ValueError(f"unknown bus {bus!r}; expected one of {sorted(BUS_FILES)}")
+    files = ROBOT_BUS_FILES.get(robot)
+    if files is None:
+        raise ValueError(f"unknown robot {robot!r}; expected one of {sorted(ROBOT_BUS_FILES)}")
+    if bus not in files:
+        raise ValueError(f"unknown bus {bus!r}; expected one of {sorted(files)}")
     db = cantools.database.Database()
-    for name in BUS_FILES[bus]:
+    for name in files[bus]:
         if name == "cybergear.dbc":
             name = CYBERGEAR_FILES[position_range]
         db.add_dbc_file(str(dbc_path(name)))

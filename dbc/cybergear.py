@@ -3,10 +3,11 @@
 A CyberGear identifier is ``type << 24 | data16 << 8 | target`` (docs/protocols.md,
 the 29-bit identifier); what ``data16`` holds depends on the type: the host id, a torque
 feed-forward (type 1), mode and fault bits (type 2 and other replies) or a new
-id (type 7). The DBC describes those fields with four pseudo messages
-(``CG_Id_*``: the identifier read as a little-endian u32); this module reads
-their bit positions and scales once and does the arithmetic, because a field
-that lives in the id cannot be decoded by cantools from the payload.
+id (type 7). ``cybergear_id.dbc`` (``ID_DBC``) describes those fields with
+pseudo messages (``CG_Id_*``: the identifier read as a little-endian u32);
+this module reads their bit positions and scales once and does the
+arithmetic, because a field that lives in the id cannot be decoded by
+cantools from the payload.
 
 Payloads sit in ``cybergear.dbc`` at a canonical id: the type alone.
 """
@@ -17,6 +18,7 @@ from dataclasses import dataclass
 from wheelleg.dbc import load_file, truncating_raw
 
 TYPE_SHIFT = 24
+ID_DBC = "cybergear_id.dbc"  # the id's fields, and the payloads a type alone does not select
 DEVICE_ID_TARGET = 0xFE  # replies to type 0/7/22 go to this address
 DEFAULT_MASTER = 0x00  # CAN_MASTER's factory value: where a motor answers unless told otherwise
 FAULT_NAMES = ("FaultUnderVoltage", "FaultOverCurrent", "FaultOverTemp",
@@ -43,7 +45,7 @@ class _Field:
 
 
 def _fields(message_name: str) -> dict[str, _Field]:
-    msg = load_file("cybergear.dbc").get_message_by_name(message_name)
+    msg = load_file(ID_DBC).get_message_by_name(message_name)
     return {s.name: _Field(s.start, (1 << s.length) - 1) for s in msg.signals}
 
 
@@ -52,7 +54,7 @@ _MOT = _fields("CG_Id_Motion")
 _REP = _fields("CG_Id_Reply")
 _SET = _fields("CG_Id_SetId")
 _TAB = _fields("CG_Id_ParamTable")
-_TORQUE_SIGNAL = load_file("cybergear.dbc").get_message_by_name("CG_Id_Motion").get_signal_by_name("TorqueRef")
+_TORQUE_SIGNAL = load_file(ID_DBC).get_message_by_name("CG_Id_Motion").get_signal_by_name("TorqueRef")
 _FAULT_FIELDS = [(name, _REP[name]) for name in FAULT_NAMES]
 
 
@@ -168,8 +170,11 @@ def from_motor(can_id: int, host_id: int) -> bool:
     ``is_reply`` knows only ``host_id`` and 0xFE; a reply to the demo's and the
     firmware's default master 0x00 ends in 0x00 too, which also reads as a
     request to motor 0. Bits 15..8 settle it: a request's name a host
-    (``sent_by_host``), a reply's the answering motor.
+    (``sent_by_host``), a reply's the answering motor. A type-1 command is
+    never a motor's (its bits 15..8 hold torque, not a sender).
     """
+    if comm_type(can_id) == T_MOTION:
+        return False
     if is_reply(can_id, host_id):
         return True
     return target(can_id) == DEFAULT_MASTER and not sent_by_host(can_id, host_id)

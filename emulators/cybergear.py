@@ -133,7 +133,8 @@ class _Layouts:
         self.calibration = MessageCodec.of(msg("CG_Calibration"))
         write, read = msg("CG_ParamWrite"), msg("CG_ParamRead")
         self.index = MessageCodec(write, [write.get_signal_by_name("Index")])
-        self.quick_move = MessageCodec.of(msg("CG_QuickMove"))  # a type-18 write of run_mode 7
+        # a type-18 write of run_mode 7, in cybergear_id.dbc: the type alone does not select it
+        self.quick_move = MessageCodec.of(load_file(cg.ID_DBC).get_message_by_name("CG_QuickMove"))
         self.params = {}  # index -> (name, index, write codec, read-reply codec)
         for sig in write.signals:
             for index in sig.multiplexer_ids or ():

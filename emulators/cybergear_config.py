@@ -47,7 +47,7 @@ class StoredTable:
         self._table = MessageCodec.of(db.get_message_by_name("CG_ParamTable"))
         self._read = MessageCodec.of(db.get_message_by_name("CG_ConfigRead"))
         self._write = MessageCodec.of(db.get_message_by_name("CG_ConfigWrite"))
-        self._text = MessageCodec.of(db.get_message_by_name("CG_ParamTableText"))
+        self._text = MessageCodec.of(load_file(cg.ID_DBC).get_message_by_name("CG_ParamTableText"))
         self.values = {e.name: e.default for e in TABLE}
 
     def value(self, entry: Entry, live: Mapping):

@@ -1,42 +1,33 @@
-"""The MuJoCo world the rig's plant drives: robot.xml in scene.xml, plus terrain.
+"""The wheel-legged robot's MuJoCo world: robot.xml in scene.xml, plus terrain.
 
-``Physics`` owns one ``MjModel``/``MjData``. The plant writes motor torques
-(``set_torques``), steps it (``step``) and reads back what the devices would
-measure (``shaft_state``, ``imu``); the recorder reads ``ground_truth``, which
-the controller never sees. Its numbers and conventions are the robot
-description's (emulators/robot/description.py), never the controller's; the
-model is described in emulators/robot/README.md. ``overrides`` (plant
-overrides, emulators/overrides.py) change the model before it is compiled.
+``Physics`` is a ``World`` (emulators/world.py: the scene compiled with terrain
+and overrides, stepping, the body force, IMU and shaft readings, and when each
+reading is taken). The plant writes motor torques (``set_torques``), steps it
+(``step``) and reads back what the devices would measure (``shaft_state``,
+``imu``); the recorder reads ``ground_truth``, which the controller never sees.
+Its numbers and conventions are the robot description's
+(emulators/robot/description.py), never the controller's; the model is
+described in emulators/robot/README.md. ``overrides`` (plant overrides,
+emulators/overrides.py) change the model before it is compiled.
 
-Timing of the readings. ``mj_step`` evaluates sensors and contacts at the
-state it starts from, then integrates. So after ``step``:
-  - shaft angles and speeds, body pose and velocity (``shaft_state``, the pose
-    fields of ``ground_truth``) are the new state at ``time_s``;
-  - ``imu`` is the IMU sensors at the start of the last step (one timestep
-    old), its specific force the one that acted over that step;
-  - normal forces and ``body_on_ground`` are the contacts of the last step.
+Normal forces and ``body_on_ground`` are the contacts of the last step.
 Reading never changes the simulation: leg geometry and wheel clearance are
 computed on a scratch ``MjData``.
-
-Determinism: MuJoCo steps single-threaded, so the same calls give
-bit-identical states.
 """
 from __future__ import annotations
 
 import math
-import operator
 from pathlib import Path
-from typing import Mapping, Sequence
 
 import mujoco
 import numpy as np
 
-from wheelleg.emulators.model_overrides import override_model
 from wheelleg.emulators.robot import description as D
 from wheelleg.emulators.robot import fivebar
-from wheelleg.emulators.terrain import GROUND_GROUP, TerrainFeature, add_to_spec
+from wheelleg.emulators.terrain import GROUND_GROUP, TerrainFeature
+from wheelleg.emulators.world import World, euler_zyx
 
-__all__ = ["Physics", "TerrainFeature", "SCENE_PATH", "ROBOT_PATH"]
+__all__ = ["Physics", "TerrainFeature", "SCENE_PATH", "ROBOT_PATH", "euler_zyx"]
 
 MODEL_DIR = Path(__file__).resolve().parent / "robot"
 SCENE_PATH = MODEL_DIR / "scene.xml"
@@ -63,15 +54,6 @@ def _quat_yaw_pitch(yaw: float, pitch: float) -> np.ndarray:
     return np.array([cy * cp, -sy * sp, cy * sp, sy * cp])
 
 
-def euler_zyx(quat: np.ndarray) -> tuple[float, float, float]:
-    """(roll, pitch, yaw) in rad, ZYX, of the body->world quaternion (w, x, y, z) (4,)."""
-    w, x, y, z = quat
-    roll = math.atan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
-    pitch = math.asin(max(-1.0, min(1.0, 2 * (w * y - z * x))))
-    yaw = math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
-    return roll, pitch, yaw
-
-
 def leg_joint_angles(leg: str, phi1: float, phi4: float) -> dict[str, float]:
     """MJCF joint angles (rad) of ``leg`` at hip angles phi1, phi4 (five-bar frame).
 
@@ -90,64 +72,23 @@ def leg_joint_angles(leg: str, phi1: float, phi4: float) -> dict[str, float]:
     return joints
 
 
-class Physics:
+class Physics(World):
     """The simulated robot and its world. All quantities SI (m, rad, s, N, N m)."""
 
-    def __init__(self, terrain: Sequence[TerrainFeature] = (), timestep_s: float = 0.001,
-                 overrides: Mapping[str, float] | None = None):
-        if not (math.isfinite(timestep_s) and 0 < timestep_s <= 0.01):
-            raise ValueError(f"timestep_s must be in (0, 0.01] s, got {timestep_s}")
-        self.terrain = tuple(terrain)
-        spec = mujoco.MjSpec.from_file(str(SCENE_PATH))
-        spec.option.timestep = timestep_s
-        self.terrain_names = add_to_spec(spec, self.terrain)
-        override_model(spec, overrides or {})
-        self.spec = spec  # what was compiled (a rig trace attaches its XML when the plant is overridden)
-        self.model = spec.compile()
-        self.data = mujoco.MjData(self.model)
-        self._scratch = mujoco.MjData(self.model)  # for readings that must not touch self.data
-        # numpy views into MjData's C memory, cached: the attribute lookups cost
-        # microseconds each and ground_truth runs every control period
-        self._qpos, self._qvel = self.data.qpos, self.data.qvel
-        self._kin_qpos, self._kin_site_xpos = self._scratch.qpos, self._scratch.site_xpos
-        self._kin_geom_xpos, self._kin_geom_xmat = self._scratch.geom_xpos, self._scratch.geom_xmat
-        self._index()
-        self._force_world = np.zeros(3)
-        self._force_point_body = np.zeros(3)
-        self._wrench = np.zeros(6)  # scratch for mj_contactForce
-        self._ray_start = np.zeros(3)  # scratch for mj_ray
-        self._reset_data()
-        mujoco.mj_forward(self.model, self.data)
+    SCENE_PATH = SCENE_PATH
+    MOTORS = HIP_NAMES + WHEEL_NAMES
 
     # -- names -> indices ------------------------------------------------------------
     def _index(self) -> None:
+        super()._index()
         m = self.model
-        self._joint_id = {m.joint(i).name: i for i in range(m.njnt)}
-        self._shafts = {}
-        for name in HIP_NAMES + WHEEL_NAMES:
-            j = m.joint(name).id
-            self._shafts[name] = (int(m.jnt_qposadr[j]), int(m.jnt_dofadr[j]))
-        self._actuator = {name: m.actuator(name).id for name in HIP_NAMES + WHEEL_NAMES}
-        self._body = m.body("body").id
-        self._com_body = m.body_ipos[self._body].copy()  # m, body frame: the nominal CoM is its origin
+        self._ray_start = np.zeros(3)  # scratch for mj_ray
         self._body_box = m.geom("body_box").id
         self._wheel_geom = {leg: m.geom(f"{leg}_wheel").id for leg in LEGS}
         self._wheel_size = tuple(float(v) for v in m.geom_size[self._wheel_geom["left"]][:2])  # radius, half width
         self._ground = {i for i in range(m.ngeom) if m.geom_bodyid[i] == 0 and m.geom_group[i] == GROUND_GROUP}
         self._leg_sites = {leg: tuple(m.site(f"{leg}_{point}").id for point in ("hip_a", "hip_e", "front_c"))
                            for leg in LEGS}
-        sensors = [m.sensor(name) for name in ("imu_quat", "imu_gyro", "imu_accel")]
-        self._quat_s, self._gyro_s, self._accel_s = (slice(int(s.adr[0]), int(s.adr[0] + s.dim[0])) for s in sensors)
-        self._projectiles = [(name, f) for name, f in zip(self.terrain_names, self.terrain) if f.kind == "projectile"]
-
-    def _qpos_adr(self, joint: str) -> int:
-        return int(self.model.jnt_qposadr[self._joint_id[joint]])
-
-    # -- time, torques, stepping ------------------------------------------------------
-    @property
-    def time_s(self) -> float:
-        """Simulated time (s) since the last reset."""
-        return float(self.data.time)
 
     def set_torques(self, hips_nm: dict[str, float], wheels_nm: dict[str, float]) -> None:
         """Motor torques (N m, shaft sign) by joint name, held until changed.
@@ -155,70 +96,8 @@ class Physics:
         Names missing from the dicts keep their torque. The model clips each to
         its actuator's ctrlrange (hips +-CG_TORQUE_LIMIT, wheels +-WHEEL_TORQUE_LIMIT).
         """
-        for names, torques in ((HIP_NAMES, hips_nm), (WHEEL_NAMES, wheels_nm)):
-            for name, value in torques.items():
-                if name not in names:
-                    raise KeyError(f"no motor named {name!r} here; expected one of {names}")
-                value = float(value)
-                if not math.isfinite(value):
-                    raise ValueError(f"torque for {name} must be finite, got {value}")
-                self.data.ctrl[self._actuator[name]] = value
-
-    def apply_body_force(self, force_world_n, point_body_m=(0.0, 0.0, 0.0)) -> None:
-        """Hold a force (N, world frame, (3,)) on the body at ``point_body_m`` (m, body frame, (3,)).
-
-        It acts until changed; a zero force releases it. Its moment about the
-        CoM follows the body as it turns.
-        """
-        force, point = np.asarray(force_world_n, dtype=float), np.asarray(point_body_m, dtype=float)
-        if force.shape != (3,) or point.shape != (3,) or not (np.all(np.isfinite(force)) and np.all(np.isfinite(point))):
-            raise ValueError(f"force and point must be finite 3-vectors, got {force_world_n}, {point_body_m}")
-        self._force_world, self._force_point_body = force.copy(), point.copy()
-        if not force.any():
-            self.data.xfrc_applied[self._body] = 0.0
-
-    def _update_body_force(self) -> None:
-        rot = np.empty(9)
-        mujoco.mju_quat2Mat(rot, self.data.qpos[3:7])
-        # the force acts at the CoM (MuJoCo's xipos): the arm is from there (0 unless a com override moved it)
-        arm = rot.reshape(3, 3) @ (self._force_point_body - self._com_body)
-        self.data.xfrc_applied[self._body, :3] = self._force_world
-        self.data.xfrc_applied[self._body, 3:] = np.cross(arm, self._force_world)
-
-    def step(self, n: int = 1) -> None:
-        """Advance ``n`` timesteps with the torques and force that are set."""
-        n = operator.index(n)  # an integer, numpy's too
-        if n < 0:
-            raise ValueError(f"n must be >= 0, got {n}")
-        m, d = self.model, self.data
-        held = bool(self._force_world.any())
-        for _ in range(n):
-            if held:
-                self._update_body_force()
-            mujoco.mj_step(m, d)
-
-    # -- device readings ----------------------------------------------------------------
-    def shaft_state(self, name: str) -> tuple[float, float]:
-        """(angle in rad, speed in rad/s) of a hip or wheel motor's shaft, as its encoder reads.
-
-        Hips: the shaft angle, 0 with the thigh on its stop. Wheels: the output
-        shaft relative to its link BC (unbounded, it counts turns).
-        """
-        try:
-            qadr, dadr = self._shafts[name]
-        except KeyError:
-            raise KeyError(f"no motor named {name!r}; expected one of {HIP_NAMES + WHEEL_NAMES}") from None
-        return float(self._qpos[qadr]), float(self._qvel[dadr])
-
-    def imu(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """IMU at the body CoM: quaternion w,x,y,z body->world (4,), gyro rad/s body (3,),
-        specific force m/s^2 body (3,) (+9.81 on z at rest). One timestep old (module doc)."""
-        s = self.data.sensordata
-        return s[self._quat_s].copy(), s[self._gyro_s].copy(), s[self._accel_s].copy()
-
-    def warnings(self) -> dict[str, int]:
-        """MuJoCo's warning counters that are non-zero, by mjtWarning name."""
-        return {mujoco.mjtWarning(i).name: int(w.number) for i, w in enumerate(self.data.warning) if w.number}
+        self._set_motor_torques(HIP_NAMES, hips_nm)
+        self._set_motor_torques(WHEEL_NAMES, wheels_nm)
 
     # -- ground truth ---------------------------------------------------------------------
     def ground_truth(self) -> dict[str, float]:
@@ -232,12 +111,8 @@ class Physics:
         body_on_ground (1.0 or 0.0); {left,right}_wheel_clearance (m, lowest
         wheel point above the ground below it, < 0 when pressed in).
         """
-        d = self.data
-        qpos, qvel = self._qpos[:7].tolist(), self._qvel[:6].tolist()
-        roll, pitch, yaw = euler_zyx(qpos[3:7])
-        out = {"t": float(d.time), "x": qpos[0], "y": qpos[1], "z": qpos[2],
-               "roll": roll, "pitch": pitch, "yaw": yaw,
-               "vx": qvel[0], "vy": qvel[1], "vz": qvel[2], "wx": qvel[3], "wy": qvel[4], "wz": qvel[5]}
+        out = self.pose_truth()
+        yaw = out["yaw"]
         kin = self._kinematics()
         sites = self._kin_site_xpos.tolist()
         cos_yaw, sin_yaw = math.cos(yaw), math.sin(yaw)
@@ -252,12 +127,6 @@ class Physics:
         for leg in LEGS:
             out[f"{leg}_wheel_clearance"] = self._wheel_clearance(kin, leg)
         return out
-
-    def _kinematics(self) -> mujoco.MjData:
-        """The scratch data with positions of the current state."""
-        self._kin_qpos[:] = self._qpos
-        mujoco.mj_kinematics(self.model, self._scratch)
-        return self._scratch
 
     def _contacts(self) -> tuple[dict[str, float], bool]:
         """Normal force (N) on each wheel from the ground and objects, and whether
@@ -303,28 +172,6 @@ class Physics:
         return clearance
 
     # -- resets ---------------------------------------------------------------------------
-    def _reset_data(self) -> None:
-        mujoco.mj_resetData(self.model, self.data)
-        self._force_world[:] = 0.0
-        for name, f in self._projectiles:
-            self._place_projectile(name, f.position_m, f.velocity_mps)
-
-    def _place_projectile(self, name: str, position_m, velocity_mps) -> None:
-        j = self._joint_id[name]
-        qadr, dadr = int(self.model.jnt_qposadr[j]), int(self.model.jnt_dofadr[j])
-        self.data.qpos[qadr:qadr + 7] = [*position_m, 1.0, 0.0, 0.0, 0.0]
-        self.data.qvel[dadr:dadr + 6] = [*velocity_mps, 0.0, 0.0, 0.0]
-
-    def launch_projectile(self, index: int, position_m, velocity_mps) -> None:
-        """Put projectile number ``index`` (in terrain order, projectiles only) at
-        ``position_m`` (m, world, (3,)) moving at ``velocity_mps`` (m/s, world, (3,))."""
-        pos, vel = np.asarray(position_m, dtype=float), np.asarray(velocity_mps, dtype=float)
-        if pos.shape != (3,) or vel.shape != (3,) or not (np.all(np.isfinite(pos)) and np.all(np.isfinite(vel))):
-            raise ValueError(f"position and velocity must be finite 3-vectors, got {position_m}, {velocity_mps}")
-        if not 0 <= index < len(self._projectiles):
-            raise IndexError(f"projectile {index} does not exist ({len(self._projectiles)} in the scene)")
-        self._place_projectile(self._projectiles[index][0], pos, vel)
-
     def _set_legs(self, lengths_m: dict[str, float]) -> None:
         for leg, length in lengths_m.items():
             phi1, phi4 = fivebar.hip_angles(length, math.pi / 2)

@@ -8,7 +8,8 @@ robot team's own tests to use ``rig_run``::
         run.assert_passed()                                # the scenario's own checks
         assert abs(run.window("pitch", 1.0)).max() < 0.03  # arrays from the trace (s, rad)
 
-- ``rig_run(scenario, duration=None, seed=0, plant=None)`` runs the scenario on
+- ``rig_run(scenario, duration=None, seed=0, plant=None, robot=None)`` runs the scenario
+  (``"quadruped/quad-trot"`` or ``robot="quadruped"`` for another robot's) on
   the chosen transport (``--can-interface``, ``--can-channels``) and reads the
   trace back; ``plant`` is a dict of plant overrides (``wheelleg run --plant``,
   e.g. ``{"com_x_m": 0.02}``). Runs are cached for the session per (scenario,
@@ -152,16 +153,24 @@ class _RunCache:
         self.runs: dict[tuple, RigRun] = {}
         self.executed = 0  # rig runs actually done (the rest came from the cache)
 
-    def plan(self, scenario: str, duration: float | None, seed: int, plant: dict | None = None) -> PlannedRun:
-        """The run ``get`` gives for these arguments, with the paths it writes (nothing runs)."""
-        from wheelleg.emulators.overrides import check_overrides  # ValueError: one line, the known keys
-        from wheelleg.hil.run.rig import run_paths  # the rig (MuJoCo, emulators) only when used
+    def plan(self, scenario: str, duration: float | None, seed: int, plant: dict | None = None,
+             robot: str | None = None) -> PlannedRun:
+        """The run ``get`` gives for these arguments, with the paths it writes (nothing runs).
 
+        ``scenario`` is 'NAME' or 'ROBOT/NAME' (``robot`` says it too); the plan keeps
+        the qualified name (``scenarios.qualified_name``), so one run is one cache entry.
+        """
+        from wheelleg.emulators.overrides import check_overrides  # ValueError: one line, the known keys
+        from wheelleg.hil import scenarios  # the rig (MuJoCo, emulators) only when used
+        from wheelleg.hil.run.rig import run_paths
+
+        found = scenarios.get(scenario, robot)
         overrides = tuple(check_overrides(plant or {}).items())
         duration = None if duration is None else float(duration)
-        words = [f"{scenario}-seed{int(seed)}-{duration or 'full'}s", *(f"{k}={v!r}" for k, v in overrides)]
+        name = scenarios.qualified_name(found)
+        words = [f"{name}-seed{int(seed)}-{duration or 'full'}s", *(f"{k}={v!r}" for k, v in overrides)]
         out_dir = self.out_dir / re.sub(r"[^A-Za-z0-9_.-]", "_", "-".join(words))
-        return PlannedRun(scenario, int(seed), duration, overrides, out_dir, *run_paths(out_dir, scenario))
+        return PlannedRun(name, int(seed), duration, overrides, out_dir, *run_paths(out_dir, found.name))
 
     def get(self, planned: PlannedRun) -> RigRun:
         run = self.runs.get(planned.key)
@@ -200,11 +209,13 @@ def rig_cache(request, tmp_path_factory) -> _RunCache:
 
 @pytest.fixture
 def rig_run(request, rig_cache):
-    """``rig_run(scenario, duration=None, seed=0, plant=None) -> RigRun``: run (or reuse) a scenario run."""
+    """``rig_run(scenario, duration=None, seed=0, plant=None, robot=None) -> RigRun``: run (or reuse) a
+    scenario run; ``scenario`` 'NAME' or 'ROBOT/NAME' (or ``robot=``) for a robot other than the default."""
     runs = request.node.stash.setdefault(_RUNS_OF_ITEM, [])
 
-    def run(scenario: str, duration: float | None = None, seed: int = 0, plant: dict | None = None) -> RigRun:
-        planned = rig_cache.plan(scenario, duration, seed, plant)
+    def run(scenario: str, duration: float | None = None, seed: int = 0, plant: dict | None = None,
+            robot: str | None = None) -> RigRun:
+        planned = rig_cache.plan(scenario, duration, seed, plant, robot)
         runs.append(planned)  # before the run: a test stopped during it still names the files
         result = rig_cache.get(planned)
         runs[:] = [r for r in runs if r is not planned]  # returned: the RigRun says more

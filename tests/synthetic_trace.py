@@ -2,7 +2,7 @@
 
 ``SyntheticRig`` plays the plant's part with scripted device frames around a
 real ``ControllerNode`` in sync mode and records both buses the way the rig
-does (``wheelleg.hil.bus.recorder.Recorder``: bus time, MCAP + candump log). ``robot_log``
+does (``wheelleg.hil.bus.recorder.Recorder``: the wire's order and time, MCAP + candump log). ``robot_log``
 writes what a candump on the robot would show: a free-running ``Controller``
 (no SYNC), ticks on a jittered clock, the log's timestamps as its clock (ns
 since the first frame, microsecond resolution) -- the convention replay uses.
@@ -130,15 +130,15 @@ class SyntheticRig:
         self.log = CandumpWriter(log_path, flush_interval_s=None) if log_path is not None else None
         self.clock = SimClock()
         self.recorder = Recorder([s for s in (self.trace, self.log) if s is not None], self.clock,
-                                 load_to=self.trace)
+                                 list(self.names.values()), load_to=self.trace)
         self.buses = {"can1": MemoryBus("can1"), "can2": MemoryBus("can2")}
         self.node = ControllerNode(self.buses["can1"], self.buses["can2"], sync=True, period_s=PERIOD)
         self.events = events or {}  # tick -> (kind, fields)
         self.modes: list[int] = []  # controller mode per tick
         self.sent: list[dict] = []  # per tick: bus -> frames the controller sent
 
-    def _put(self, bus: str, msg: can.Message) -> None:
-        self.recorder.observe(self.names[bus], msg)
+    def _put(self, bus: str, msg: can.Message, answers=None) -> None:
+        self.recorder.sent(self.names[bus], msg, answers)
         self.buses[bus].inbox.append(msg)
 
     def step(self, tick: int) -> None:
@@ -157,12 +157,12 @@ class SyntheticRig:
         sent = {bus: self.buses[bus].take_sent() for bus in ("can1", "can2")}
         self.sent.append(sent)
         for msg in sent["can1"]:
-            self.recorder.observe(self.names["can1"], msg)
+            self.recorder.received(self.names["can1"], msg)
             d.command(msg)
         for msg in sent["can2"]:
-            self.recorder.observe(self.names["can2"], msg)
+            command = self.recorder.received(self.names["can2"], msg)
             for reply in d.joint_reply(msg, tick, t):
-                self._put("can2", reply)
+                self._put("can2", reply, command)
         if self.trace is not None:
             self.trace.sim_state(self.clock.now_ns, _truth(d.pitch(t)))
         self.clock.set_s(t + PERIOD / 2)
@@ -172,10 +172,7 @@ class SyntheticRig:
     def run(self, ticks: int) -> "SyntheticRig":
         for tick in range(ticks):
             self.step(tick)
-        if self.trace is not None:
-            self.trace.finish()
-        if self.log is not None:
-            self.log.close()
+        self.recorder.stop()  # the frames still on the wire model, then the trace and log closed
         for bus in self.buses.values():
             bus.shutdown()
         return self

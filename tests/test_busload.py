@@ -1,8 +1,8 @@
-"""Bus-load model: frame lengths with exact bit stuffing, serialisation on one bus."""
+"""Bus-load model: frame lengths with exact bit stuffing, arbitration rank."""
 import random
 
 
-from wheelleg.hil.bus.busload import BusClock, frame_bits
+from wheelleg.hil.bus.busload import arbitration_priority, frame_bits
 
 
 def _reference_bits(arbitration_id, extended, data):
@@ -45,11 +45,10 @@ def test_known_lengths():
     assert frame_bits(0x01000001, True, bytes(8)) > frame_bits(0x001, False, bytes(8)) + 18
 
 
-def test_bus_clock_serialises_frames_and_totals_their_wire_time():
-    clock = BusClock(bitrate=1_000_000)
-    bits = frame_bits(0x200, False, bytes(8))
-    ends = [clock.transmit(0, 0x200, False, bytes(8)) for _ in range(3)]
-    assert ends == [bits * 1000, 2 * bits * 1000, 3 * bits * 1000]  # ns at 1 Mbit/s
-    assert (clock.busy_ns_total, clock.frames_total) == (3 * bits * 1000, 3)  # back to back: load 1
-    assert clock.transmit(2_000_000_000, 0x200, False, bytes(8)) == 2_000_000_000 + bits * 1000  # idle bus
-    assert (clock.busy_ns_total, clock.frames_total) == (4 * bits * 1000, 4)
+def test_arbitration_rank_is_the_bits_as_they_meet_on_the_wire():
+    rank = arbitration_priority
+    assert rank(0x080, False) < rank(0x0200_0100, True) < rank(0x081, False)  # base ids first (0x080 both)
+    assert rank(0x080, False, is_remote=True) < rank(0x0200_0000, True)  # IDE: standard over extended
+    assert rank(0x123, False) < rank(0x123, False, is_remote=True)  # RTR: data over remote
+    assert rank(0x0200_0001, True) < rank(0x0200_0002, True) < rank(0x0200_0002, True, is_remote=True)
+    assert rank(0x0100_FD01, True) < rank(0x0200_01FD, True) < rank(0x0400_FD02, True)  # CyberGear types 1 < 2 < 4

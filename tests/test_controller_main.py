@@ -13,7 +13,7 @@ from pathlib import Path
 import can
 import pytest
 
-from wheelleg.controller import __main__ as standalone
+from wheelleg.controller import program
 from wheelleg.controller import constants as C
 from wheelleg.controller import messages
 from wheelleg.controller.node import ControllerNode
@@ -34,7 +34,7 @@ def _key(msg: can.Message) -> tuple:
 def test_log_copy_of_a_sent_frame_is_tx_with_wall_clock_time():
     sent = messages.joint_stop(1, t_s=0.25)  # controller time 0.25 s
     before = time.time()
-    copy = standalone.log_copy(sent, "can1", sent=True)
+    copy = program.log_copy(sent, "can1", sent=True)
     assert before <= copy.timestamp <= time.time()
     assert copy.is_rx is False and copy.channel == "can1" and _key(copy) == _key(sent)
     assert sent.timestamp == 0.25 and sent.channel is None  # the node's frame is untouched
@@ -43,7 +43,7 @@ def test_log_copy_of_a_sent_frame_is_tx_with_wall_clock_time():
 def test_log_copy_of_a_received_frame_keeps_its_interface_time():
     received = can.Message(arbitration_id=0x201, is_extended_id=False, data=b"\x01\x02", timestamp=1234.5,
                            is_rx=True, channel="vcan0")
-    copy = standalone.log_copy(received, "can0", sent=False)
+    copy = program.log_copy(received, "can0", sent=False)
     assert (copy.is_rx, copy.timestamp, copy.channel, _key(copy)) == (True, 1234.5, "can0", _key(received))
     assert received.channel == "vcan0"
 
@@ -55,7 +55,7 @@ def test_log_of_a_node_marks_received_frames_r_and_sent_frames_t(tmp_path):
     rig = {n: can.Bus(interface="virtual", channel=f"wl-main-{n}") for n in names}
     ctl = {n: can.Bus(interface="virtual", channel=f"wl-main-{n}") for n in names}
     writer = can.CanutilsLogWriter(log)
-    node = ControllerNode(ctl["can1"], ctl["can2"], sync=True, listener=standalone.log_listener(writer, names))
+    node = ControllerNode(ctl["can1"], ctl["can2"], sync=True, listener=program.log_listener(writer, names))
     before = time.time()
     try:
         for tick in range(3):
@@ -86,7 +86,7 @@ def test_signals_set_the_stop_event():
     stop = threading.Event()
     old = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
-        standalone.stop_on_signals(stop)
+        program.stop_on_signals(stop)
         os.kill(os.getpid(), signal.SIGTERM)
         assert stop.wait(2.0)
     finally:

@@ -128,7 +128,7 @@ def test_quick_move_runs_at_the_jog_speed_and_its_stop_halts_it():
 
 def test_quick_move_from_the_dbc_reads_back_run_mode_7_and_runs_backwards():
     motor = CyberGear(motor_id=1)
-    jog = load_file("cybergear.dbc").get_message_by_name("CG_QuickMove")
+    jog = load_file(cg.ID_DBC).get_message_by_name("CG_QuickMove")
     data = jog.encode({"Index": 0x7005, "RunMode": 7, "Run": 1, "Speed": -5.0})
     assert data == quick_move(1, 0x6AAA)  # the debugger's capture for -5 rad/s
     ask(motor, request(WRITE, data=data))

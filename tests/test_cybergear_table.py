@@ -54,7 +54,7 @@ def test_the_table_request_answers_every_entry_with_the_manuals_values():
 
 
 def test_the_dbc_decodes_every_table_frame():
-    msg, text = DB.get_message_by_name("CG_ParamTable"), DB.get_message_by_name("CG_ParamTableText")
+    msg, text = DB.get_message_by_name("CG_ParamTable"), load_file(cg.ID_DBC).get_message_by_name("CG_ParamTableText")
     for f in dump(CyberGear(motor_id=5)):
         layout = msg if cg.table_fragment(f.arbitration_id) == 4 else text
         assert layout.decode(bytes(f.data))["Index"] == int.from_bytes(f.data[:2], "little")

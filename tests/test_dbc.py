@@ -3,12 +3,14 @@ every signal's range (hypothesis), and the CyberGear byte orders and id fields p
 with vectors from docs/protocols.md."""
 from __future__ import annotations
 
+import gzip
 import logging
 import math
 import struct
 import subprocess
 import sys
 import warnings
+from pathlib import Path
 
 import cantools
 import pytest
@@ -21,6 +23,7 @@ from wheelleg.dbc import cybergear as cg
 from wheelleg.dbc.codec import MessageCodec
 
 FILES = all_dbc_files()
+TRACES = Path(__file__).resolve().parent / "traces"
 
 
 def _cases() -> list[tuple]:
@@ -55,7 +58,8 @@ def _close(sig, got, want) -> bool:
 
 # -- loading -----------------------------------------------------------------------------
 def test_every_dbc_is_found():
-    assert {p.name for p in FILES} == {"c620.dbc", "cybergear.dbc", "cybergear_4pi.dbc", "rig.dbc"}
+    assert {p.name for p in FILES} == {"c620.dbc", "cybergear.dbc", "cybergear_4pi.dbc", "cybergear_id.dbc",
+                                        "quadruped.dbc", "rig.dbc"}
 
 
 @pytest.mark.parametrize("path", FILES, ids=lambda p: p.name)
@@ -78,11 +82,47 @@ def test_cantools_dump_reads_every_file(path):
     assert "Traceback" not in result.stderr
 
 
+@pytest.mark.parametrize("name", sorted(dbc.CYBERGEAR_FILES.values()))
+def test_cantools_decode_matches_a_rig_log_by_the_type_alone(name):
+    """`cantools decode cybergear.dbc -m 0x1F000000 < run.log`: one message per type, no overwriting
+    warning, every CyberGear frame of a rig log decoded (the standard ids are rig.dbc's and c620.dbc's)."""
+    log = gzip.decompress((TRACES / "motor-fault.log.gz").read_bytes()).decode()
+    result = subprocess.run([sys.executable, "-m", "cantools", "decode", "--single-line", str(dbc.dbc_path(name)),
+                             "-m", "0x1F000000"], input=log, capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0 and result.stderr == ""
+    extended = [line for line in result.stdout.splitlines() if len(line.split()[2].partition("#")[0]) == 8]
+    assert len(extended) > 5000
+    names = {line.split(" :: ")[1].partition("(")[0] for line in extended}
+    assert names == {"CG_Enable", "CG_Feedback", "CG_MotionCmd", "CG_ParamWrite", "CG_Stop"}
+
+
+@pytest.mark.parametrize("robot", ["wheel-legged", "quadruped"])
 @pytest.mark.parametrize("bus", ["can1", "can2"])
-def test_each_bus_database_has_no_id_clash(bus):
-    db = load_bus(bus)
+def test_each_bus_database_has_no_id_clash(bus, robot):
+    db = load_bus(bus, robot=robot)
     ids = [(m.frame_id, m.is_extended_frame) for m in db.messages]
     assert len(ids) == len(set(ids))
+
+
+def test_the_quadruped_remote_is_on_its_bus_0_only():
+    assert load_bus("can1", robot="quadruped").get_message_by_name("QuadOperator").frame_id == 0x301
+    assert "QuadOperator" not in {m.name for m in load_bus("can2", robot="quadruped").messages}
+    assert "QuadOperator" not in {m.name for m in load_bus("can1").messages}
+    with pytest.raises(ValueError, match="unknown robot"):
+        load_bus("can1", robot="hexapod")
+
+
+def test_quad_operator_carries_the_contract_set_points():
+    """Mode 0..4 and E-stop; a 0.5 m/s trot, +-10 deg attitude set points and the height survive encoding."""
+    msg = load_file("quadruped.dbc").get_message_by_name("QuadOperator")
+    codec = MessageCodec.of(msg)
+    ten_deg = math.radians(10.0)
+    sent = {"Mode": 3, "EStop": 1, "VelX": 0.5, "VelY": -0.2, "YawRate": 1.0, "Height": 0.25,
+            "Roll": ten_deg, "Pitch": -ten_deg, "Yaw": ten_deg}
+    got = codec.decode(msg.encode(sent))
+    assert got["Mode"] == 3 and got["EStop"] == 1
+    for name in ("VelX", "VelY", "YawRate", "Height", "Roll", "Pitch", "Yaw"):
+        assert got[name] == pytest.approx(sent[name], abs=msg.get_signal_by_name(name).scale / 2 + 1e-12), name
 
 
 # -- round trips -----------------------------------------------------------------------------

@@ -9,6 +9,7 @@ from mcap.reader import make_reader
 
 from wheelleg import dbc
 from wheelleg.dbc import cybergear as cg
+from wheelleg.hil.analyze.inspect_trace import summarize
 from wheelleg.hil.record import sources
 from wheelleg.hil.record.decode import FrameDecoder
 from wheelleg.hil.record.frame import Frame
@@ -75,3 +76,35 @@ def test_type_0_request_and_reply_share_a_valid_trace_topic(tmp_path):
         schema = next(s for s in make_reader(stream).get_summary().schemas.values()
                       if s.name == "wheelleg.decoded.CG_DeviceId")
     assert json.loads(schema.data)["required"] == []  # a request has no McuUid
+
+
+def test_a_motion_command_is_never_from_a_motor():
+    """Bits 15..8 of a type-1 id hold torque: a low byte <= 127 must not read as a motor's id."""
+    ids = [cg.motion_id(torque, 0) for torque in [i / 10 for i in range(-120, 121)]]
+    assert any((i >> 8) & 0xFF <= cg.MAX_MOTOR_ID for i in ids)  # the case that could mislead
+    assert not any(cg.from_motor(i, HOST) for i in ids)
+
+
+def _reply_to_master_log(tmp_path):
+    """A robot's log on host 0x00: motor 1 asked for run_mode and its fault words, and answering."""
+    rows = [(cg.request_id(cg.T_PARAM_READ, MASTER, 1), PARAM), (cg.reply_id(cg.T_PARAM_READ, 1, MASTER), PARAM),
+            (cg.request_id(cg.T_FAULT_WARN, MASTER, 1), bytes(8)), (cg.reply_id(cg.T_FAULT_WARN, 1, MASTER), FAULTS)]
+    log = tmp_path / "robot.log"
+    log.write_text("".join(f"(0000000001.{100 * i:06d}) can1 {can_id:08X}#{data.hex().upper()}\n"
+                           for i, (can_id, data) in enumerate(rows)))
+    return log
+
+
+def test_replies_to_host_0_are_not_the_controllers(tmp_path):
+    frames = sources.open_recording(_reply_to_master_log(tmp_path), strict=False).frames
+    assert sources.sent_by_controller(frames[0])  # the type-17 request
+    assert not any(sources.sent_by_controller(f) for f in frames[1::2])  # the motor's replies
+
+
+def test_inspect_counts_replies_to_host_0_per_motor_and_sees_their_faults(tmp_path):
+    summary = summarize(_reply_to_master_log(tmp_path))
+    labels = {row.message for row in summary.ids}
+    assert labels == {"CG_ParamRead to motor 1", "CG_ParamRead from motor 1",
+                      "CG_FaultWarn to motor 1", "CG_FaultWarn from motor 1"}
+    assert [f.text for f in summary.faults if f.kind == "cybergear"] == \
+        ["can1 CG_FaultWarn from motor 1: FaultOverTemp set"]

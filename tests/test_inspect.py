@@ -48,18 +48,20 @@ def test_rates_per_id_match_the_devices(rig, which):
 def test_text_report_lists_rates_load_and_ranges(rig, capsys):
     assert main(["inspect", str(rig[1])]) == 0
     out = capsys.readouterr().out
-    assert any(line.split()[:3] == ["vcan0", "0x201", "C620_Feedback_1"] and line.split()[-1] == "1000.0"
-               for line in out.splitlines())
-    assert any(line.split()[:3] == ["vcan0", "0x300", "Operator"] and line.split()[-1] == "50.0"
-               for line in out.splitlines())
+    rates = {tuple(line.split()[:3]): float(line.split()[-1]) for line in out.splitlines()
+             if line.startswith("  vcan") and line.split()[-1].replace(".", "").isdigit()}
+    # each rate from the span of its frames' bus times, which carry arbitration: a frame
+    # waits up to ~0.6 ms behind lower ids (0.15 % of the 0.4 s span)
+    assert rates[("vcan0", "0x201", "C620_Feedback_1")] == pytest.approx(1000.0, rel=0.002)
+    assert rates[("vcan0", "0x300", "Operator")] == pytest.approx(50.0, rel=0.002)
     assert "bus load" in out and "signal ranges:" in out and "scenario synthetic" in out
 
 
 def test_bus_load_matches_the_recorders_bus_clock(rig):
     run, mcap, _ = rig
     s = summarize(mcap)
-    for channel, clock in run.recorder.clocks.items():
-        busy_s = clock.busy_ns_total / 1e9
+    for channel, wire in run.recorder.wires.items():
+        busy_s = wire.busy_ns_total / 1e9
         mean, peak = s.bus_load[channel]
         assert mean == pytest.approx(busy_s / s.duration_s, rel=0.01)
         assert mean <= peak + 1e-9 and peak < 1.0

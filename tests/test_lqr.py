@@ -27,8 +27,14 @@ def fitted(L0: float) -> np.ndarray:
 
 
 def closed_loop(L0: float, dt: float = P.CONTROL_PERIOD):
-    ad, bd = design.discretise(*design.continuous_model(L0), dt)
-    return ad, bd, ad - bd @ fitted(L0)
+    """(Aa, Ba, Aa - Ba K) of the augmented design model (9 states) with the fitted K."""
+    aa, ba = design.augmented_model(*design.discretise(*design.continuous_model(L0), dt), dt)
+    return aa, ba, aa - ba @ fitted(L0)
+
+
+def augmented(*plant_state: float) -> np.ndarray:
+    """A (9,) design state from the plant's six: no integral, no command in flight."""
+    return np.concatenate([plant_state, np.zeros(3)])
 
 
 def lagrangian_model(L0: float) -> tuple[np.ndarray, np.ndarray]:
@@ -154,7 +160,8 @@ def test_gain_matrix_clamps_and_rejects_nan():
     assert lqr.gain_matrix(0.05) == lqr.gain_matrix(lqr.L0_MIN)
     assert lqr.gain_matrix(0.5) == lqr.gain_matrix(lqr.L0_MAX)
     k = lqr.gain_matrix(0.17)
-    assert len(k) == 2 and all(len(row) == 6 for row in k)
+    assert len(k) == 2 and all(len(row) == len(lqr.GAIN_NAMES) == len(design.GAIN_NAMES) for row in k)
+    assert lqr.GAIN_NAMES == design.GAIN_NAMES
     assert all(isinstance(v, float) for row in k for v in row)
     with pytest.raises(ValueError):
         lqr.gain_matrix(float("nan"))
@@ -166,7 +173,7 @@ def test_forward_lean_is_caught_by_driving_the_wheel_forward():
     leans FORWARD with the body level. Open loop it falls further forward; the
     closed loop rolls the wheel forward under the hip first, then settles."""
     ad, bd, cl = closed_loop(P.LEG_LENGTH_NOMINAL)
-    x0 = np.array([0.1, 0.0, 0.0, 0.0, 0.0, 0.0])
+    x0 = augmented(0.1, 0.0, 0.0, 0.0, 0.0, 0.0)
     falling = x0
     for _ in range(50):
         falling = ad @ falling
@@ -177,7 +184,7 @@ def test_forward_lean_is_caught_by_driving_the_wheel_forward():
     for _ in range(int(10.0 / P.CONTROL_PERIOD)):
         xs.append(cl @ xs[-1])
     xs = np.array(xs)
-    assert xs[1, 3] > 0  # wheel speed: forward right away
+    assert xs[2, 3] > 0  # wheel speed: forward as soon as the command acts (one period late)
     first_move = xs[np.argmax(np.abs(xs[:, 2]) > 1e-3), 2]
     assert first_move > 0  # the wheel's first excursion is forward
     assert np.max(np.abs(xs[-1])) < 1e-3 * 0.1  # back to upright, at rest
@@ -186,7 +193,7 @@ def test_forward_lean_is_caught_by_driving_the_wheel_forward():
 
 def test_nose_up_body_gets_a_nose_down_hip_torque():
     k = fitted(P.LEG_LENGTH_NOMINAL)
-    u = -k @ np.array([0.0, 0.0, 0.0, 0.0, 0.05, 0.0])
+    u = -k @ augmented(0.0, 0.0, 0.0, 0.0, 0.05, 0.0)
     assert u[1] < 0  # Tp's reaction on the body drives phi negative
 
 
@@ -195,7 +202,7 @@ def test_position_error_drives_the_wheel_back():
     the closed loop from a pure position offset returns x to 0 without overshooting
     by more than the offset itself."""
     _, _, cl = closed_loop(P.LEG_LENGTH_NOMINAL)
-    s = np.array([0.0, 0.0, 0.1, 0.0, 0.0, 0.0])
+    s = augmented(0.0, 0.0, 0.1, 0.0, 0.0, 0.0)
     xs = [s]
     for _ in range(int(10.0 / P.CONTROL_PERIOD)):
         xs.append(cl @ xs[-1])
@@ -203,3 +210,38 @@ def test_position_error_drives_the_wheel_back():
     assert abs(xs[-1, 2]) < 1e-3
     assert np.min(xs[:, 2]) > -0.1
     assert math.isclose(xs[0, 2], 0.1)
+
+
+# --- the augmented design: integral and delay -----------------------------------------------
+def test_augmented_model_delays_the_command_and_integrates_the_position():
+    ad, bd = design.discretise(*design.continuous_model(P.LEG_LENGTH_NOMINAL), P.CONTROL_PERIOD)
+    aa, ba = design.augmented_model(ad, bd, P.CONTROL_PERIOD)
+    s = augmented(0.01, 0.0, 0.2, 0.1, 0.0, 0.0)
+    u = np.array([0.5, -0.3])
+    nxt = aa @ s + ba @ u
+    np.testing.assert_allclose(nxt[:6], ad @ s[:6])  # this period's command does not act yet
+    np.testing.assert_allclose(nxt[7:], u)  # it is remembered for the next period
+    assert nxt[6] == pytest.approx(0.2 * P.CONTROL_PERIOD)  # ix integrates the position
+    after = aa @ nxt
+    np.testing.assert_allclose(after[:6], ad @ nxt[:6] + bd @ u)
+
+
+def test_gains_hold_with_one_period_of_real_delay():
+    """The closed loop of the plant with a command that really acts one period late is
+    stable at every leg length (the undelayed design of before was not designed for it)."""
+    for L0 in SAMPLES[::20]:
+        _, _, cl = closed_loop(L0)
+        assert np.max(np.abs(np.linalg.eigvals(cl))) < 1.0, L0
+
+
+def test_integral_removes_a_constant_disturbance():
+    """A constant torque on the body (the CoM off the axle) leaves no position error."""
+    ad, bd = design.discretise(*design.continuous_model(P.LEG_LENGTH_NOMINAL), P.CONTROL_PERIOD)
+    aa, ba, cl = closed_loop(P.LEG_LENGTH_NOMINAL)
+    disturbance = np.zeros(9)
+    disturbance[:6] = bd @ np.array([0.0, 0.3])  # as if the hip pushed 0.3 N m all the time
+    s = np.zeros(9)
+    for _ in range(int(20.0 / P.CONTROL_PERIOD)):
+        s = cl @ s + disturbance
+    assert abs(s[2]) < 1e-3  # back at its spot
+    assert abs(s[6]) > 1e-3  # held by the integral

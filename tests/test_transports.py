@@ -1,8 +1,13 @@
 """Transports: the in-process virtual bus with python-can's own on one channel, udp_multicast
-buses that do not cross, msgpack declared, an external controller refused where none can join
-and given up on where none answers."""
+buses that do not cross and do not echo (rig, emulate, controller), msgpack declared, an external
+controller refused where none can join and given up on where none answers."""
 import queue
+import re
+import signal
+import subprocess
+import sys
 import threading
+import time
 import tomllib
 from pathlib import Path
 
@@ -11,7 +16,8 @@ import pytest
 
 from wheelleg.controller.bus_args import BusChoice
 from wheelleg.hil.bus.transport import FrameQueue, open_bus
-from wheelleg.hil.cli import main
+from wheelleg.hil.cli import build_parser, main
+from wheelleg.hil.commands import emulate
 from wheelleg.hil.run.rig import Rig, RigConfig
 
 REPO = Path(__file__).resolve().parent.parent
@@ -127,3 +133,46 @@ def test_a_udp_multicast_run_logs_the_bytes_of_a_virtual_run(tmp_path):
     udp = (tmp_path / "udp" / "balance.log").read_text()
     udp = udp.replace(f" {groups[0]} ", " vcan0 ").replace(f" {groups[1]} ", " vcan1 ")
     assert udp == (tmp_path / "virtual" / "balance.log").read_text()
+
+
+def test_emulated_devices_on_udp_multicast_do_not_hear_their_own_frames(capsys):
+    """An IMU alone on a group: every frame it sends comes back to its socket; none may count as heard."""
+    pytest.importorskip("msgpack")
+    args = build_parser().parse_args(["emulate", "imu", "-i", "udp_multicast", "-c", "239.74.163.6",
+                                      "--bus-kwargs", "port=43233"])
+    stop, result = threading.Event(), {}
+    thread = threading.Thread(target=lambda: result.update(rc=emulate.run(args, stop)))
+    thread.start()
+    time.sleep(0.5)
+    stop.set()
+    thread.join(5.0)
+    err = capsys.readouterr().err
+    if result.get("rc") == 1:
+        pytest.skip(f"udp_multicast unavailable here: {err.strip()}")
+    counts = re.search(r"(\d+) frames in, (\d+) out", err)
+    assert result["rc"] == 0 and counts is not None, err
+    assert int(counts[2]) > 50 and int(counts[1]) == 0
+
+
+def test_the_controller_on_udp_multicast_does_not_hear_its_own_frames(tmp_path):
+    """Alone on two groups, the free-running controller logs what it sends (T) and hears nothing (R)."""
+    pytest.importorskip("msgpack")
+    log = tmp_path / "robot.log"
+    proc = subprocess.Popen([sys.executable, "-m", "wheelleg.controller", "-i", "udp_multicast",
+                             "-c", "239.74.163.7", "-c", "239.74.163.8", "--bus-kwargs", "port=43243",
+                             "--log", str(log)], stderr=subprocess.PIPE, text=True, cwd=REPO)
+    deadline = time.monotonic() + 20.0
+    while time.monotonic() < deadline and proc.poll() is None and " T\n" not in _text(log):
+        time.sleep(0.1)
+    time.sleep(0.3)
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=10.0)
+    if proc.returncode != 0:
+        pytest.skip(f"udp_multicast unavailable here: {err.strip()[-200:]}")
+    directions = [line.split()[-1] for line in _text(log).splitlines() if line.startswith("(")]
+    assert directions.count("T") > 10
+    assert directions.count("R") == 0
+
+
+def _text(path: Path) -> str:
+    return path.read_text() if path.exists() else ""

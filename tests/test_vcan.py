@@ -2,7 +2,7 @@
 
 Tests marked ``socketcan`` need real vcan0/vcan1; they are deselected by
 default.  Run them with ``wheelleg vcan up && python3 -m pytest -m socketcan``
-or, where the kernel has no CAN, ``bash ci/uml-vcan.sh python3 -m pytest -q -m
+or, where the kernel has no CAN, ``wheelleg vcan uml -- python3 -m pytest -q -m
 socketcan``.  The unmarked tests check the error path and the UML script's
 exit status, and run anywhere.
 """
@@ -27,7 +27,7 @@ import vcan_helpers
 from wheelleg.hil.commands import vcan as vcan_command
 
 REPO = Path(__file__).resolve().parents[1]
-UML_SCRIPT = REPO / "ci" / "uml-vcan.sh"
+UML_SCRIPT = vcan.UML_RUNNER
 BURST_FRAMES = 500
 
 
@@ -51,7 +51,7 @@ def test_up_error_quotes_ip_and_says_how_to_run_anyway(monkeypatch, ip_error, ca
     text = str(info.value)
     assert ip_error in text
     assert cause in text
-    assert "bash ci/uml-vcan.sh python3 -m pytest -q -m socketcan" in text
+    assert "wheelleg vcan uml -- python3 -m pytest -q -m socketcan" in text
 
 
 def _run_command(argv: list[str]) -> int:
@@ -66,7 +66,7 @@ def test_vcan_up_command_exits_nonzero_with_the_reason(monkeypatch, capsys):
     monkeypatch.setattr(vcan, "_try_modprobe", lambda: "modprobe not found")
     assert _run_command(["up"]) == 1
     err = capsys.readouterr().err
-    assert "Error: Unknown device type." in err and "ci/uml-vcan.sh" in err
+    assert "Error: Unknown device type." in err and "wheelleg vcan uml" in err
 
 
 def test_up_retries_after_modprobe(monkeypatch):
@@ -94,7 +94,7 @@ def test_missing_channel_is_unavailable_with_hint():
     assert not vcan.exists(name)
     assert not vcan.available((name,))
     reason = vcan.unavailable_reason((name,))
-    assert name in reason and "ci/uml-vcan.sh" in reason
+    assert name in reason and "wheelleg vcan uml" in reason
 
 
 def test_run_on_a_missing_channel_exits_with_the_reason_and_writes_nothing(tmp_path):
@@ -132,6 +132,12 @@ def test_real_ip_error_is_quoted_where_the_kernel_cannot():
     assert probe.stderr.strip() in str(info.value)
 
 
+def test_vcan_uml_without_a_command_is_a_usage_error(capsys):
+    assert vcan_command.run(argparse.Namespace(action="uml", command=["--"], channel=None,
+                                               txqueuelen=vcan.TXQUEUELEN)) == 2
+    assert "wheelleg vcan uml -- CMD" in capsys.readouterr().err
+
+
 def test_uml_script_fails_clearly_without_linux_uml():
     env = dict(os.environ, UML_VCAN_KERNEL="/nonexistent/linux.uml")
     done = subprocess.run(["bash", str(UML_SCRIPT), "true"], capture_output=True, text=True,
@@ -147,7 +153,8 @@ def test_uml_script_streams_output_and_returns_the_command_status(tmp_path):
              "print('ENV', os.environ['WL_PROBE'], vcan.txqueuelen('vcan0'), vcan.txqueuelen('vcan1'),"
              " os.getcwd(), sys.executable); sys.exit(7)")
     env = dict(os.environ, WL_PROBE="a b'c", UML_VCAN_ENV="WL_PROBE", UML_VCAN_TIMEOUT="240")
-    done = subprocess.run(["bash", str(UML_SCRIPT), sys.executable, "-c", probe], cwd=REPO,
+    done = subprocess.run([sys.executable, "-m", "wheelleg.hil.cli", "vcan", "uml", "--", sys.executable, "-c", probe],
+                          cwd=REPO,
                           capture_output=True, text=True, env=env, timeout=300)
     assert done.returncode == 7, done.stderr
     assert f"ENV a b'c 1000 1000 {REPO} {sys.executable}" in done.stdout.splitlines()

@@ -28,7 +28,8 @@ def test_the_wheel_has_one_top_level_package(wheel):
     tops = {n.split("/")[0] for n in names if not n.split("/")[0].endswith((".dist-info", ".data"))}
     assert tops == {"wheelleg"}
     # the data the package reads at run time travels with it
-    assert {"wheelleg/dbc/cybergear.dbc", "wheelleg/emulators/robot/robot.xml"} <= set(names)
+    assert {"wheelleg/dbc/cybergear.dbc", "wheelleg/emulators/robot/robot.xml", "wheelleg/hil/bus/uml/uml-vcan.sh",
+            "wheelleg/hil/bus/uml/uml-vcan-init.sh", "wheelleg/hil/bus/uml/uml_xstate_shim.c"} <= set(names)
 
 
 def test_a_project_with_its_own_controller_and_hil_uses_rig_run(wheel, tmp_path):

@@ -9,6 +9,15 @@ rates. Frames a device sends on its own clock (C620 feedback at 1 kHz, IMU at
 
     wheelleg run balance --duration 2 --out /tmp/bl --no-plot
     python -m tools.layout_load /tmp/bl/balance.mcap --rates 500 1000
+
+``--buses N ...`` lays the measured frames out on N buses instead (a legged
+robot's table: each leg's CyberGears, ids 1 + 3 leg + joint, on bus
+leg * N // 4; the IMU and the remote on bus 0; SYNC and heartbeat on every
+bus) and prints the busiest bus's load per bus count and control rate:
+
+    wheelleg run quadruped/quad-balance-stand --duration 3 --out /tmp/ql --no-plot
+    python -m tools.layout_load /tmp/ql/quad-balance-stand.mcap --control-hz 250 --from 2.5 \\
+        --buses 1 2 4 --rates 250 500 1000
 """
 from __future__ import annotations
 
@@ -63,6 +72,49 @@ def load_at(kinds: dict, measured_hz: float, control_hz: float, bitrate: int = D
     return total / bitrate
 
 
+LEGS, MOTORS_PER_LEG = 4, 3  # a quadruped's CyberGears: id = 1 + 3 leg + joint
+_PER_BUS_KINDS = {f"0x{_DB1.get_message_by_name(n).frame_id:03X}" for n in ("SYNC", "Heartbeat")}
+
+
+def kind_motor(kind: str) -> int | None:
+    """The CyberGear id of a ``frame_kind`` ('cybergear type T motor M'), None for a standard frame."""
+    return int(kind.rsplit(" ", 1)[1]) if kind.startswith("cybergear") else None
+
+
+def spread(table: dict, n_buses: int) -> list[dict]:
+    """``measure``'s kinds laid out on ``n_buses`` buses: per bus, kind -> (frames/s, mean bits, follows the loop).
+
+    Each leg's motors go to bus leg * n_buses // LEGS; SYNC and heartbeat (one per bus per tick) to every
+    bus, as measured on one; every other kind (IMU, remote) to bus 0.
+    """
+    buses = [{} for _ in range(n_buses)]
+    for kinds in table.values():
+        for kind, value in kinds.items():
+            motor = kind_motor(kind)
+            if kind in _PER_BUS_KINDS:
+                for bus in buses:
+                    bus[kind] = value
+            elif motor is not None:
+                buses[((motor - 1) // MOTORS_PER_LEG) * n_buses // LEGS][kind] = value
+            else:
+                buses[0][kind] = value
+    return buses
+
+
+def layout_table(table: dict, measured_hz: float, bus_counts, rates, bitrate: int = DEFAULT_BITRATE) -> list[str]:
+    """Markdown rows: per bus count, the busiest bus's load (each bus's in brackets) at each control rate."""
+    head = "| buses | " + " | ".join(f"{hz:g} Hz" for hz in rates) + " |"
+    rows = [head, "|" + "---|" * (len(rates) + 1)]
+    for n in bus_counts:
+        cells = []
+        for hz in rates:
+            loads = [load_at(kinds, measured_hz, hz, bitrate) * 100 for kinds in spread(table, n)]
+            each = " / ".join(f"{x:.0f}" for x in loads)
+            cells.append(f"{max(loads):.1f} %" + (f" ({each})" if n > 1 else ""))
+        rows.append(f"| {n} | " + " | ".join(cells) + " |")
+    return rows
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="python -m tools.layout_load", description=__doc__.splitlines()[0])
     parser.add_argument("trace", help="MCAP trace of a steady run (balance)")
@@ -70,6 +122,8 @@ def main(argv=None) -> int:
     parser.add_argument("--to", dest="t1", type=float, default=None, help="end (s; default: the trace's end - 0.1)")
     parser.add_argument("--control-hz", type=float, default=500.0, help="control rate the trace ran at")
     parser.add_argument("--rates", type=float, nargs="+", default=[500.0, 1000.0], help="control rates to show")
+    parser.add_argument("--buses", type=int, nargs="+", default=None, metavar="N",
+                        help="lay a legged robot's frames out on N buses (the busiest bus's load per N and rate)")
     args = parser.parse_args(argv)
     try:
         recording = open_recording(args.trace, strict=False)
@@ -80,6 +134,9 @@ def main(argv=None) -> int:
         parser.error(f"{args.trace}: no /sim/state (not a rig trace)")
     t1 = float(t_end[-1]) - 0.1 if args.t1 is None else args.t1
     table = measure(recording, args.t0, t1)
+    if args.buses:
+        print("\n".join(layout_table(table, args.control_hz, args.buses, args.rates)))
+        return 0
     for bus in sorted(table):
         kinds = table[bus]
         print(f"{bus}:")

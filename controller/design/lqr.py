@@ -7,9 +7,22 @@ controllers write them (docs/control.md; the document's own (1.8)/(1.9) have
 cos/sin(theta) where phi belongs),
 with this robot's numbers from controller/constants.py:
 
-  state x = [theta, dtheta, x, dx, phi, dphi]   (rad, rad/s, m, m/s, rad, rad/s)
-  input u = [T, Tp]                             (N m, N m)
-  u = -K (x - x_ref),  K of shape (2, 6)
+  plant state x = [theta, dtheta, x, dx, phi, dphi]   (rad, rad/s, m, m/s, rad, rad/s)
+  input u = [T, Tp]                                   (N m, N m)
+
+The gains are designed on the plant augmented with two things real robots need
+(``augmented_model``):
+
+  s = [x, ix, T_prev, Tp_prev],  u = -K (s - s_ref),  K of shape (2, 9)
+
+  ix        integral of the position error (m s): a constant disturbance (the
+            CoM off the axis, an IMU mounted tilted) would otherwise need a
+            standing position error to hold it, and past the controller's
+            position-error clamp that becomes a creep
+  T_prev,   the command sent one control period earlier: the design assumes
+  Tp_prev   each command acts one period after it is computed (CAN transit,
+            the drives' own loops), so a period of actuation or feedback delay
+            is inside the model instead of eating the phase margin
 
   theta  virtual leg from vertical, > 0 with the wheel behind the hip
   x      wheel travel, forward positive
@@ -53,7 +66,8 @@ from wheelleg.controller import params as P
 GAINS_PATH = Path(__file__).resolve().parent.parent / "lqr_gains.py"
 FIT_ORDER = 3
 FIT_SAMPLES = 200  # L0 samples on which the fit error is measured
-STATE_NAMES = ("theta", "dtheta", "x", "dx", "phi", "dphi")
+STATE_NAMES = ("theta", "dtheta", "x", "dx", "phi", "dphi")  # the plant's
+GAIN_NAMES = STATE_NAMES + ("ix", "T_prev", "Tp_prev")  # the augmented state the gains multiply
 INPUT_NAMES = ("T", "Tp")
 # per-side body (see the module docstring)
 BODY_MASS_SIDE = C.MASS_BODY / 2  # kg
@@ -160,14 +174,35 @@ def dlqr(ad: np.ndarray, bd: np.ndarray, q: np.ndarray, r: np.ndarray) -> np.nda
     return np.linalg.solve(r + bd.T @ p @ bd, bd.T @ p @ ad)
 
 
+def augmented_model(ad: np.ndarray, bd: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """(Aa (9, 9), Ba (9, 2)) of the discrete plant (Ad (6, 6), Bd (6, 2)) with the
+    position integral and one period of input delay (module docstring):
+
+      x[k+1] = Ad x[k] + Bd u[k-1],  ix[k+1] = ix[k] + dt x_pos[k],  u_prev[k+1] = u[k]
+    """
+    n, m = bd.shape
+    aa, ba = np.zeros((n + 1 + m, n + 1 + m)), np.zeros((n + 1 + m, m))
+    aa[:n, :n], aa[:n, n + 1:] = ad, bd
+    aa[n, n] = 1.0
+    aa[n, STATE_NAMES.index("x")] = dt
+    ba[n + 1:] = np.eye(m)
+    return aa, ba
+
+
+def weights() -> tuple[np.ndarray, np.ndarray]:
+    """(Q (9, 9), R (2, 2)) of the augmented design: the delayed commands are not weighted."""
+    q = np.diag(tuple(P.LQR_Q) + (P.LQR_Q_INTEGRAL,) + (0.0,) * len(INPUT_NAMES))
+    return q, np.diag(P.LQR_R)
+
+
 def gains(L0: float, dt: float = P.CONTROL_PERIOD) -> np.ndarray:
-    """Exact discrete LQR gain K (2, 6) at leg length L0 (m), period dt (s)."""
+    """Exact discrete LQR gain K (2, 9) of the augmented model at leg length L0 (m), period dt (s)."""
     ad, bd = discretise(*continuous_model(L0), dt)
-    return dlqr(ad, bd, np.diag(P.LQR_Q), np.diag(P.LQR_R))
+    return dlqr(*augmented_model(ad, bd, dt), *weights())
 
 
 def evaluate_fit(coeffs: np.ndarray, L0) -> np.ndarray:
-    """K from fitted coefficients (2, 6, 4), highest power first, at L0 (m): (..., 2, 6)."""
+    """K from fitted coefficients (2, 9, 4), highest power first, at L0 (m): (..., 2, 9)."""
     L0 = np.asarray(L0, dtype=float)[..., None, None]
     out = np.zeros(L0.shape[:-2] + coeffs.shape[:2])
     for power in range(coeffs.shape[2]):
@@ -181,8 +216,8 @@ class Design:
 
     dt: float  # s
     grid: np.ndarray  # (n,) m
-    K: np.ndarray  # (n, 2, 6) exact gains at the grid
-    coeffs: np.ndarray  # (2, 6, 4) cubic in L0, highest power first
+    K: np.ndarray  # (n, 2, 9) exact gains at the grid
+    coeffs: np.ndarray  # (2, 9, 4) cubic in L0, highest power first
     fit_error: float  # max|K_fit - K| / max|K| over FIT_SAMPLES leg lengths
 
 
@@ -194,7 +229,7 @@ def design(dt: float = P.CONTROL_PERIOD, points: int = P.LQR_GRID_POINTS,
     grid = np.linspace(l0_min, l0_max, points)
     k = np.array([gains(L0, dt) for L0 in grid])
     flat = k.reshape(points, -1)
-    coeffs = np.polyfit(grid, flat, FIT_ORDER).T.reshape(2, 6, FIT_ORDER + 1)
+    coeffs = np.polyfit(grid, flat, FIT_ORDER).T.reshape(len(INPUT_NAMES), len(GAIN_NAMES), FIT_ORDER + 1)
     samples = np.linspace(l0_min, l0_max, FIT_SAMPLES)
     exact = np.array([gains(L0, dt) for L0 in samples])
     err = float(np.max(np.abs(evaluate_fit(coeffs, samples) - exact)) / np.max(np.abs(exact)))
@@ -212,6 +247,7 @@ def render(d: Design) -> str:
         "",
         f"dt = {d.dt!r} s (exact zero-order hold), discrete LQR",
         f"Q = diag{tuple(P.LQR_Q)!r}  (theta, dtheta, x, dx, phi, dphi)",
+        f"Q_integral = {P.LQR_Q_INTEGRAL!r}  (ix); delayed commands T_prev, Tp_prev unweighted",
         f"R = diag{tuple(P.LQR_R)!r}  (T, Tp)",
         f"L0 over [{float(d.grid[0])!r}, {float(d.grid[-1])!r}] m, {len(d.grid)} grid points",
         f"fit error max|K_fit - K| / max|K| = {d.fit_error:.2e} over {FIT_SAMPLES} samples",
@@ -220,9 +256,10 @@ def render(d: Design) -> str:
         f"leg L/LM/Ip = {leg_lo.L:.4f}/{leg_lo.LM:.4f}/{leg_lo.Ip:.5f} at L0 min, "
         f"{leg_hi.L:.4f}/{leg_hi.LM:.4f}/{leg_hi.Ip:.5f} at max",
         "",
-        "u = -K (x - x_ref), x = [theta, dtheta, x, dx, phi, dphi], u = [T, Tp]:",
-        "T wheel torque per wheel (forward rolling positive), Tp virtual hip",
-        "torque per leg (drives theta positive). See controller/design/lqr.py.",
+        "u = -K (s - s_ref), s = [theta, dtheta, x, dx, phi, dphi, ix, T_prev, Tp_prev],",
+        "u = [T, Tp]: T wheel torque per wheel (forward rolling positive), Tp virtual",
+        "hip torque per leg (drives theta positive); ix the position error's integral",
+        "(m s), T_prev/Tp_prev last period's command (N m). See controller/design/lqr.py.",
         "COEFFS[i][j] = (c3, c2, c1, c0): K[i][j] = ((c3 L0 + c2) L0 + c1) L0 + c0.",
         '"""',
         "",
@@ -231,13 +268,14 @@ def render(d: Design) -> str:
         f"L0_MAX = {float(d.grid[-1])!r}",
         f"GRID_POINTS = {len(d.grid)}",
         f"Q = {tuple(float(v) for v in P.LQR_Q)!r}",
+        f"Q_INTEGRAL = {float(P.LQR_Q_INTEGRAL)!r}",
         f"R = {tuple(float(v) for v in P.LQR_R)!r}",
         "",
         "COEFFS = (",
     ]
     for i, name in enumerate(INPUT_NAMES):
         lines.append(f"    (  # {name}")
-        for j, state in enumerate(STATE_NAMES):
+        for j, state in enumerate(GAIN_NAMES):
             c = ", ".join(repr(float(v)) for v in d.coeffs[i, j])
             lines.append(f"        ({c}),  # {state}")
         lines.append("    ),")
@@ -264,6 +302,7 @@ def table_matches(d: Design, table, rtol: float = TABLE_RTOL) -> list[str]:
     problems = []
     for name, want in (("DT", d.dt), ("L0_MIN", float(d.grid[0])), ("L0_MAX", float(d.grid[-1])),
                        ("GRID_POINTS", len(d.grid)), ("Q", tuple(map(float, P.LQR_Q))),
+                       ("Q_INTEGRAL", float(P.LQR_Q_INTEGRAL)),
                        ("R", tuple(map(float, P.LQR_R)))):
         if getattr(table, name, None) != want:
             problems.append(f"{name}: table {getattr(table, name, None)!r}, design {want!r}")

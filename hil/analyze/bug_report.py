@@ -13,7 +13,8 @@ from __future__ import annotations
 import json
 
 from wheelleg import dbc
-from wheelleg.hil.record.run_metadata import REPLAY_KEYS, current_params, git_revision
+from wheelleg.hil import robots
+from wheelleg.hil.record.run_metadata import REPLAY_KEYS, git_revision
 from wheelleg.hil.record.sources import Recording
 
 
@@ -59,7 +60,7 @@ def _param_warnings(source: Recording) -> list[str]:
         recorded = json.loads(text)
     except ValueError:
         return ["the trace's controller_params is not JSON"]
-    now = current_params()
+    now = json.loads(robots.get(source.robot).params_json())  # the recording's robot's controller today
     changed = [f"{k}: {recorded.get(k)!r} -> {now.get(k)!r}" for k in sorted(set(recorded) | set(now))
                if recorded.get(k) != now.get(k)]
     return [f"controller parameters differ from the recording: {', '.join(changed)}"] if changed else []

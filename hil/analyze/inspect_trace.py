@@ -18,13 +18,13 @@ from pathlib import Path
 
 import numpy as np
 
-from wheelleg.controller.constants import CG_HOST_ID, DEVICES
-from wheelleg.controller.modes import Mode
+from wheelleg.controller.constants import CG_HOST_ID
+from wheelleg.hil import robots
 from wheelleg.dbc import cybergear as cg
 from wheelleg.hil.bus.busload import DEFAULT_BITRATE, frame_bits
 from wheelleg.hil.record.decode import FrameDecoder
 from wheelleg.hil.record.frame import Frame
-from wheelleg.hil.record.sources import (CAN1, DBS, HEARTBEAT, Recording, is_heartbeat, is_sync,
+from wheelleg.hil.record.sources import (CAN1, HEARTBEAT, Recording, is_heartbeat, is_sync,
                               open_recording, sync_tick)
 
 KIND_NAMES = {"mcap": "MCAP trace", "candump": "candump log", "python-can": "log read by python-can"}
@@ -93,7 +93,7 @@ def _id_key(frame: Frame, plan) -> tuple[str, str, bool]:
     """(id label, message label, is a CyberGear reply): CyberGear per type and motor, others per id."""
     if frame.is_extended and plan is not None:
         ident = f"0x{cg.canonical_id(frame.arbitration_id):08X}"
-        if cg.is_reply(frame.arbitration_id, CG_HOST_ID):  # the motor id sits in bits 15..8
+        if cg.from_motor(frame.arbitration_id, CG_HOST_ID):  # the motor id sits in bits 15..8
             return ident, f"{plan.name} from motor {cg.reply_motor(frame.arbitration_id)}", True
         return ident, f"{plan.name} to motor {cg.target(frame.arbitration_id)}", False
     ident = f"0x{frame.arbitration_id:08X}" if frame.is_extended else f"0x{frame.arbitration_id:03X}"
@@ -108,7 +108,8 @@ class _Pass:
     def __init__(self, source: Recording, bitrate: int, window_s: float):
         self.source, self.bitrate, self.window_ns = source, bitrate, max(int(window_s * 1e9), 1)
         self.t0 = min((f.t_ns for f in source.frames), default=0)
-        self.decoder = FrameDecoder({name: DBS[role] for role, name in source.channels.items()})
+        dbs = source.dbs  # the recording's robot's
+        self.decoder = FrameDecoder({name: dbs[role] for role, name in source.channels.items()})
         self.counts: dict = {}
         self.bits: dict = defaultdict(lambda: defaultdict(int))  # channel -> window -> bits
         self.ranges: dict = {}
@@ -187,13 +188,15 @@ class _Pass:
             self.sync_ticks.setdefault(sync_tick(f), f.t_ns)
 
 
-def _heartbeat_findings(rows: list) -> list[Finding]:
+def _heartbeat_findings(rows: list, robot: robots.Robot) -> list[Finding]:
+    """A finding each time the heartbeat's mode, warning level, offline devices or latch change,
+    named with ``robot``'s modes and offline bits."""
     out, last = [], None
     for t, v in rows:
         state = (v["Mode"], v["WarningLevel"], v["OfflineMask"], v["FaultLatched"])
         if state != last:
-            offline = [name for bit, name in enumerate(DEVICES) if v["OfflineMask"] >> bit & 1]
-            mode = Mode(v["Mode"]).name if v["Mode"] in Mode._value2member_map_ else str(v["Mode"])
+            offline = [name for bit, name in enumerate(robot.offline_bits) if v["OfflineMask"] >> bit & 1]
+            mode = robot.mode_names.get(int(v["Mode"]), str(v["Mode"]))
             out.append(Finding(t, "heartbeat", f"mode {mode}, warning level {v['WarningLevel']}, offline "
                                                f"{', '.join(offline) or 'none'}"
                                                + (", fault latched" if v["FaultLatched"] else "")))
@@ -221,10 +224,10 @@ def _deadline_findings(p: _Pass, source: Recording, period_s: float) -> list[Fin
 
 
 def summarize(path_or_source, *, bitrate: int = DEFAULT_BITRATE, window_s: float = 0.1,
-              channels: dict | None = None, period_s: float = 0.002) -> TraceSummary:
-    """Read a trace or log and compute everything ``wheelleg inspect`` prints."""
+              channels: dict | None = None, period_s: float = 0.002, robot: str | None = None) -> TraceSummary:
+    """Read a trace or log and compute everything ``wheelleg inspect`` prints; ``robot`` as ``open_recording``."""
     source = path_or_source if isinstance(path_or_source, Recording) else \
-        open_recording(path_or_source, channels, strict=False)
+        open_recording(path_or_source, channels, strict=False, robot=robot)
     p = _Pass(source, bitrate, window_s)
     p.run()
     duration = source.duration_s
@@ -237,7 +240,7 @@ def summarize(path_or_source, *, bitrate: int = DEFAULT_BITRATE, window_s: float
     _loads(summary, p, bitrate, duration)
     summary.signals = [SignalRange(ch, m, s, lo, hi, n) for (ch, m, s), (lo, hi, n) in sorted(p.ranges.items())]
     events = [e for e in source.events if str(e.get("kind", "")).startswith("fault")]
-    summary.faults = sorted(p.faults + _heartbeat_findings(p.hb_rows)
+    summary.faults = sorted(p.faults + _heartbeat_findings(p.hb_rows, robots.get(source.robot))
                             + [Finding(e["t"] - p.t0 / 1e9, "event", _event_text(e)) for e in events],
                             key=lambda x: x.t_s)
     summary.deadline_misses = _deadline_findings(p, source, period_s)

@@ -1,4 +1,4 @@
-"""One PNG per run: pitch, leg lengths, speed and torques over time."""
+"""One PNG per run: attitude, leg lengths (or body height), speed and torques over time."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -20,15 +20,16 @@ def plot_run(run: RunData, path: Path | str, title: str = "") -> Path:
     axes[0].plot(t, np.degrees(s["pitch"]), label="pitch")
     axes[0].plot(t, np.degrees(s["roll"]), label="roll")
     axes[0].set_ylabel("deg")
-    axes[1].plot(t, s["left_leg_length"], label="left leg")
-    axes[1].plot(t, s["right_leg_length"], label="right leg")
-    axes[1].set_ylabel("leg length (m)")
+    legs = [k for k in s if k.endswith("_leg_length")]  # a robot without leg lengths: its body height
+    for key in legs or ["z"]:
+        axes[1].plot(t, s[key], label=key.removesuffix("_length").replace("_", " ") if legs else "body height")
+    axes[1].set_ylabel("leg length (m)" if legs else "height (m)")
     speed = s["vx"] * np.cos(s["yaw"]) + s["vy"] * np.sin(s["yaw"])
     axes[2].plot(t, speed, label="forward speed (m/s)")
     axes[2].plot(t, np.unwrap(s["yaw"]) - s["yaw"][0], label="yaw turned (rad)")
     axes[2].set_ylabel("m/s, rad")
     for motor, (tt, tau) in sorted(run.hip_torque.items()):
-        axes[3].plot(tt, tau, lw=0.7, label=f"hip {motor}")
+        axes[3].plot(tt, tau, lw=0.7, label=f"motor {motor}")
     for esc, (tt, amps) in sorted(run.wheel_current.items()):
         if np.any(amps):
             axes[3].plot(tt, amps * 0.3, lw=0.7, ls="--", label=f"wheel {esc}")

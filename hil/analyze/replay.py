@@ -13,9 +13,13 @@ recorded before that answer are what it had heard.
 - sync mode (a rig trace or rig log: SYNC frames on both buses): a real
   ``ControllerNode`` in sync mode runs over two in-memory buses
   (``MemoryBus``); its own SYNC handling stamps the frames and decides the
-  tick, exactly as in the rig. A bus's inputs before the tick's first frame on
-  that bus are delivered (each bus keeps its order; the controller only reads
-  between ticks).
+  tick, exactly as in the rig. A bus's inputs up to and including the tick's
+  SYNC on that bus are delivered (each bus keeps its order): in lockstep the
+  controller ticks on SYNC with what it has heard, and what the devices send
+  after it is for the next tick, even when it is on the wire before the
+  controller's commands (the rig's log is in the wire's order,
+  hil/bus/wire_order.py). Without that SYNC in the recording, the inputs
+  before the tick's first frame on that bus.
 - free-run mode (a robot's candump log, no SYNC): the log's timestamps are
   the controller clock (ns since the log's first frame); ``Controller`` gets
   each input frame before the tick's first controller frame in the log, then
@@ -33,18 +37,18 @@ from dataclasses import dataclass, field
 
 import can
 
-from wheelleg.controller import params as P
+from wheelleg import dbc
 from wheelleg.controller.modes import Mode
-from wheelleg.controller.node import Controller, ControllerNode
+from wheelleg.dbc import cybergear as cg
+from wheelleg.hil import robots
 from wheelleg.hil.analyze.bug_report import environment_warnings
 from wheelleg.hil.record.run_metadata import plant_overrides, rerun_command
 from wheelleg.hil.record.decode import FrameDecoder
 from wheelleg.hil.record.frame import Frame
 from wheelleg.hil.record.sources import (CAN1, CAN2, CONTROLLER_NODES, DBS, HEARTBEAT, ROLES,
                               TraceError, Recording, heartbeat_tick, is_heartbeat, is_sync,
-                              open_recording, sent_by_controller)
+                              open_recording, sent_by_controller, sync_tick)
 
-_DECODER = FrameDecoder(DBS)
 _START_MODES = (Mode.IDLE, Mode.ESTOP)  # what a fresh controller can report on its first tick
 
 
@@ -88,13 +92,14 @@ class Schedule:
     notes: list[str] = field(default_factory=list)
 
 
-def _groups(frames: list[Frame]):
-    """Per role: [(tick, [frame indices])] closed by each heartbeat; inputs; leftovers."""
+def _groups(frames: list[Frame], dbs: dict):
+    """Per role: [(tick, [frame indices])] closed by each heartbeat; inputs; leftovers.
+    ``dbs``: the robot's bus databases (which frames are the controller's)."""
     groups = {r: [] for r in ROLES}
     pending = {r: [] for r in ROLES}
     inputs = []
     for i, f in enumerate(frames):
-        if sent_by_controller(f):
+        if sent_by_controller(f, dbs):
             pending[f.bus].append(i)
             if is_heartbeat(f):
                 groups[f.bus].append((heartbeat_tick(f), pending[f.bus]))
@@ -177,7 +182,7 @@ def _check_drops(source: Recording) -> None:
 
 def detect_mode(source: Recording) -> str:
     """'sync' when SYNC frames reach the controller on both buses, else 'free-run'."""
-    seen = {f.bus for f in source.frames if is_sync(f) and not sent_by_controller(f)}
+    seen = {f.bus for f in source.frames if is_sync(f) and not sent_by_controller(f, source.dbs)}
     return "sync" if seen >= set(ROLES) else "free-run"
 
 
@@ -188,19 +193,22 @@ def build_schedule(source: Recording, mode: str | None = None, allow_drops: bool
     if not source.frames:
         raise TraceError(f"{source.path}: no CAN frames on {sorted(source.channels.values())}")
     order_notes = _check_order(source)
-    groups, inputs, trailing = _groups(source.frames)
+    groups, inputs, trailing = _groups(source.frames, source.dbs)
     order_notes += _check_pairing(source, groups)
     mode = mode or detect_mode(source)
     frames = source.frames
     usable = [i for i in inputs if not frames[i].is_fd]
     per_bus = {r: collections.deque(i for i in usable if frames[i].bus == r) for r in ROLES}
+    syncs = _sync_positions(frames, usable) if mode == "sync" else {}
     steps = []
     for (tick, idx1), (_, idx2) in zip(groups[CAN1], groups[CAN2]):
         expected = {CAN1: idx1, CAN2: idx2}
         first = min(idx1[0], idx2[0])
         delivered = []
         for role in ROLES:
-            bound = expected[role][0] if mode == "sync" else first
+            bound = first
+            if mode == "sync":  # just after this tick's SYNC, else at the tick's first frame on the bus
+                bound = syncs.get((role, tick), expected[role][0] - 1) + 1
             queue = per_bus[role]
             while queue and queue[0] < bound:
                 delivered.append(queue.popleft())
@@ -210,11 +218,22 @@ def build_schedule(source: Recording, mode: str | None = None, allow_drops: bool
     return Schedule(mode, steps, trailing, len(inputs) - len(usable), order_notes)
 
 
+def _sync_positions(frames: list[Frame], inputs: list[int]) -> dict[tuple[str, int], int]:
+    """(bus, tick) -> index of the first SYNC with that tick on that bus."""
+    out: dict[tuple[str, int], int] = {}
+    for i in inputs:
+        if is_sync(frames[i]):
+            out.setdefault((frames[i].bus, sync_tick(frames[i])), i)
+    return out
+
+
 # -- comparing frames ------------------------------------------------------------------------
 def _controller_signals() -> dict[str, tuple[float, str]]:
-    """Signal name -> (scale, unit) over every message a controller node sends."""
+    """Signal name -> (scale, unit) over every message a controller node sends, the CyberGear id
+    fields included (a type-1 command's TorqueRef lives in its id): the default robot's buses
+    (CyberGear, C620 and rig frames); every registered robot's controller sends a subset."""
     out = {}
-    for db in DBS.values():
+    for db in (*DBS.values(), dbc.load_file(cg.ID_DBC)):
         for message in db.messages:
             if CONTROLLER_NODES.intersection(message.senders or ()):
                 for s in message.signals:
@@ -291,8 +310,8 @@ def _show(value) -> str:
     return str(value)
 
 
-def _decode(role: str, arbitration_id: int, is_extended: bool, data: bytes):
-    hit = _DECODER.decode(role, arbitration_id, is_extended, data)
+def _decode(decoder: FrameDecoder, role: str, arbitration_id: int, is_extended: bool, data: bytes):
+    hit = decoder.decode(role, arbitration_id, is_extended, data)
     return (hit[0].name, hit[1]) if hit is not None else ("?", None)
 
 
@@ -300,20 +319,22 @@ def _tolerance(tolerances: dict, message: str, signal: str) -> float:
     return tolerances.get(f"{message}.{signal}", tolerances.get(signal, 0.0))
 
 
-def _frame_difference(role: str, exp: Frame | None, got: can.Message | None, tolerances: dict):
-    """(signal, expected, got, tolerance, unit, message name) of the first mismatch, or None."""
+def _frame_difference(decoder: FrameDecoder, role: str, exp: Frame | None, got: can.Message | None,
+                      tolerances: dict):
+    """(signal, expected, got, tolerance, unit, message name) of the first mismatch, or None;
+    ``decoder``: the robot's (role -> database)."""
     if exp is None:
-        name, _ = _decode(role, got.arbitration_id, got.is_extended_id, bytes(got.data))
+        name, _ = _decode(decoder, role, got.arbitration_id, got.is_extended_id, bytes(got.data))
         return "<extra frame>", "nothing", f"{name} {_ident(got.arbitration_id, got.is_extended_id)}", 0.0, "", name
     if got is None:
-        name, _ = _decode(role, exp.arbitration_id, exp.is_extended, exp.data)
+        name, _ = _decode(decoder, role, exp.arbitration_id, exp.is_extended, exp.data)
         return "<missing frame>", f"{name} {_ident(exp.arbitration_id, exp.is_extended)}", "nothing", 0.0, "", name
     got_data = bytes(got.data[:got.dlc])
     if (exp.arbitration_id, exp.is_extended, exp.dlc, exp.data) == \
             (got.arbitration_id, got.is_extended_id, got.dlc, got_data):
         return None
-    exp_name, exp_values = _decode(role, exp.arbitration_id, exp.is_extended, exp.data)
-    got_name, got_values = _decode(role, got.arbitration_id, got.is_extended_id, got_data)
+    exp_name, exp_values = _decode(decoder, role, exp.arbitration_id, exp.is_extended, exp.data)
+    got_name, got_values = _decode(decoder, role, got.arbitration_id, got.is_extended_id, got_data)
     if exp_name != got_name or exp_values is None or got_values is None:
         return ("<message>", f"{exp_name} {_ident(exp.arbitration_id, exp.is_extended)} {exp.data.hex().upper()}",
                 f"{got_name} {_ident(got.arbitration_id, got.is_extended_id)} {got_data.hex().upper()}",
@@ -350,18 +371,23 @@ class ReplayResult:
     notes: list[str] = field(default_factory=list)
     sent: list[dict[str, list[can.Message]]] = field(default_factory=list)  # per step, for --update
     debug: list[dict] = field(default_factory=list)  # controller internals per step, for --update
+    decoder: FrameDecoder | None = None  # the recording's robot's (role -> database)
 
     @property
     def identical(self) -> bool:
         return self.first is None
 
 
-class _SyncDriver:
-    """A real ControllerNode in sync mode on in-memory buses."""
+def _memory_buses() -> dict[str, MemoryBus]:
+    return {role: MemoryBus(f"replay-{role}") for role in ROLES}
 
-    def __init__(self, period_s: float, t0_ns: int):
-        self.buses = {CAN1: MemoryBus("replay-can1"), CAN2: MemoryBus("replay-can2")}
-        self.node = ControllerNode(self.buses[CAN1], self.buses[CAN2], sync=True, period_s=period_s)
+
+class _SyncDriver:
+    """The robot's real controller node in sync mode on in-memory buses."""
+
+    def __init__(self, robot: robots.Robot, period_s: float, t0_ns: int):
+        self.buses = _memory_buses()
+        self.node = robot.build_controller(self.buses, True, period_s)
 
     def step(self, step: TickStep):
         for f in step.inputs:
@@ -377,10 +403,14 @@ class _SyncDriver:
 
 
 class _FreeRunDriver:
-    """``Controller`` with the log's timestamps as its clock (ns since the log's first frame)."""
+    """The robot's controller without I/O (its node's ``controller``: ``on_frame``, ``tick``) with the
+    log's timestamps as its clock (ns since the log's first frame)."""
 
-    def __init__(self, period_s: float, t0_ns: int):
-        self.controller = Controller(period_s)
+    def __init__(self, robot: robots.Robot, period_s: float, t0_ns: int):
+        buses = _memory_buses()
+        self.controller = robot.build_controller(buses, False, period_s).controller
+        for bus in buses.values():  # the node only made the controller: its buses are never used
+            bus.shutdown()
         self.t0_ns = t0_ns
 
     def clock(self, t_ns: int) -> float:
@@ -399,21 +429,25 @@ class _FreeRunDriver:
 
 def replay(path_or_source, *, tolerances: dict | None = None, exact: bool = False,
            channels: dict | None = None, period_s: float | None = None, allow_drops: bool = False,
-           keep_sent: bool = False) -> ReplayResult:
-    """Replay a trace or log into a fresh controller; see the module docstring.
+           keep_sent: bool = False, robot: str | None = None) -> ReplayResult:
+    """Replay a trace or log into a fresh controller of its robot; see the module docstring.
 
     ``tolerances``: signal (or 'Message.Signal') -> allowed |difference| in signal
-    units, on top of ``default_tolerances()`` unless ``exact``. Raises ``TraceError``.
+    units, on top of ``default_tolerances()`` unless ``exact``. ``robot``: whose
+    recording (default: the trace's record, else the default robot). Raises ``TraceError``.
     """
-    source = path_or_source if isinstance(path_or_source, Recording) else open_recording(path_or_source, channels)
+    source = path_or_source if isinstance(path_or_source, Recording) else \
+        open_recording(path_or_source, channels, robot=robot)
+    spec = robots.get(source.robot)
     schedule = build_schedule(source, allow_drops=allow_drops)
-    period = period_s or _recorded_period(source) or P.CONTROL_PERIOD
-    result = ReplayResult(source, schedule, period, warnings=environment_warnings(source))
+    period = period_s or _recorded_period(source) or spec.control_period_s
+    result = ReplayResult(source, schedule, period, warnings=environment_warnings(source),
+                          decoder=FrameDecoder(source.dbs))
     result.notes += _schedule_notes(source, schedule, period)
     tol = {} if exact else default_tolerances()
     tol.update(tolerances or {})
     t0 = min(f.t_ns for f in source.frames)
-    driver = (_SyncDriver if schedule.mode == "sync" else _FreeRunDriver)(period, t0)
+    driver = (_SyncDriver if schedule.mode == "sync" else _FreeRunDriver)(spec, period, t0)
     try:
         for step in schedule.steps:
             sent, now, debug = driver.step(step)
@@ -436,7 +470,7 @@ def _compare_step(result: ReplayResult, step: TickStep, sent: dict, now: float, 
         got = sent.get(role, [])
         for j in range(max(len(expected), len(got))):
             exp = expected[j] if j < len(expected) else None
-            diff = _frame_difference(role, exp, got[j] if j < len(got) else None, tol)
+            diff = _frame_difference(result.decoder, role, exp, got[j] if j < len(got) else None, tol)
             if diff is None:
                 continue
             result.differing_frames += 1
@@ -471,7 +505,7 @@ def _schedule_notes(source: Recording, schedule: Schedule, period: float) -> lis
     if overrides:  # replay feeds the recorded frames, so the plant needs no rebuilding; a rerun does
         notes.append(f"recorded on a changed plant ({', '.join(f'{k}={v!r}' for k, v in overrides.items())}); "
                      f"to run it again: {rerun_command(source.run)}")
-    if schedule.steps:
+    if schedule.steps and source.robot == robots.DEFAULT:  # its modes: controller/modes.py
         first = frames[schedule.steps[0].expected[CAN1][-1]]
         mode = HEARTBEAT.decode(first.data, decode_choices=False)["Mode"]
         if mode not in _START_MODES:

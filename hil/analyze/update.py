@@ -19,8 +19,9 @@ from wheelleg import dbc
 from wheelleg.hil.record.candump import CandumpWriter
 from wheelleg.hil.analyze.replay import ReplayResult
 from wheelleg.hil.record.frame import Frame
-from wheelleg.hil.record.run_metadata import controller_params_json, git_revision
-from wheelleg.hil.record.sources import DBS, ROLES
+from wheelleg.hil import robots
+from wheelleg.hil.record.run_metadata import git_revision
+from wheelleg.hil.record.sources import ROLES
 
 DEBUG_TOPIC = "/controller/debug"
 
@@ -81,7 +82,7 @@ def _metadata(result: ReplayResult) -> dict:
     run["reference_from"] = result.source.path.name
     run["reference_of_revision"] = run.get("git_revision", "unknown")
     run["git_revision"] = git_revision()
-    run["controller_params"] = controller_params_json()
+    run["controller_params"] = robots.get(result.source.robot).params_json()
     return meta
 
 
@@ -109,9 +110,9 @@ def _write_mcap(result: ReplayResult, frames: list[Frame], out: Path) -> None:
             records.append((end, 1, DEBUG_TOPIC, debug))
     records.sort(key=lambda r: (r[0], r[1]))
     channels = result.source.channels
-    dbs = {channels[role]: DBS[role] for role in ROLES}
+    dbs = {channels[role]: result.source.dbs[role] for role in ROLES}
     with TraceWriter(out, metadata=_metadata(result), attachments=_attachments(result), dbs=dbs,
-                     flush_interval_s=None) as trace:
+                     flush_interval_s=None, sim_state_fields=robots.get(result.source.robot).sim_state_fields) as trace:
         for t_ns, _, kind, item in records:
             if kind == "frame":
                 trace.frame(item)

@@ -4,15 +4,13 @@ A classic CAN data frame is SOF, arbitration field (11 or 29-bit id with SRR,
 IDE, RTR), control field, data, CRC-15, then CRC delimiter, ACK slot and
 delimiter, 7-bit EOF and 3-bit intermission. Bit stuffing (a complement bit
 after five equal bits) applies from SOF to the end of the CRC; it is counted
-exactly on the frame's own bits. ``BusClock`` serialises the frames the rig
-puts on one bus: a frame starts when the bus is free and its time stamp is
-the end of its transmission, as a receiver sees it.
+exactly on the frame's own bits. ``arbitration_priority`` orders frames as
+arbitration does. The order and times of the rig's frames on the wire:
+``wheelleg.hil.bus.wire_order``.
 """
 from __future__ import annotations
 
 import functools
-from dataclasses import dataclass
-
 from wheelleg.hil.record import schemas
 
 TRAILER_BITS = 1 + 2 + 7 + 3  # CRC delimiter, ACK slot + delimiter, EOF, intermission
@@ -150,23 +148,17 @@ def wire_ns(arbitration_id: int, is_extended: bool, data: bytes, bitrate: int) -
     return frame_bits(arbitration_id, is_extended, data) * 1_000_000_000 // bitrate
 
 
-@dataclass
-class BusClock:
-    """One bus's wire time: serialises frames and totals their wire time (``LoadMeter`` windows it)."""
+def arbitration_priority(arbitration_id: int, is_extended: bool, is_remote: bool = False) -> int:
+    """A frame's rank in CAN arbitration (smaller wins): the bits as they meet on the wire.
 
-    bitrate: int = DEFAULT_BITRATE  # bit/s
-    free_at_ns: int = 0  # when the bus is idle again
-    busy_ns_total: int = 0  # wire time of every frame so far
-    frames_total: int = 0
-
-    def transmit(self, now_ns: int, arbitration_id: int, is_extended: bool, data: bytes) -> int:
-        """Put one frame on the wire no earlier than ``now_ns``; returns its end time (ns)."""
-        duration = wire_ns(arbitration_id, is_extended, bytes(data), self.bitrate)
-        start = max(now_ns, self.free_at_ns)
-        self.free_at_ns = start + duration
-        self.busy_ns_total += duration
-        self.frames_total += 1
-        return self.free_at_ns
+    The 11 base id bits first; then a standard frame's RTR bit meets an
+    extended frame's SRR (always recessive) and the IDE bit, so a standard
+    frame beats an extended one with the same base id; then the 18 extension
+    bits; a data frame beats a remote frame with the same id.
+    """
+    if is_extended:
+        return ((arbitration_id >> 18) << 21) | (1 << 20) | ((arbitration_id & 0x3FFFF) << 1) | int(is_remote)
+    return (arbitration_id << 21) | int(is_remote)
 
 
 LOAD_TOPIC = "/bus/load"
@@ -178,15 +170,15 @@ class LoadMeter:
     Every ``window_s`` it writes one ``/bus/load`` message per bus
     (``wheelleg.hil.record.schemas.BUS_LOAD``): the wire time the bus's frames took in the
     window (stuff bits included) over the window, i.e. busy seconds per
-    second. Frames are charged when they are put on the bus, so a demand
+    second. Frames are charged when their sender queues them, so a demand
     beyond the bus's capacity shows as a load above 1 (without an
-    arbitration model nothing is dropped).
+    arbitration fault nothing is dropped).
     """
 
-    def __init__(self, clocks: dict, trace=None, window_s: float = 0.1):
+    def __init__(self, wires: dict, trace=None, window_s: float = 0.1):
         if not window_s > 0.0:
             raise ValueError(f"window_s must be > 0, got {window_s!r}")
-        self.clocks, self.trace = clocks, trace  # channel -> BusClock (shared, filled as buses appear)
+        self.wires, self.trace = wires, trace  # channel -> its wire_order.BusWire (busy_ns_total, frames_total)
         self.window_ns = round(window_s * 1e9)
         self._start_ns = 0
         self._busy = {}  # channel -> busy_ns_total at the window start
@@ -197,15 +189,15 @@ class LoadMeter:
         span = now_ns - self._start_ns
         if span < self.window_ns and not (final and span > 0):
             return
-        for channel in sorted(self.clocks):
-            clock = self.clocks[channel]
-            busy = clock.busy_ns_total - self._busy.get(channel, 0)
-            frames = clock.frames_total - self._frames.get(channel, 0)
+        for channel in sorted(self.wires):
+            wire = self.wires[channel]
+            busy = wire.busy_ns_total - self._busy.get(channel, 0)
+            frames = wire.frames_total - self._frames.get(channel, 0)
             load = busy / span
             if self.trace is not None:
                 self.trace.message(LOAD_TOPIC, now_ns, {
                     "channel": channel,
                     "window_start_s": self._start_ns / 1e9, "window_s": span / 1e9, "load": load,
                     "frames": frames, "frames_per_s": frames / (span / 1e9)}, "wheelleg.BusLoad", schemas.BUS_LOAD)
-            self._busy[channel], self._frames[channel] = clock.busy_ns_total, clock.frames_total
+            self._busy[channel], self._frames[channel] = wire.busy_ns_total, wire.frames_total
         self._start_ns = now_ns

@@ -16,7 +16,7 @@ import numpy as np
 from wheelleg.controller import constants as C
 from wheelleg.dbc import cybergear as cg
 from wheelleg.dbc import CAN1, CAN2, load_bus
-from wheelleg.hil.bus.busload import frame_bits, wire_ns
+from wheelleg.hil.bus.busload import arbitration_priority, frame_bits, wire_ns
 
 _RIG = load_bus(CAN1)
 LOCKSTEP_IDS = frozenset(_RIG.get_message_by_name(n).frame_id for n in ("SYNC", "Heartbeat"))
@@ -284,11 +284,9 @@ class Arbitration(FrameFault):
         return waiting
 
 
-def priority(msg: can.Message) -> tuple:
-    """CAN arbitration order (smaller wins): base id, then standard before extended, then the extension."""
-    if msg.is_extended_id:
-        return (msg.arbitration_id >> 18, 1, msg.arbitration_id & 0x3FFFF)
-    return (msg.arbitration_id, 0, 0)
+def priority(msg: can.Message) -> int:
+    """CAN arbitration order (smaller wins): ``busload.arbitration_priority`` of ``msg``."""
+    return arbitration_priority(msg.arbitration_id, msg.is_extended_id, msg.is_remote_frame)
 
 
 def _rate(rate: float) -> float:

@@ -46,6 +46,11 @@ class PlantBus:
     recorder, then the wire. Incoming frames pass the recorder (a frame that
     left the controller is in the trace even when no device gets it), then
     every stage's ``inbound`` until one swallows it.
+
+    A device node answers a frame between the ``recv`` that returned it and
+    its next ``recv`` (``wheelleg.emulators.node.DeviceNode``); what it sends
+    then is recorded as the answer to that frame, what it sends after a
+    ``recv`` that found nothing (periodic frames) as its own.
     """
 
     def __init__(self, bus, channel: str, recorder: Recorder, stages: Sequence[BusStage] = ()):
@@ -53,26 +58,29 @@ class PlantBus:
         self.stages = tuple(stages)
         self._outbound = tuple(stage.outbound for stage in self.stages)  # bound once: the per-frame path
         self._inbound = tuple(stage.inbound for stage in self.stages)
+        self._answering = None  # the recorder's handle of the frame the devices are answering
 
     def send(self, msg: can.Message, timeout: float | None = None) -> None:
         frames = [msg]
         for outbound in self._outbound:
             frames = outbound(frames)
-        observe, channel = self.recorder.observe, self.channel
+        sent, channel, answering = self.recorder.sent, self.channel, self._answering
         for frame in frames:
-            observe(channel, frame)
+            sent(channel, frame, answering)
             self.bus.send(frame, timeout)
 
     def recv(self, timeout: float | None = None) -> can.Message | None:
         while True:
             msg = self.bus.recv(timeout)
             if msg is None:
+                self._answering = None
                 return None
-            self.recorder.observe(self.channel, msg)
+            received = self.recorder.received(self.channel, msg)
             for inbound in self._inbound:
                 if not inbound(msg):
                     break
             else:
+                self._answering = received
                 return msg
 
     def shutdown(self) -> None:

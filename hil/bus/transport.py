@@ -21,6 +21,8 @@ import can
 from can.interfaces import virtual
 from can.interfaces.virtual import VirtualBus
 
+from wheelleg.controller.bus_args import open_bus as python_can_bus
+
 
 class FrameQueue:
     """An unbounded FIFO with the ``queue.Queue`` calls python-can's virtual buses make.
@@ -147,11 +149,7 @@ def open_bus(interface: str, channel: str, **kwargs) -> can.BusABC:
     try:
         if interface == "virtual":
             return LockstepVirtualBus(channel=channel, preserve_timestamps=True, **kwargs)
-        if interface == "udp_multicast":
-            from wheelleg.hil.bus.udp import EchoFreeUdpMulticastBus  # noqa: PLC0415 (needs msgpack)
-
-            return EchoFreeUdpMulticastBus(channel=channel, **kwargs)
-        return can.Bus(interface=interface, channel=channel, **kwargs)
+        return python_can_bus(interface=interface, channel=channel, **kwargs)  # udp_multicast: without its echo
     except (can.CanError, OSError, ValueError, ImportError) as exc:
         hint = ""
         if isinstance(exc, ImportError) and exc.name == "msgpack":

@@ -5,7 +5,7 @@
 ``socketcan`` buses.  Where the kernel cannot make vcan links (built without
 CAN, a container, no CAP_NET_ADMIN), ``VcanError`` carries ``ip``'s own error
 and the way to run the socketcan tests anyway: inside user-mode-linux with
-``ci/uml-vcan.sh``.
+``wheelleg vcan uml -- CMD`` (``UML_RUNNER``, shipped in the package).
 """
 from __future__ import annotations
 
@@ -22,8 +22,10 @@ SYS_NET = Path("/sys/class/net")
 UML_HINT = (
     "To run the socketcan tests anyway, boot user-mode-linux with real vcan0/vcan1:\n"
     "    apt-get install user-mode-linux kmod iproute2 can-utils\n"
-    "    bash ci/uml-vcan.sh python3 -m pytest -q -m socketcan"
+    "    wheelleg vcan uml -- python3 -m pytest -q -m socketcan"
 )
+# the user-mode-linux runner (a bash script, with the guest's init and a C shim beside it)
+UML_RUNNER = Path(__file__).resolve().parent / "uml" / "uml-vcan.sh"
 
 class VcanError(RuntimeError):
     """The kernel (or our rights) cannot give vcan links; the message says why and what to do."""

@@ -24,6 +24,7 @@ from typing import Callable, Iterator
 
 from wheelleg.hil.campaign.sampling import Job
 from wheelleg.hil.record.run_metadata import run_command
+from wheelleg.hil.robots import split_name
 
 _NUMBER = re.compile(r"[-+]?(?:nan|inf|(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)", re.IGNORECASE)
 
@@ -35,14 +36,15 @@ class RunSettings:
     out_dir: Path
     duration_s: float | None = None  # None: each scenario's own duration
     keep_passing: bool = False  # keep passing runs' traces and logs too (disk)
+    epoch_ns: int = 0  # the candump logs' start time (``wheelleg run --epoch``)
 
 
-def rig_config(seed: int, overrides: dict):
+def rig_config(seed: int, overrides: dict, epoch_ns: int = 0):
     """The one place a sample's plant overrides become a run's RigConfig (ValueError on a bad key or value)."""
     from wheelleg.emulators.plant import PlantConfig
     from wheelleg.hil.run.rig import RigConfig
 
-    return RigConfig(seed=seed, plant=PlantConfig.from_overrides(overrides))
+    return RigConfig(seed=seed, plant=PlantConfig.from_overrides(overrides), epoch_ns=epoch_ns)
 
 
 def check_ranges(ranges: dict[str, tuple[float, float]]) -> None:
@@ -58,7 +60,7 @@ def check_ranges(ranges: dict[str, tuple[float, float]]) -> None:
 def rerun_command(job: Job, settings: RunSettings) -> str:
     """The one command that runs ``job`` alone (the same candump log, byte for byte), shell-quoted."""
     return run_command(job.scenario, job.seed, settings.duration_s, job.overrides,
-                       out=run_dir(job, settings) / "rerun")
+                       out=run_dir(job, settings) / "rerun", epoch_ns=settings.epoch_ns)
 
 
 def run_dir(job: Job, settings: RunSettings) -> Path:
@@ -88,7 +90,7 @@ def run_job(job: Job, settings: RunSettings) -> dict:
         scenario = scenarios.get(job.scenario)
         if settings.duration_s is not None:
             scenario = replace(scenario, duration_s=settings.duration_s)
-        outcome = Rig(scenario, rig_config(job.seed, job.overrides), where).run()
+        outcome = Rig(scenario, rig_config(job.seed, job.overrides, settings.epoch_ns), where).run()
         results = [check(load_run(outcome.trace_path)) for check in scenario.checks]
         row["checks"] = [{"name": r.name, "passed": r.passed, "figure": first_number(r.detail),
                           "detail": r.detail} for r in results]
@@ -112,7 +114,8 @@ def finish_files(row: dict, job: Job, settings: RunSettings) -> dict:
         shutil.rmtree(where, ignore_errors=True)
         row["trace"] = None
     else:
-        row["trace"] = str((where / f"{job.scenario}.mcap").relative_to(settings.out_dir))
+        name = split_name(job.scenario)[1]  # the rig names its files by the bare scenario name
+        row["trace"] = str((where / f"{name}.mcap").relative_to(settings.out_dir))
     row["rerun"] = rerun_command(job, settings)
     return row
 

@@ -10,9 +10,11 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from wheelleg.hil import scenarios
+from wheelleg.hil import robots, scenarios
 from wheelleg.hil.campaign import analysis, execution, journal, report, sampling
 from wheelleg.hil.campaign.progress import Progress
+from wheelleg.hil.commands.run import add_epoch_argument
+from wheelleg.hil.record.run_metadata import epoch_text
 
 NAME = "campaign"
 HELP = ("run scenarios over many drawn plant overrides (all local cores, or --address's Dask cluster); "
@@ -20,7 +22,10 @@ HELP = ("run scenarios over many drawn plant overrides (all local cores, or --ad
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("scenarios", nargs="+", metavar="SCENARIO", help="scenario names (see `wheelleg list`)")
+    parser.add_argument("scenarios", nargs="+", metavar="SCENARIO",
+                        help="scenario names (see `wheelleg list`); ROBOT/NAME for another robot's")
+    robots.add_argument(parser, "the robot whose scenarios they are (default: the wheel-legged robot, or the "
+                                "one robot with a scenario of each name)")
     parser.add_argument("--samples", type=int, default=10, help="samples per scenario (default 10)")
     parser.add_argument("--seed", type=int, default=0, help="campaign seed: draws and run seeds (default 0)")
     parser.add_argument("--vary", action="append", default=[], metavar="KEY=LOW..HIGH",
@@ -29,6 +34,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--preset", default=None,
                         help=f"a named box of overrides: {', '.join(sorted(sampling.PRESETS))} (--vary adds or wins)")
     parser.add_argument("--duration", type=float, default=None, help="every run's duration (s), for quick campaigns")
+    add_epoch_argument(parser)
     parser.add_argument("--out", type=Path, required=True, help="campaign directory (the same one resumes)")
     parser.add_argument("--workers", type=int, default=None, help="local worker processes (default: all cores)")
     parser.add_argument("--address", default=None,
@@ -46,16 +52,22 @@ def canonical_command(args: argparse.Namespace) -> str:
         words += ["--vary", text]
     if args.duration is not None:
         words += ["--duration", f"{args.duration:g}"]
+    if args.epoch:
+        words += ["--epoch", epoch_text(args.epoch)]
     return " ".join(words + ["--out", str(args.out)])
 
 
 def campaign_spec(args: argparse.Namespace) -> dict:
-    """What makes this campaign (checked on resume); ValueError (one line) on bad input."""
-    for name in args.scenarios:
-        try:
-            scenarios.get(name)
-        except KeyError as exc:
-            raise ValueError(exc.args[0]) from None
+    """What makes this campaign (checked on resume); ValueError (one line) on bad input.
+
+    Scenario names become qualified (``scenarios.qualified_name``: ROBOT/NAME for
+    a robot other than the default), so a worker finds each without ``--robot``.
+    """
+    try:
+        args.scenarios = [scenarios.qualified_name(scenarios.get(name, getattr(args, "robot", None)))
+                          for name in args.scenarios]
+    except KeyError as exc:
+        raise ValueError(exc.args[0]) from None
     if len(set(args.scenarios)) != len(args.scenarios):
         raise ValueError("a scenario is named twice")
     if args.samples < 1:
@@ -66,8 +78,11 @@ def campaign_spec(args: argparse.Namespace) -> dict:
         raise ValueError(f"--workers {args.workers}: need at least 1")
     ranges = sampling.campaign_ranges(args.preset, args.vary)
     execution.check_ranges(ranges)
-    return {"scenarios": list(args.scenarios), "seed": args.seed, "duration_s": args.duration,
+    spec = {"scenarios": list(args.scenarios), "seed": args.seed, "duration_s": args.duration,
             "ranges": {k: list(v) for k, v in ranges.items()}}
+    if args.epoch:  # only when given: a campaign directory from before --epoch resumes as it was
+        spec["epoch_s"] = epoch_text(args.epoch)
+    return spec
 
 
 def run(args: argparse.Namespace, runner: execution.Runner = execution.run_job, processes: bool = True) -> int:
@@ -81,7 +96,8 @@ def run(args: argparse.Namespace, runner: execution.Runner = execution.run_job, 
     log = journal.Journal(args.out)
     jobs = sampling.plan(args.scenarios, args.samples, args.seed, spec["ranges"])
     todo = [job for job in jobs if not log.finished((job.scenario, job.sample))]
-    settings = execution.RunSettings(args.out.resolve(), args.duration, args.keep_passing)  # workers may run elsewhere
+    settings = execution.RunSettings(args.out.resolve(), args.duration, args.keep_passing,  # workers may run elsewhere
+                                     args.epoch)
     if len(todo) < len(jobs):
         print(f"campaign: resuming, {len(jobs) - len(todo)} of {len(jobs)} runs already judged in {log.path}")
     try:

@@ -7,8 +7,9 @@ For anyone who writes or tests a driver: the device answers frame for frame
 as the real one (emulators/), its shaft a simple inertia with friction. The
 bus flags are python-can's own (``-i/--interface``, ``-c/--channel``,
 ``-b/--bitrate``, ``--bus-kwargs``; ``can.cli``), so what works with
-``python -m can.logger`` works here. Runs until SIGINT or SIGTERM, then shuts
-the bus down.
+``python -m can.logger`` works here; on ``udp_multicast`` the devices do not
+hear their own frames (``wheelleg.controller.bus_args.open_bus``). Runs until
+SIGINT or SIGTERM, then shuts the bus down.
 """
 from __future__ import annotations
 
@@ -23,6 +24,7 @@ import can
 import can.cli
 import numpy as np
 
+from wheelleg.controller import bus_args
 from wheelleg.emulators.c620 import C620
 from wheelleg.emulators.cybergear import CyberGear
 from wheelleg.emulators.device import EmulatedDevice
@@ -80,6 +82,18 @@ def make_devices(args: argparse.Namespace) -> list[EmulatedDevice]:
     return [C620(esc_id=i, command_timeout_s=args.command_timeout) for i in ids]
 
 
+# the destinations of can.cli.add_bus_arguments, which can.cli.create_bus_from_namespace reads
+_BUS_KEYS = ("channel", "interface", "bitrate", "fd", "data_bitrate", "can_filters", "timing")
+
+
+def open_bus(args: argparse.Namespace) -> can.BusABC:
+    """The bus python-can's flags name, opened by ``bus_args.open_bus`` as every node on the
+    rig's buses opens one (on ``udp_multicast`` the devices do not hear their own frames)."""
+    config = {key: getattr(args, key) for key in _BUS_KEYS if key in args}
+    config.update(getattr(args, "bus_kwargs", None) or {})
+    return bus_args.open_bus(single_handle=True, **config)
+
+
 def serve(devices: list[EmulatedDevice], bus: can.BusABC, stop: threading.Event,
           tick_s: float = 0.001) -> DeviceNode:
     """Serve ``devices`` on ``bus`` in real time until ``stop`` is set; the caller owns the bus."""
@@ -98,10 +112,9 @@ def run(args: argparse.Namespace, stop: threading.Event | None = None) -> int:
         print(f"wheelleg emulate: {exc}", file=sys.stderr)
         return 2
     try:
-        bus = can.cli.create_bus_from_namespace(args)
-    except (argparse.ArgumentError, can.CanError, OSError, ValueError) as exc:
-        cause = exc.__cause__ or exc
-        print(f"wheelleg emulate: cannot open the bus: {cause}", file=sys.stderr)
+        bus = open_bus(args)
+    except (can.CanError, OSError, ValueError, ImportError) as exc:
+        print(f"wheelleg emulate: cannot open the bus: {exc}", file=sys.stderr)
         return 1
     stop = stop if stop is not None else threading.Event()
     restore = _stop_on_signals(stop.set)

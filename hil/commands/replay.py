@@ -9,6 +9,8 @@ import argparse
 import sys
 from pathlib import Path
 
+from wheelleg.hil import robots
+
 NAME = "replay"
 HELP = "replay a trace (.mcap) or candump log into a fresh controller and compare what it sends"
 
@@ -30,6 +32,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="controller period in s (default: the trace's, else the controller's)")
     parser.add_argument("--allow-drops", action="store_true",
                         help="replay a candump log even though it reports DROPCOUNT losses")
+    robots.add_argument(parser, "whose recording, replayed into that robot's controller (default: the "
+                                "trace's record, else the wheel-legged robot)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -41,7 +45,8 @@ def run(args: argparse.Namespace) -> int:
         tolerances = dict(parse_tolerance(t) for t in args.tolerance)
         result = replay(args.trace, tolerances=tolerances, exact=args.exact,
                         channels=parse_channels(args.channels), period_s=args.period,
-                        allow_drops=args.allow_drops, keep_sent=args.update is not None)
+                        allow_drops=args.allow_drops, keep_sent=args.update is not None,
+                        robot=getattr(args, "robot", None))
     except (TraceError, ValueError) as exc:
         print(f"replay: cannot replay {args.trace}: {exc}", file=sys.stderr)
         return 2

@@ -10,7 +10,8 @@ from pathlib import Path
 from wheelleg.controller.bus_args import add_bus_arguments, bus_choice
 from wheelleg.emulators.overrides import help_text, parse_assignment
 from wheelleg.emulators.plant import PlantConfig
-from wheelleg.hil import cli, scenarios
+from wheelleg.hil import cli, robots, scenarios
+from wheelleg.hil.record.run_metadata import parse_epoch
 from wheelleg.hil.run.loop_timing import describe, describe_plant
 from wheelleg.hil.run.progress import RunProgress
 from wheelleg.hil.run.rig import Rig, RigConfig
@@ -38,11 +39,28 @@ def positive_seconds(text: str) -> float:
     return value
 
 
+def epoch_seconds(text: str) -> int:
+    """argparse type: ``--epoch SECONDS`` as integer ns (``run_metadata.parse_epoch``)."""
+    try:
+        return parse_epoch(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def add_epoch_argument(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--epoch", type=epoch_seconds, default=0, metavar="SECONDS",
+                        help="start time of the candump log's timestamps, seconds since 1970 (default 0: "
+                             "the run's own time); in the trace's metadata (epoch_s) and its rerun command")
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("scenario", help="scenario name (see `wheelleg list`)")
+    parser.add_argument("scenario", help="scenario name (see `wheelleg list`); ROBOT/NAME for another robot's")
+    robots.add_argument(parser, "the robot whose scenario it is (default: the wheel-legged robot, or the one "
+                                "robot with a scenario of this name)")
     parser.add_argument("--out", type=Path, default=Path("out"), help="output directory (default out/)")
     parser.add_argument("--seed", type=int, default=0, help="random seed (noise, faults)")
     parser.add_argument("--duration", type=positive_seconds, default=None, help="override the duration (s)")
+    add_epoch_argument(parser)
     parser.add_argument("--realtime", action="store_true",
                         help="plant at wall-clock pace, controller free-running on its own timer in its own "
                              "thread; prints the control loop's period statistics")
@@ -75,12 +93,13 @@ def execute(args: argparse.Namespace, started_s: float | None = None):
     the outcome's ``startup_s`` includes the imports that came before.
     """
     started_s = time.perf_counter() if started_s is None else started_s
-    scenario = scenarios.get(args.scenario)
+    scenario = scenarios.get(args.scenario, getattr(args, "robot", None))
     if args.duration is not None:
         scenario = replace(scenario, duration_s=args.duration)
     try:
         buses = bus_choice(args, DEFAULT_INTERFACE, DEFAULT_CHANNELS)
         plant = plant_config(getattr(args, "plant", None) or [])
+        robots.get(scenario.robot).check_overrides(plant.overrides_dict())  # what its plant models
     except ValueError as exc:
         raise UsageError(str(exc)) from exc
     if args.external_controller and buses.interface == "virtual":
@@ -88,7 +107,8 @@ def execute(args: argparse.Namespace, started_s: float | None = None):
                          "udp_multicast, ...): python-can's virtual bus lives inside this process")
     config = RigConfig(interface=buses.interface, channels=buses.channels, bus_kwargs=buses.kwargs,
                        seed=args.seed, realtime=args.realtime, in_process_controller=not args.external_controller,
-                       decode=not getattr(args, "no_decode", False), plant=plant)
+                       decode=not getattr(args, "no_decode", False), plant=plant,
+                       epoch_ns=getattr(args, "epoch", 0))
     progress = RunProgress(scenario.name, scenario.duration_s, enabled=not getattr(args, "quiet", True))
     try:
         rig = Rig(scenario, config, args.out, progress=progress)

@@ -1,18 +1,23 @@
-"""``wheelleg vcan up|down|status``: the virtual SocketCAN channels vcan0 (CAN1) and vcan1 (CAN2)."""
+"""``wheelleg vcan up|down|status``: the virtual SocketCAN channels vcan0 (CAN1) and vcan1 (CAN2);
+``wheelleg vcan uml -- CMD``: CMD inside user-mode-linux with them, where the kernel has no CAN."""
 from __future__ import annotations
 
 import argparse
+import subprocess
 import sys
 
 from wheelleg.hil.bus import vcan
 
 NAME = "vcan"
 HELP = ("create (up) or remove (down) the vcan0/vcan1 SocketCAN links, txqueuelen 1000; "
-        "status: exit 0 if both open")
+        "status: exit 0 if both open; uml -- CMD: run CMD inside user-mode-linux with them")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("action", choices=("up", "down", "status"))
+    parser.add_argument("action", choices=("up", "down", "status", "uml"))
+    parser.add_argument("command", nargs="*", metavar="CMD",
+                        help="uml: after --, the command to run inside user-mode-linux (its exit status is "
+                             "vcan uml's; 124 when UML_VCAN_TIMEOUT ends it, 125 when UML fails)")
     parser.add_argument("-c", "--channel", action="append", default=None, metavar="IF",
                         help="an interface, repeatable as python-can's -c "
                              f"(default: -c {' -c '.join(vcan.CHANNELS)})")
@@ -21,6 +26,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    command = args.command[1:] if args.command[:1] == ["--"] else args.command
+    if args.action == "uml":
+        return _run_in_uml(command)
+    if command:
+        print(f"wheelleg vcan {args.action}: unexpected arguments {' '.join(command)}", file=sys.stderr)
+        return 2
     channels = tuple(args.channel or vcan.CHANNELS)
     if args.action == "status":
         reason = vcan.unavailable_reason(channels)
@@ -37,3 +48,11 @@ def run(args: argparse.Namespace) -> int:
         return 1
     print("\n".join(lines))
     return 0
+
+
+def _run_in_uml(command: list[str]) -> int:
+    """CMD inside user-mode-linux (the packaged runner); its exit status."""
+    if not command:
+        print("wheelleg vcan uml: no command: wheelleg vcan uml -- CMD [ARG...]", file=sys.stderr)
+        return 2
+    return subprocess.call(["bash", str(vcan.UML_RUNNER), *command])

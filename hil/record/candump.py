@@ -116,15 +116,24 @@ def format_timestamp(t_ns: int) -> str:
     return "(%010d.%06d)" % (sec, ns // _NS_PER_US)
 
 
+def format_line(frame: Frame, epoch_ns: int = 0) -> str:
+    """``frame`` as a ``candump -L`` line without its newline: ``(sec.usec) channel frame``,
+    its time shifted by ``epoch_ns`` (ns)."""
+    return "%s %s %s" % (format_timestamp(frame.t_ns + epoch_ns), frame.channel, format_frame(
+        frame.arbitration_id, frame.is_extended, frame.data, frame.is_error, is_remote=frame.is_remote,
+        remote_dlc=frame.dlc if frame.is_remote else 0, is_fd=frame.is_fd, fd_flags=frame.fd_flags))
+
+
 class CandumpWriter:
     """Writes a ``candump -L`` log that canplayer and python-can's can.player replay as is.
 
     ``path_or_file``: a path (opened and closed here) or a text file object.
     The same calls always give the same bytes. ``flush_interval_s`` bounds, in
-    wall-clock time, what a killed process leaves unwritten.
+    wall-clock time, what a killed process leaves unwritten. ``epoch_ns`` is
+    added to every frame's time (ns since 1970 of the recording's time 0).
     """
 
-    def __init__(self, path_or_file, flush_interval_s: float | None = 1.0):
+    def __init__(self, path_or_file, flush_interval_s: float | None = 1.0, epoch_ns: int = 0):
         if hasattr(path_or_file, "write"):
             self._file: IO[str] = path_or_file
             self._owns_file = False
@@ -134,6 +143,7 @@ class CandumpWriter:
             self._file = open(self.path, "w", encoding="ascii", newline="\n", buffering=1 << 16)
             self._owns_file = True
         self._channels: set[str] = set()
+        self.epoch_ns = operator.index(epoch_ns)
         self._flush_interval_s = flush_interval_s
         self._flush_at = time.monotonic() + flush_interval_s if flush_interval_s else float("inf")
         self.frames = 0
@@ -145,10 +155,7 @@ class CandumpWriter:
         channel = frame.channel
         if channel not in self._channels:
             self._check_channel(channel)
-        text = "%s %s %s\n" % (format_timestamp(frame.t_ns), channel, format_frame(
-            frame.arbitration_id, frame.is_extended, frame.data, frame.is_error, is_remote=frame.is_remote,
-            remote_dlc=frame.dlc if frame.is_remote else 0, is_fd=frame.is_fd, fd_flags=frame.fd_flags))
-        self._file.write(text)
+        self._file.write(format_line(frame, self.epoch_ns) + "\n")
         self.frames += 1
         if time.monotonic() >= self._flush_at:
             self.flush()

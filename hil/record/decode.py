@@ -34,11 +34,11 @@ from wheelleg.dbc.codec import MessageCodec
 
 _CACHE_LIMIT = 65536  # distinct (channel, id, extended) keys remembered
 _ID_CACHE_LIMIT = 4096  # CyberGear ids whose fields are remembered (type-1 ids vary with torque)
-_TORQUE_UNIT = dbc.load_file("cybergear.dbc").get_message_by_name("CG_Id_Motion") \
+_TORQUE_UNIT = dbc.load_file(cg.ID_DBC).get_message_by_name("CG_Id_Motion") \
     .get_signal_by_name("TorqueRef").unit or ""
 # The communication type's bits, read from the DBC once: the per-frame lookup
 # shifts inline instead of calling cg.comm_type (3 calls, ~0.4 us).
-_TYPE_SIGNAL = dbc.load_file("cybergear.dbc").get_message_by_name("CG_Id_Request").get_signal_by_name("Type")
+_TYPE_SIGNAL = dbc.load_file(cg.ID_DBC).get_message_by_name("CG_Id_Request").get_signal_by_name("Type")
 _TYPE_SHIFT, _TYPE_MASK = _TYPE_SIGNAL.start, (1 << _TYPE_SIGNAL.length) - 1
 
 
@@ -263,6 +263,13 @@ class FrameDecoder:
     @property
     def channels(self) -> list[str]:
         return list(self._dbs)
+
+    def fields(self) -> set[tuple[str, str]]:
+        """(message, field) for every value a decoded frame can carry: DBC signals and CyberGear id fields."""
+        out = {(m.name, s.name) for db in self._dbs.values() for m in db.messages for s in m.signals}
+        for by_type in self._cybergear.values():
+            out |= {(plan.name, name) for plan in by_type.values() for name, _ in plan.id_units}
+        return out
 
     def plan(self, channel: str, can_id: int, is_extended: bool) -> DecodePlan | None:
         """The decode plan of one identifier on ``channel``, or None if no DBC message fits."""

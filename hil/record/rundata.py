@@ -8,7 +8,8 @@ from pathlib import Path
 import numpy as np
 
 from wheelleg.dbc import cybergear as cg
-from wheelleg.dbc import CAN1, CAN2
+from wheelleg.dbc import CAN1, load_file
+from wheelleg.hil import robots
 from wheelleg.hil.bus.busload import LOAD_TOPIC
 from wheelleg.hil.record.frame import Frame
 from wheelleg.hil.record.sources import TraceError, open_recording
@@ -16,15 +17,29 @@ from wheelleg.hil.record.trace import TraceReader
 from wheelleg.hil.run.scenario import RunData
 
 
-def _commands(frames: Iterable[Frame]) -> dict:
-    """Hip torques commanded in type-1 frames: motor id -> (t (n,), N m (n,))."""
-    series = defaultdict(lambda: ([], []))
+_MOTION = load_file("cybergear.dbc").get_message_by_name("CG_MotionCmd")
+_KP, _KD = _MOTION.get_signal_by_name("Kp"), _MOTION.get_signal_by_name("Kd")  # big-endian u16, bytes 4-5, 6-7
+
+
+def _commands(frames: Iterable[Frame]) -> tuple[dict, dict]:
+    """What type-1 (MIT) frames commanded, per motor id: (t (n,) s, torque feed-forward (n,) N m) and
+    (t (n,) s, Kp (n,) N m/rad, Kd (n,) N m s/rad)."""
+    series = defaultdict(lambda: ([], [], [], []))
     for frame in frames:
-        if frame.is_extended and cg.comm_type(frame.arbitration_id) == cg.T_MOTION:
-            t, tau = series[cg.target(frame.arbitration_id)]
+        if frame.is_extended and cg.comm_type(frame.arbitration_id) == cg.T_MOTION and len(frame.data) == 8:
+            t, tau, kp, kd = series[cg.target(frame.arbitration_id)]
             t.append(frame.t_ns / 1e9)
             tau.append(cg.motion_torque(frame.arbitration_id))
-    return {k: (np.array(t), np.array(v)) for k, (t, v) in series.items()}
+            kp.append(int.from_bytes(frame.data[4:6], "big") * _KP.scale + _KP.offset)
+            kd.append(int.from_bytes(frame.data[6:8], "big") * _KD.scale + _KD.offset)
+    arrays = {k: tuple(np.array(v) for v in columns) for k, columns in series.items()}
+    return ({k: (t, tau) for k, (t, tau, _, _) in arrays.items()},
+            {k: (t, kp, kd) for k, (t, _, kp, kd) in arrays.items()})
+
+
+def _motor_roles(robot: str) -> list[str]:
+    """The buses that carry CyberGear motors on ``robot`` (its registry entry)."""
+    return [bus.role for bus in robots.get(robot).buses if any(d.kind == "cybergear" for d in bus.devices)]
 
 
 def _currents(reader: TraceReader, wheels_channel: str) -> dict:
@@ -43,10 +58,12 @@ def load_run(path: Path | str) -> RunData:
         raise TraceError(f"{path}: run data needs the rig's MCAP trace, not a candump log")
     channels = recording.channels
     can1 = channels.get(CAN1, "")
+    torques, gains = _commands(f for role in _motor_roles(recording.robot) for f in recording.bus_frames(role))
     return RunData(
         state=reader.sim_state(),
         heartbeat=reader.decoded(can1, "Heartbeat"),
-        hip_torque=_commands(recording.bus_frames(CAN2)),
+        hip_torque=torques,
+        joint_gains=gains,
         wheel_current=_currents(reader, can1),
         events=recording.events,
         meta=dict(recording.run, truncated=recording.truncated),

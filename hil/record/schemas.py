@@ -57,13 +57,18 @@ CAN_FRAME_JSON: dict = {
     "additionalProperties": False,
 }
 
-# /sim/state: field -> unit. Order is the order of the trace contract.
-SIM_STATE_FIELDS: dict[str, str] = {
+# /sim/state: field -> unit. Order is the order of the trace contract: every robot's body pose
+# (POSE_FIELDS), then its own (SIM_STATE_FIELDS: the wheel-legged robot's; another robot's in its
+# registry entry, wheelleg.hil.robots).
+POSE_FIELDS: dict[str, str] = {
     "t": "s",
     "x": "m", "y": "m", "z": "m",
     "roll": "rad", "pitch": "rad", "yaw": "rad",
     "vx": "m/s", "vy": "m/s", "vz": "m/s",
     "wx": "rad/s", "wy": "rad/s", "wz": "rad/s",
+}
+SIM_STATE_FIELDS: dict[str, str] = {
+    **POSE_FIELDS,
     "left_leg_length": "m", "right_leg_length": "m",
     "left_leg_angle": "rad", "right_leg_angle": "rad",
     "left_normal_force": "N", "right_normal_force": "N",
@@ -81,6 +86,9 @@ _SIM_STATE_NOTES = {
     "body_on_ground": "1 when the body box touches the ground, else 0",
     "left_wheel_clearance": "lowest wheel point above the ground below it (< 0 pressed in)",
     "right_wheel_clearance": "lowest wheel point above the ground below it (< 0 pressed in)",
+    "height": "body centre above the mean of the feet's centres (the hip plane above the feet)",
+    **{f"{leg}_foot_force": "foot-floor normal force" for leg in ("FR", "FL", "RR", "RL")},
+    **{f"{leg}_foot_z": "foot centre's height, world frame" for leg in ("FR", "FL", "RR", "RL")},
 }
 
 EVENT: dict = {
@@ -117,9 +125,11 @@ def _number(unit: str, note: str = "") -> dict:
     return {"type": NUMBER_OR_NULL, "description": text} if text else {"type": NUMBER_OR_NULL}
 
 
-def sim_state_schema(extra_fields: list[str] = ()) -> dict:
-    """Schema of ``/sim/state``: the contract's fields plus ``extra_fields`` (numbers)."""
-    props = {name: _number(unit, _SIM_STATE_NOTES.get(name, "")) for name, unit in SIM_STATE_FIELDS.items()}
+def sim_state_schema(extra_fields: list[str] = (), fields: dict[str, str] | None = None) -> dict:
+    """Schema of ``/sim/state``: the contract's ``fields`` (name -> unit; default: the wheel-legged
+    robot's, ``SIM_STATE_FIELDS``) plus ``extra_fields`` (numbers)."""
+    fields = SIM_STATE_FIELDS if fields is None else fields
+    props = {name: _number(unit, _SIM_STATE_NOTES.get(name, "")) for name, unit in fields.items()}
     for name in extra_fields:
         props.setdefault(name, _number(SIM_STATE_EXTRA_FIELDS.get(name, ""), _SIM_STATE_NOTES.get(name, "")))
     return {
@@ -127,7 +137,7 @@ def sim_state_schema(extra_fields: list[str] = ()) -> dict:
         "description": "Simulation ground truth (never seen by the controller), SI units.",
         "type": "object",
         "properties": props,
-        "required": list(SIM_STATE_FIELDS),
+        "required": list(fields),
         "additionalProperties": {"type": NUMBER_OR_NULL},
     }
 

@@ -8,14 +8,19 @@ and DROPCOUNT notices). Replay and inspect both read through it.
 
 Bus roles (worked out here only): an MCAP trace of the rig names its channels in the ``run``
 metadata; a candump log does not, so the role of each interface is inferred
-from what it carries (CyberGear extended ids -> can2; C620, IMU or remote ids
--> can1), or given by the caller (``channels={"can1": "can0", "can2": "can1"}``).
+from what it carries (the wheel-legged robot: CyberGear extended ids -> can2; C620, IMU or remote ids
+-> can1; another robot: the CyberGear motor ids and the standard ids of the devices
+its registered buses carry), or given by the caller (``channels={"can1": "can0", "can2": "can1"}``).
+
+Which robot: an MCAP trace names it in the ``run`` metadata (``robot``); a log
+is of the default robot unless the caller says (``open_recording(..., robot=...)``).
+Its frames are read with that robot's bus databases (``Recording.dbs``).
 
 Which frames are the controller's: the DBC says it. A frame is the
 controller's when its DBC message lists a controller node among its senders
 (``HOST`` in cybergear.dbc and c620.dbc, ``CONTROLLER`` in rig.dbc); CyberGear
 frames are looked up at their canonical id (``wheelleg.dbc.cybergear.canonical_id``)
-and a frame addressed to the host (a reply) is never the host's.
+and a frame a motor sent (``cg.from_motor``: a reply to any host) is never the host's.
 """
 from __future__ import annotations
 
@@ -27,6 +32,7 @@ from typing import Iterator
 
 from wheelleg import dbc
 from wheelleg.controller.constants import CG_HOST_ID
+from wheelleg.hil import robots
 from wheelleg.dbc import CAN1, CAN2
 from wheelleg.dbc import cybergear as cg
 from wheelleg.hil.record.candump import CandumpReader, DropNotice, LogFormatError
@@ -34,7 +40,7 @@ from wheelleg.hil.record.frame import Frame
 
 ROLES = dbc.BUSES
 CONTROLLER_NODES = frozenset({"HOST", "CONTROLLER"})  # DBC node names of the controller
-DBS = {role: dbc.load_bus(role) for role in ROLES}
+DBS = {role: dbc.load_bus(role) for role in ROLES}  # the default robot's
 HEARTBEAT = DBS[CAN1].get_message_by_name("Heartbeat")
 SYNC = DBS[CAN1].get_message_by_name("SYNC")
 MCAP_MAGIC = b"\x89MCAP"
@@ -65,6 +71,7 @@ class Recording:
     truncated: bool = False
     trace: object = None  # wheelleg.hil.record.trace.TraceReader of an MCAP trace
     keep_unknown: bool = False  # frames of interfaces without a role: kept (role '') or ignored
+    robot: str = robots.DEFAULT  # the registered robot it is a recording of
     raw_frames: list[Frame] | None = field(default=None, repr=False)  # a log's frames before roles
     _frames: list[Frame] | None = field(default=None, init=False, repr=False)
     _ignored: dict[str, int] = field(default_factory=dict, init=False, repr=False)
@@ -72,6 +79,11 @@ class Recording:
     @property
     def run(self) -> dict[str, str]:
         return self.metadata.get("run", {})
+
+    @property
+    def dbs(self) -> dict:
+        """Role -> the cantools database of that bus of the recording's robot."""
+        return robot_dbs(self.robot)
 
     @property
     def frames(self) -> list[Frame]:
@@ -105,10 +117,16 @@ class Recording:
         return (max(f.t_ns for f in self.frames) - min(f.t_ns for f in self.frames)) / 1e9
 
 
+def robot_dbs(robot: str) -> dict:
+    """Role -> the cantools database of that bus of ``robot`` (the default robot's: ``DBS``)."""
+    return DBS if robot == robots.DEFAULT else {role: dbc.load_bus(role, robot=robot) for role in ROLES}
+
+
 # -- which frames are the controller's ------------------------------------------------------
-def dbc_message(role: str, arbitration_id: int, is_extended: bool):
-    """The cantools message of a frame on bus ``role`` (CyberGear at its canonical id), or None."""
-    db = DBS.get(role)
+def dbc_message(role: str, arbitration_id: int, is_extended: bool, dbs: dict | None = None):
+    """The cantools message of a frame on bus ``role`` (CyberGear at its canonical id), or None;
+    ``dbs``: role -> database (default: the default robot's, ``DBS``)."""
+    db = (DBS if dbs is None else dbs).get(role)
     if db is None:
         return None
     frame_id = cg.canonical_id(arbitration_id) if is_extended else arbitration_id
@@ -120,14 +138,14 @@ def dbc_message(role: str, arbitration_id: int, is_extended: bool):
     return message if message.is_extended_frame == is_extended else None
 
 
-def sent_by_controller(frame: Frame) -> bool:
-    """True when the DBC names a controller node as the sender of this frame."""
+def sent_by_controller(frame: Frame, dbs: dict | None = None) -> bool:
+    """True when the DBC (``dbs``, as ``dbc_message``) names a controller node as the sender of this frame."""
     if frame.is_error or frame.is_fd:
         return False
-    message = dbc_message(frame.bus, frame.arbitration_id, frame.is_extended)
+    message = dbc_message(frame.bus, frame.arbitration_id, frame.is_extended, dbs)
     if message is None or not CONTROLLER_NODES.intersection(message.senders or ()):
         return False
-    return not (frame.is_extended and cg.is_reply(frame.arbitration_id, CG_HOST_ID))
+    return not (frame.is_extended and cg.from_motor(frame.arbitration_id, CG_HOST_ID))
 
 
 def is_heartbeat(frame: Frame) -> bool:
@@ -165,9 +183,33 @@ def _role_votes(frames) -> dict[str, dict[str, int]]:
     return votes
 
 
-def infer_channels(frames) -> dict[str, str]:
+def _device_votes(frames, robot: robots.Robot) -> dict[str, dict[str, int]]:
+    """Interface -> {role: frames of a device that ``robot``'s registry puts on that role}: CyberGear
+    frames by motor id (to or from it), standard frames by the ids only that role's database knows."""
+    dbs = robot_dbs(robot.name)
+    motors = {d.can_id: bus.role for bus in robot.buses for d in bus.devices if d.kind == "cybergear"}
+    own = {role: {m.frame_id for m in db.messages if not m.is_extended_frame} for role, db in dbs.items()}
+    lockstep = {SYNC.frame_id, HEARTBEAT.frame_id}
+    only = {role: ids - lockstep - set().union(*(v for r, v in own.items() if r != role)) for role, ids in own.items()}
+    votes: dict[str, dict[str, int]] = {}
+    for f in frames:
+        v = votes.setdefault(f.channel, {role: 0 for role in ROLES})
+        if f.is_error or f.is_fd:
+            continue
+        if f.is_extended:
+            motor = cg.reply_motor(f.arbitration_id) if cg.is_reply(f.arbitration_id, CG_HOST_ID) \
+                else cg.target(f.arbitration_id)
+            role = motors.get(motor)
+        else:
+            role = next((r for r, ids in only.items() if f.arbitration_id in ids), None)
+        if role is not None:
+            v[role] += 1
+    return votes
+
+
+def infer_channels(frames, robot: str = robots.DEFAULT) -> dict[str, str]:
     """Role -> interface, from the frames each interface carries; {} entries left out if unsure."""
-    votes = _role_votes(frames)
+    votes = _role_votes(frames) if robot == robots.DEFAULT else _device_votes(frames, robots.get(robot))
     out = {}
     for role in ROLES:
         ranked = sorted(votes, key=lambda ch: votes[ch][role], reverse=True)
@@ -212,7 +254,7 @@ def _resolve_channels(recording: Recording, given: dict | None, strict: bool) ->
     if recorded and all(recorded.get(r) for r in ROLES):
         return {r: recorded[r] for r in ROLES}
     frames = recording._unassigned()
-    inferred = infer_channels(frames)
+    inferred = infer_channels(frames, recording.robot)
     present = sorted({f.channel for f in frames})
     unknown = [ch for ch in present if ch not in inferred.values()]
     if strict and (len(inferred) < 2 or unknown):
@@ -224,12 +266,15 @@ def _resolve_channels(recording: Recording, given: dict | None, strict: bool) ->
 
 
 # -- loading ---------------------------------------------------------------------------------
-def open_recording(path, channels: dict | None = None, *, strict: bool = True) -> Recording:
+def open_recording(path, channels: dict | None = None, *, strict: bool = True,
+                   robot: str | None = None) -> Recording:
     """Read an MCAP trace or a candump log (plain or gzip-compressed).
 
     ``strict`` (replay): both bus roles must be known, frames of other
     interfaces are dropped (counted in ``ignored_channels``). ``strict=False``
     (inspect, run data): roles as far as they can be told, every frame kept.
+    ``robot``: whose recording it is (default: the trace's ``run`` record says,
+    else the default robot); a trace of another robot is refused.
 
     Raises ``TraceError`` with the reason when the file cannot be read.
     """
@@ -245,10 +290,25 @@ def open_recording(path, channels: dict | None = None, *, strict: bool = True) -
     else:
         recording = _open_candump(path)
     recording.keep_unknown = not strict
+    recording.robot = _robot_of(recording, robot)
     recording.channels = _resolve_channels(recording, channels, strict)
     if recording.trace is not None:  # decode on reading what was recorded without /decoded/
-        recording.trace.decode_with({recording.channels[r]: DBS[r] for r in ROLES if r in recording.channels})
+        dbs = recording.dbs
+        recording.trace.decode_with({recording.channels[r]: dbs[r] for r in ROLES if r in recording.channels})
     return recording
+
+
+def _robot_of(recording: Recording, given: str | None) -> str:
+    """The robot of ``recording``: the trace's record, the caller's, else the default; TraceError if they differ
+    or the registry does not know it."""
+    recorded = recording.run.get("robot") or None
+    if given is not None and recorded is not None and given != recorded:
+        raise TraceError(f"{recording.path}: a recording of the {recorded} robot, not of the {given} robot")
+    name = given or recorded or robots.DEFAULT
+    if name not in robots.ROBOTS:
+        raise TraceError(f"{recording.path}: a recording of robot {name!r}, which this rig does not know "
+                         f"(known: {', '.join(robots.names())})")
+    return name
 
 
 def _open_mcap(path: Path) -> Recording:

@@ -148,9 +148,13 @@ class TraceWriter:
     def __init__(self, path, *, metadata: dict[str, dict[str, str]],
                  attachments: Sequence[tuple[str, bytes, str]] = (), dbs: dict | None = None,
                  decode: bool = True, compression: str = "zstd", chunk_size: int = 512 * 1024,
-                 chunk_span_s: float = 0.5, flush_interval_s: float | None = 1.0, decode_batch: int = 256):
+                 chunk_span_s: float = 0.5, flush_interval_s: float | None = 1.0, decode_batch: int = 256,
+                 sim_state_fields: dict[str, str] | None = None):
+        """``sim_state_fields``: the /sim/state fields every record must have (name -> unit; default:
+        the wheel-legged robot's, ``schemas.SIM_STATE_FIELDS``)."""
         self.path = Path(path)
         self._metadata = _checked_metadata(metadata)
+        self._sim_fields = schemas.SIM_STATE_FIELDS if sim_state_fields is None else dict(sim_state_fields)
         self._attachments = [(str(n), bytes(d), str(t)) for n, d, t in attachments]
         self._decoder = FrameDecoder(dbs) if (dbs and decode) else None
         self._options = dict(compression=compression, chunk_size=chunk_size,
@@ -303,11 +307,11 @@ class TraceWriter:
         pending.clear()
 
     def sim_state(self, t_ns: int, state: dict[str, float]) -> None:
-        """Ground truth at ``t_ns``: the contract's fields (``schemas.SIM_STATE_FIELDS``) + extras.
+        """Ground truth at ``t_ns``: the contract's fields (``sim_state_fields``) + extras.
 
         ``t`` (s) is taken from ``t_ns``. Every value must be a real number.
         """
-        missing = [k for k in schemas.SIM_STATE_FIELDS if k != "t" and k not in state]
+        missing = [k for k in self._sim_fields if k != "t" and k not in state]
         if missing:
             raise ValueError(f"sim_state is missing {missing}")
         record = {"t": t_ns / 1e9}
@@ -316,8 +320,9 @@ class TraceWriter:
                 record[key] = _number(key, value)
         channel_id = self._topic_ids.get(SIM_STATE_TOPIC)
         if channel_id is None:
-            extra = [k for k in record if k not in schemas.SIM_STATE_FIELDS]
-            channel_id = self._channel(SIM_STATE_TOPIC, "wheelleg.SimState", schemas.sim_state_schema(extra))
+            extra = [k for k in record if k not in self._sim_fields]
+            channel_id = self._channel(SIM_STATE_TOPIC, "wheelleg.SimState",
+                                       schemas.sim_state_schema(extra, self._sim_fields))
         self._put(channel_id, t_ns, record)
 
     def event(self, t_ns: int, kind: str, **fields) -> None:

@@ -78,15 +78,17 @@ def _known(device: str, kinds=C.DEVICES) -> str:
     return device
 
 
-def _policy(kind: str, flag: str, device: str, t_s: float, duration_s: float | None) -> list[Action]:
-    _known(device)
+def _policy(kind: str, flag: str, device: str, t_s: float, duration_s: float | None,
+            devices=C.DEVICES) -> list[Action]:
+    _known(device, devices)
     return _window(kind, t_s, duration_s, lambda rig: setattr(_device(rig, device), flag, True),
                    lambda rig: setattr(_device(rig, device), flag, False), device=device)
 
 
-def silent(device: str, t_s: float, duration_s: float | None = None) -> list[Action]:
-    """``device`` sends nothing from ``t_s`` for ``duration_s`` (unplugged, dead)."""
-    return _policy("silent", "silent", device, t_s, duration_s)
+def silent(device: str, t_s: float, duration_s: float | None = None, devices=C.DEVICES) -> list[Action]:
+    """``device`` sends nothing from ``t_s`` for ``duration_s`` (unplugged, dead); ``devices``: the
+    robot's device names (default: the wheel-legged robot's)."""
+    return _policy("silent", "silent", device, t_s, duration_s, devices)
 
 
 def frozen(device: str, t_s: float, duration_s: float | None = None) -> list[Action]:

@@ -29,8 +29,6 @@ import threading
 import time
 from contextlib import contextmanager
 
-from wheelleg.controller.node import ControllerNode
-from wheelleg.dbc import CAN1, CAN2
 from wheelleg.hil.bus.plant_bus import SimClock
 from wheelleg.hil.bus.transport import open_bus
 from wheelleg.hil.record import schemas
@@ -45,11 +43,12 @@ PLANT_FIFO_PRIORITY = 5  # the plant's, below the controller's: other processes 
 
 
 class ControllerThread:
-    """A free-running ControllerNode on its own buses and thread; its ticks logged."""
+    """A robot's free-running controller node on its own buses and thread; its ticks logged."""
 
-    def __init__(self, interface: str, channels: dict, period_s: float):
-        self.node = ControllerNode(open_bus(interface, channels[CAN1]), open_bus(interface, channels[CAN2]),
-                                   sync=False, period_s=period_s)
+    def __init__(self, robot, interface: str, channels: dict, period_s: float):
+        """``robot``: a registered ``wheelleg.hil.robots.Robot``; ``channels``: bus role -> channel."""
+        self.node = robot.build_controller({role: open_bus(interface, name) for role, name in channels.items()},
+                                           False, period_s)
         self.node.tick_log = []
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name="controller", daemon=True)
@@ -140,7 +139,7 @@ class Realtime:
         total = ticks * self.steps_per_tick
         controller = None
         if cfg.in_process_controller:
-            controller = ControllerThread(cfg.interface, rig.names, cfg.period_s)
+            controller = ControllerThread(rig.robot, cfg.interface, rig.names, cfg.period_s)
         steal0 = host_steal_s()
         with _realtime_process() as plant_scheduler:
             wall0 = time.monotonic()

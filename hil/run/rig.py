@@ -10,43 +10,38 @@ faults (``BusFaults``), the recorder, the schedule's lockstep watch.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import can
 import numpy as np
 
-from wheelleg.controller import params as P
 from wheelleg.controller.bus_args import per_bus_kwargs
-from wheelleg.controller.node import ControllerNode
-from wheelleg.controller.telemetry import DEBUG_FIELDS
-from wheelleg.dbc import CAN1, CAN2, all_dbc_files, load_bus
+from wheelleg.dbc import CAN1, CAN2, all_dbc_files, load_file
 from wheelleg.dbc.codec import MessageCodec
-from wheelleg.emulators.physics import MODEL_DIR, Physics
-from wheelleg.emulators.plant import Plant, PlantConfig
+from wheelleg.emulators.plant import PlantConfig
+from wheelleg.hil import robots
 from wheelleg.hil.bus.frame_faults import BusFaults
 from wheelleg.hil.bus.plant_bus import PlantBus
 from wheelleg.hil.bus.recorder import Recorder
 from wheelleg.hil.bus.transport import open_bus
 from wheelleg.hil.record.candump import CandumpWriter
 from wheelleg.hil.record.run_metadata import run_record
-from wheelleg.hil.record.schemas import described_schema
 from wheelleg.hil.record.trace import TraceWriter
 from wheelleg.hil.run.scenario import Scenario
 from wheelleg.hil.run.schedule import HeldLockstep, Lockstep
 
-_SYNC = load_bus(CAN1).get_message_by_name("SYNC")
+_SYNC = load_file("rig.dbc").get_message_by_name("SYNC")  # every robot's lockstep frame
 _SYNC_CODEC = MessageCodec.of(_SYNC)  # compiled: cantools' encode costs ~10 us a tick
-DEBUG_SCHEMA = described_schema("wheelleg.ControllerDebug", DEBUG_FIELDS)  # /controller/debug
 
 @dataclass
 class RigConfig:
-    """How to run: transport, channels (CAN1 = wheels, CAN2 = joints), seed, timing."""
+    """How to run: transport, channels (CAN1 then CAN2: the robot's two buses), seed, timing."""
 
     interface: str = "virtual"
     channels: tuple = ("vcan0", "vcan1")
     seed: int = 0
-    period_s: float = P.CONTROL_PERIOD
+    period_s: float | None = None  # control period (s); None: the robot's (wheelleg.hil.robots)
     physics_dt_s: float = 0.001
     in_process_controller: bool = True  # False: an external `wheelleg controller` answers
     deadline_s: float = 0.5  # wall-clock bound for the heartbeats of one tick
@@ -56,6 +51,7 @@ class RigConfig:
     trace_flush_s: float | None = 1.0  # wall s a killed run may lose; None: chunks close by size and bus time only
     bus_kwargs: dict = field(default_factory=dict)  # more keyword arguments for python-can's bus
     plant: PlantConfig = field(default_factory=PlantConfig)
+    epoch_ns: int = 0  # ns since 1970 that the candump log's time 0 stands for (the trace keeps the run's time)
 
 @dataclass
 class RunOutcome:
@@ -96,14 +92,17 @@ class Rig:
 
     def __init__(self, scenario: Scenario, config: RigConfig, out_dir: Path, progress=None):
         """``progress(t_s)``, if given, is called once per tick (hil/run/progress.py)."""
+        self.robot = robot = robots.get(scenario.robot)
+        robot.check_overrides(config.plant.overrides_dict())
+        if config.period_s is None:
+            config = replace(config, period_s=robot.control_period_s)
         self.scenario, self.config = scenario, config
         self.progress = progress
         out_dir.mkdir(parents=True, exist_ok=True)
         self.trace_path, self.log_path = run_paths(out_dir, scenario.name)
         self.names = {CAN1: config.channels[0], CAN2: config.channels[1]}
         self.rng = np.random.default_rng(config.seed)
-        self.physics = Physics(terrain=scenario.terrain, timestep_s=config.physics_dt_s,
-                               overrides=config.plant.overrides)
+        self.physics = robot.build_physics(scenario.terrain, config.physics_dt_s, config.plant.overrides)
         scenario.start(self.physics)
         # the buses first: a missing vcan fails before any file is written
         self._raw = {k: _open_bus(config, ch) for k, ch in self.names.items()}
@@ -114,23 +113,23 @@ class Rig:
             attachments.append(("plant_model.xml", self.physics.spec.to_xml().encode(), "application/xml"))
         self.trace = TraceWriter(self.trace_path, metadata=self._metadata(),
                                  attachments=attachments,
-                                 dbs={self.names[CAN1]: load_bus(CAN1), self.names[CAN2]: load_bus(CAN2)},
-                                 decode=config.decode, flush_interval_s=config.trace_flush_s,
+                                 dbs={self.names[role]: db for role, db in robot.databases().items()},
+                                 decode=config.decode, sim_state_fields=robot.sim_state_fields,
+                                 flush_interval_s=config.trace_flush_s,
                                  decode_batch=1 if config.realtime else 256)  # a real-time loop must not stall
-        self.log = CandumpWriter(self.log_path)
-        self.recorder = Recorder([self.trace, self.log], self.clock, load_to=self.trace)
+        self.log = CandumpWriter(self.log_path, epoch_ns=config.epoch_ns)
+        self.recorder = Recorder([self.trace, self.log], self.clock, list(self.names.values()), load_to=self.trace)
         self.bus_faults = {k: BusFaults(self.clock) for k in self._raw}
         self.plant_buses = {}
         for k, raw in self._raw.items():
             end = self.schedule.bus_end(k, raw)
             self.plant_buses[k] = PlantBus(end, self.names[k], self.recorder,
                                            [self.bus_faults[k], self.schedule.watches[k]])
-        self.plant = Plant(self.physics, self.plant_buses, self.rng, config.plant)
+        self.plant = robot.build_plant(self.physics, self.plant_buses, self.rng, config.plant)
         self.controller = None
         if config.in_process_controller and not config.realtime:  # real time: hil/run/realtime.py
-            self.controller = ControllerNode(_open_bus(config, self.names[CAN1]),
-                                             _open_bus(config, self.names[CAN2]),
-                                             sync=True, period_s=config.period_s)
+            self.controller = robot.build_controller({role: _open_bus(config, name) for role, name in self.names.items()},
+                                                     True, config.period_s)
         self.deadline_misses = 0
         self.controller_died = False  # the in-process controller raised (see service_controller)
         self.tick = 0
@@ -142,12 +141,12 @@ class Rig:
         return {"run": run_record(scenario=self.scenario.name, seed=cfg.seed, control_period_s=cfg.period_s,
                                   physics_dt_s=cfg.physics_dt_s, duration_s=self.scenario.duration_s,
                                   interface=cfg.interface, channels=self.names,
-                                  plant_overrides=cfg.plant.overrides_dict())}
+                                  plant_overrides=cfg.plant.overrides_dict(), epoch_ns=cfg.epoch_ns,
+                                  robot=self.robot.name)}
 
-    @staticmethod
-    def _attachments() -> list:
+    def _attachments(self) -> list:
         files = [(p.name, p.read_bytes(), "text/x-dbc") for p in all_dbc_files()]
-        files += [(p.name, p.read_bytes(), "application/xml") for p in sorted(MODEL_DIR.glob("*.xml"))]
+        files += [(p.name, p.read_bytes(), "application/xml") for p in self.robot.model_files()]
         return files
 
     # -- the steps a schedule takes --------------------------------------------
@@ -189,12 +188,12 @@ class Rig:
                              error=f"{type(exc).__name__}: {exc}")
 
     def record_debug(self) -> None:
-        if self.controller is None or not self.config.record_debug:
+        schema = self.robot.debug_schema
+        if self.controller is None or not self.config.record_debug or schema is None:
             return
         result = self.controller.last_result
         if result is not None and result.debug:
-            self.trace.message("/controller/debug", self.clock.now_ns, result.debug, DEBUG_SCHEMA["title"],
-                               DEBUG_SCHEMA)
+            self.trace.message("/controller/debug", self.clock.now_ns, result.debug, schema["title"], schema)
 
     # -- scenario actions ------------------------------------------------------
     def apply_actions(self, t_s: float) -> None:

@@ -69,6 +69,7 @@ class Scenario:
     checks: tuple = ()
     terrain: tuple = ()  # wheelleg.emulators.physics.TerrainFeature
     tags: tuple = ()
+    robot: str = "wheel-legged"  # the registered robot it runs on (wheelleg.hil.robots)
 
 
 @dataclass
@@ -77,11 +78,12 @@ class RunData:
 
     state: dict  # /sim/state field -> (n,) array; "t" in s
     heartbeat: dict  # decoded Heartbeat (CAN1): "t", "Mode", "WarningLevel", ...
-    hip_torque: dict  # motor id -> (t (n,), torque N m (n,)) commanded
+    hip_torque: dict  # CyberGear motor id -> (t (n,) s, torque feed-forward (n,) N m) commanded (type 1)
     wheel_current: dict  # esc id -> (t, current A) commanded
     events: list = field(default_factory=list)  # /scenario/events dicts with "t"
     meta: dict = field(default_factory=dict)
     bus_load: dict = field(default_factory=dict)  # "can1"/"can2" -> (window end t (n,) s, load (n,) s/s)
+    joint_gains: dict = field(default_factory=dict)  # motor id -> (t (n,) s, Kp (n,) N m/rad, Kd (n,) N m s/rad)
 
     def window(self, key: str, t0: float, t1: float = np.inf) -> np.ndarray:
         """Values of a /sim/state field with t0 <= t < t1 (s), shape (n,)."""

@@ -73,6 +73,26 @@ def never_tips(limit_rad: float) -> Check:
     return Check(f"never tips past {limit_rad / DEG:g} deg", fn)
 
 
+def first_mode(run: RunData, mode: int, after_s: float = 0.0) -> float | None:
+    """Time (s) of the first heartbeat in ``mode`` at or after ``after_s``, or None."""
+    t, m = run.heartbeat["t"], run.heartbeat["Mode"]
+    hits = t[(m == mode) & (t >= after_s)]
+    return float(hits[0]) if len(hits) else None
+
+
+def tracks(field: str, target: float, t0: float, t1: float, tol: float, unit: str = "deg",
+           scale: float = 1 / DEG) -> Check:
+    """Mean of a /sim/state field over [t0, t1) within tol of target; also its spread."""
+
+    def fn(run: RunData):
+        values = run.window(field, t0, t1)
+        mean, worst = float(np.mean(values)), float(np.max(np.abs(values - target)))
+        return worst < tol, (f"{field} {mean * scale:.2f} {unit} (target {target * scale:.2f}), "
+                             f"worst error {worst * scale:.2f} over {t0:g}-{t1:g} s (limit {tol * scale:g})")
+
+    return Check(f"{field} holds {target * scale:.1f} {unit} over {t0:g}-{t1:g} s", fn)
+
+
 def no_deadline_miss() -> Check:
     def fn(run: RunData):
         misses = len(run.events_of("deadline_miss"))

@@ -1,4 +1,4 @@
-# Body of the UML guest's init, appended by ci/uml-vcan.sh after the lines
+# Body of the UML guest's init, appended by uml-vcan.sh after the lines
 # that set: exported pass-through variables, work (host temp dir, visible
 # through hostfs), cwd, start_ns (host clock at launch), cmd (array).
 # Runs as pid 1: it must end with halt, never exit.

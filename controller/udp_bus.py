@@ -4,10 +4,16 @@ A multicast socket hears what it sends (the host loops the group back to
 every member, the sender included) and python-can's ``UdpMulticastBus`` cannot
 turn that off (``receive_own_messages=True`` is "not yet implemented", False
 still echoes). The rig's plant would record each of its frames twice and
-count it twice in the bus load. This bus remembers what it sent, in order,
+count it twice in the bus load; a controller or an emulated device would take
+its own frames for the bus's. This bus remembers what it sent, in order,
 and drops the first received frame equal to the oldest one not yet echoed
 back (the loopback keeps the sender's order). Only this bus's frames are
 dropped: the rig's two sides never send the same identifier.
+
+It lives with the controller (the robot's program must not import the rig)
+so that every node on the rig's buses, ``wheelleg run``'s plant and
+controller, ``wheelleg controller`` and ``wheelleg emulate``, opens it the
+same way: ``wheelleg.controller.bus_args.open_bus``.
 """
 from __future__ import annotations
 

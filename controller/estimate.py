@@ -1,0 +1,141 @@
+"""Estimators that keep the controller's picture right when the sensors are not.
+
+``GyroBiasObserver``: a gyro's bias (power-on residue, temperature drift) goes
+straight into the wheel-speed estimate (the wheel's encoder reads it against
+the leg, so the body rate is added back) and into the LQR's body rate. The
+IMU's own orientation is not biased, so the observer propagates an orientation
+with the bias-corrected rates and trims the bias by how far that drifts from
+the measured one (a complementary filter with bias, as in Mahony's: an
+integral on the attitude error, body frame).
+
+Quaternions are (w, x, y, z) tuples, body to world; rates rad/s, body frame.
+"""
+from __future__ import annotations
+
+import math
+
+
+def quat_mul(a: tuple, b: tuple) -> tuple:
+    """Hamilton product a b of two (w, x, y, z) quaternions."""
+    aw, ax, ay, az = a
+    bw, bx, by, bz = b
+    return (aw * bw - ax * bx - ay * by - az * bz,
+            aw * bx + ax * bw + ay * bz - az * by,
+            aw * by - ax * bz + ay * bw + az * bx,
+            aw * bz + ax * by - ay * bx + az * bw)
+
+
+def quat_conj(q: tuple) -> tuple:
+    return (q[0], -q[1], -q[2], -q[3])
+
+
+def rotation_vector(q: tuple) -> tuple:
+    """Rotation vector (rad, (3,)) of unit quaternion ``q``, the short way round."""
+    w, x, y, z = q if q[0] >= 0.0 else tuple(-v for v in q)
+    s = math.sqrt(x * x + y * y + z * z)
+    if s < 1e-12:
+        return (2.0 * x, 2.0 * y, 2.0 * z)
+    angle = 2.0 * math.atan2(s, w)
+    return (angle * x / s, angle * y / s, angle * z / s)
+
+
+def quat_exp(r: tuple) -> tuple:
+    """Unit quaternion of the rotation vector ``r`` (rad, (3,))."""
+    angle = math.sqrt(sum(v * v for v in r))
+    if angle < 1e-12:
+        return (1.0, 0.5 * r[0], 0.5 * r[1], 0.5 * r[2])
+    s = math.sin(0.5 * angle) / angle
+    return (math.cos(0.5 * angle), r[0] * s, r[1] * s, r[2] * s)
+
+
+class GyroBiasObserver:
+    """Gyro bias (rad/s, (3,) body frame) from the rates against the IMU's own orientation.
+
+    With natural frequency ``omega_n`` (rad/s) and damping 1 the attitude error
+    closes through kp = 2 omega_n and the bias through ki = omega_n^2: a
+    constant bias is found within ~5 / omega_n s; the orientation's noise
+    reaches the bias only through that slow loop. ``limit`` (rad/s) bounds the
+    estimate (a gyro beyond it is broken, not biased).
+    """
+
+    def __init__(self, dt_s: float, omega_n: float, limit: float):
+        self.dt_s, self.limit = dt_s, limit
+        self.kp, self.ki = 2.0 * omega_n, omega_n * omega_n
+        self.bias = (0.0, 0.0, 0.0)
+        self._quat: tuple | None = None  # the propagated orientation
+
+    def update(self, quat: tuple, gyro: tuple) -> tuple:
+        """One period: measured orientation and rates in, the bias estimate out."""
+        if self._quat is None:
+            self._quat = quat
+            return self.bias
+        err = rotation_vector(quat_mul(quat_conj(self._quat), quat))  # measured relative to propagated
+        self.bias = tuple(max(-self.limit, min(self.limit, b - self.ki * e * self.dt_s))
+                          for b, e in zip(self.bias, err))
+        rate = tuple(g - b + self.kp * e for g, b, e in zip(gyro, self.bias, err))
+        q = quat_mul(self._quat, quat_exp(tuple(r * self.dt_s for r in rate)))
+        norm = math.sqrt(sum(v * v for v in q))
+        self._quat = tuple(v / norm for v in q)
+        return self.bias
+
+
+def forward_accel(quat: tuple, specific_force: tuple) -> float:
+    """World-horizontal acceleration (m/s^2) along the body's heading, gravity removed.
+
+    quat (w, x, y, z) body->world, specific_force (3,) body frame (+g on z at rest):
+    a_world = R f - g z, projected on (cos yaw, sin yaw, 0).
+    """
+    w, x, y, z = quat
+    fx, fy, fz = specific_force
+    ax = (1 - 2 * (y * y + z * z)) * fx + 2 * (x * y - w * z) * fy + 2 * (x * z + w * y) * fz
+    ay = 2 * (x * y + w * z) * fx + (1 - 2 * (x * x + z * z)) * fy + 2 * (y * z - w * x) * fz
+    yaw = math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+    return ax * math.cos(yaw) + ay * math.sin(yaw)
+
+
+class SlipObserver:
+    """Whether the wheels slip, and the body's ground speed (m/s) while they do.
+
+    The body's forward speed ``speed_m_s`` follows the IMU's acceleration and is
+    pulled towards the wheels' own figure (their speed less the legs' motion under
+    the body) at ``gain`` (1/s) while they grip. Slipping is declared when the two
+    part by more than ``on_m_s``; while slipping the pull stops, so a spinning or
+    skidding wheel cannot drag the estimate along. Grip is back when the two agree
+    within ``grip_m_s`` again, or when over a window of ``window_s`` the wheels'
+    speed changed as the IMU's did (within ``grip_m_s``): the estimate then takes
+    the wheels' figure, so an estimate that drifted while slipping (a bias, a
+    landing's jolt) cannot hold the flag on.
+    An accelerometer bias b leaves b / gain (m/s) between them while gripping:
+    3 deg of mounting tilt (0.5 m/s^2) at gain 10 is 0.05 m/s, well below ``on_m_s``.
+    """
+
+    def __init__(self, dt_s: float, gain: float, on_m_s: float, window_s: float, grip_m_s: float):
+        self.dt_s, self.gain, self.on_m_s = dt_s, gain, on_m_s
+        self.window_s, self.grip_m_s = window_s, grip_m_s
+        self.speed_m_s = 0.0
+        self.slipping = False
+        self._window = (0.0, 0.0, 0.0)  # (s elapsed, IMU speed change m/s, wheels' speed at its start m/s)
+
+    def update(self, accel_m_s2: float, wheels_body_speed_m_s: float) -> bool:
+        """One period: the forward acceleration (m/s^2) and the body speed the wheels
+        report (m/s) in; whether they slip out."""
+        self.speed_m_s += accel_m_s2 * self.dt_s
+        if self.slipping:
+            self._watch_grip(accel_m_s2, wheels_body_speed_m_s)
+        elif abs(wheels_body_speed_m_s - self.speed_m_s) > self.on_m_s:
+            self.slipping, self._window = True, (0.0, 0.0, wheels_body_speed_m_s)
+        if not self.slipping:
+            self.speed_m_s += self.gain * (wheels_body_speed_m_s - self.speed_m_s) * self.dt_s
+        return self.slipping
+
+    def _watch_grip(self, accel_m_s2: float, wheels_m_s: float) -> None:
+        elapsed, imu_change, wheels_start = self._window
+        elapsed, imu_change = elapsed + self.dt_s, imu_change + accel_m_s2 * self.dt_s
+        if abs(wheels_m_s - self.speed_m_s) < self.grip_m_s:
+            self.slipping = False
+        elif elapsed < self.window_s:
+            self._window = (elapsed, imu_change, wheels_start)
+        elif abs((wheels_m_s - wheels_start) - imu_change) < self.grip_m_s:
+            self.slipping, self.speed_m_s = False, wheels_m_s
+        else:
+            self._window = (0.0, 0.0, wheels_m_s)

@@ -1,0 +1,110 @@
+"""The balance stand: four feet fixed on the ground, the body posed from the remote.
+
+At ``start`` the feet's points on the ground are taken as they are (the ground
+frame G of stance.py, centred under their centroid, x along the heading); a
+foot caught in the air (a trot stopped mid-swing) is brought down to the
+ground under where it is.
+Each ``step`` slews the set points (roll, pitch, yaw relative to the start's
+heading, height), adds the trims that integrate what the IMU and the legs
+measure against them, poses the body by IK and carries its weight with the
+force distribution's feed-forward.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from wheelleg.controller.quadruped import constants as C
+from wheelleg.controller.quadruped import params as P
+from wheelleg.controller.quadruped import legs, stance
+from wheelleg.controller.quadruped.legs import JointCommands
+from wheelleg.controller.quadruped.rotations import rpy_matrix, wrap
+from wheelleg.controller.quadruped.sensed import Sensed, height_over_feet
+
+
+@dataclass(frozen=True)
+class Posture:
+    """Body set points: roll, pitch, yaw (rad; yaw relative to the stand's start) and height (m)."""
+
+    roll: float = 0.0
+    pitch: float = 0.0
+    yaw: float = 0.0
+    height: float = P.HEIGHT_NOMINAL
+
+    def as_array(self) -> np.ndarray:
+        return np.array([self.roll, self.pitch, self.yaw, self.height])
+
+
+def limited(posture: Posture) -> Posture:
+    """``posture`` within the attitude limit and the height range."""
+    a = P.ATTITUDE_LIMIT
+    return Posture(*(float(np.clip(v, -a, a)) for v in (posture.roll, posture.pitch, posture.yaw)),
+                   float(np.clip(posture.height, *P.HEIGHT_RANGE)))
+
+
+def slew(current: np.ndarray, target: np.ndarray, max_step: np.ndarray) -> np.ndarray:
+    """``current`` moved toward ``target`` by at most ``max_step`` (elementwise)."""
+    return current + np.clip(target - current, -max_step, max_step)
+
+
+class BalanceStand:
+    """Holds the feet, poses the body: ``start`` once, then ``step`` every period."""
+
+    def __init__(self, period_s: float = P.CONTROL_PERIOD):
+        self.period_s = period_s
+        self.feet_ground = stance.footprint()  # m, (4, 3): the feet's set points in G
+        self.feet_goal = self.feet_ground.copy()  # m, (4, 3): the same on the ground
+        self.down = np.ones(4, dtype=bool)  # the feet on the ground (carrying weight)
+        self.body_xy = np.zeros(2)  # m, the body centre in G (slewed to the feet's centroid: 0)
+        self.setpoint = Posture().as_array()  # roll, pitch, yaw, height being slewed
+        self.trim = np.zeros(4)
+        self.yaw0 = 0.0
+        self.measured = self.setpoint.copy()  # roll, pitch, yaw, height as last measured
+
+    def start(self, sensed: Sensed) -> None:
+        """Take the feet where they are and the body's posture as the first set point."""
+        feet = sensed.feet_level()
+        self.down = feet[:, 2] <= feet[:, 2].min() + 0.01  # the feet on the ground: on it exactly
+        height = height_over_feet(feet, self.down)
+        feet[:, 2] += height
+        feet[self.down, 2] = C.FOOT_RADIUS
+        centroid = feet[:, :2].mean(axis=0)
+        feet[:, :2] -= centroid
+        self.feet_ground = feet
+        self.feet_goal = feet.copy()
+        self.feet_goal[:, 2] = C.FOOT_RADIUS
+        self.body_xy = -centroid
+        self.yaw0 = float(sensed.rpy[2])
+        self.trim = np.zeros(4)
+        self.setpoint = np.array([sensed.rpy[0], sensed.rpy[1], 0.0, height])
+        self.measured = self.setpoint.copy()
+
+    def step(self, sensed: Sensed, target: Posture) -> JointCommands:
+        dt = self.period_s
+        rates = np.array([P.ATTITUDE_RATE] * 3 + [P.HEIGHT_RATE]) * dt
+        self.setpoint = slew(self.setpoint, limited(target).as_array(), rates)
+        self.body_xy = slew(self.body_xy, np.zeros(2), np.full(2, P.HEIGHT_RATE * dt))
+        self.feet_ground = slew(self.feet_ground, self.feet_goal, np.full((4, 3), P.FOOT_SETTLE_RATE * dt))
+        feet_level = sensed.feet_level()
+        self.down = self.down | (np.abs(self.feet_ground[:, 2] - C.FOOT_RADIUS) < 1e-9)
+        down = self.down
+        self.measured = np.array([sensed.rpy[0], sensed.rpy[1], wrap(sensed.rpy[2] - self.yaw0),
+                                  height_over_feet(feet_level, down)])
+        error = self.setpoint - self.measured
+        self.trim = trimmed(self.trim, error, dt)
+        pose = self.setpoint + self.trim
+        body = np.array([self.body_xy[0], self.body_xy[1], pose[3]])
+        q = legs.joints_for_feet(stance.feet_in_body_for_pose(self.feet_ground, body, rpy_matrix(*pose[:3])))
+        wrench = stance.attitude_wrench(C.MASS, error[:3], sensed.gyro, np.array(P.ATTITUDE_KP),
+                                        np.array(P.ATTITUDE_KD))
+        tau = stance.stance_torques(sensed.q, feet_level, sensed.level_rotation, wrench, down,
+                                    P.DISTRIBUTION_REGULARISATION, P.FRICTION)
+        return JointCommands.hold(q, P.STANCE_KP, P.STANCE_KD, tau)
+
+
+def trimmed(trim: np.ndarray, error: np.ndarray, dt: float) -> np.ndarray:
+    """The posture trims (roll, pitch, yaw rad; height m) after integrating ``error`` for ``dt`` s."""
+    gains = np.array([P.ATTITUDE_KI] * 3 + [P.HEIGHT_KI])
+    limits = np.array([P.ATTITUDE_TRIM_LIMIT] * 3 + [P.HEIGHT_TRIM_LIMIT])
+    return np.clip(trim + gains * error * dt, -limits, limits)

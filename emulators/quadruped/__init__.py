@@ -1,0 +1,1 @@
+"""The quadruped, the rig's second robot: its description (truth), MJCF, physics and plant."""
