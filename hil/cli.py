@@ -50,6 +50,9 @@ def version() -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
+    # No subcommand renders: without this MuJoCo loads an OpenGL back end (glfw) on import, ~0.3 s
+    # of every command's start-up. A value the user set is kept.
+    os.environ.setdefault("MUJOCO_GL", "disable")
     args = build_parser().parse_args(argv)
     try:
         status = int(args.func(args) or 0)

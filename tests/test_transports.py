@@ -1,5 +1,7 @@
-"""Transports: udp_multicast buses that do not cross and do not echo (rig, emulate, controller),
-msgpack declared, an external controller refused where none can join and given up on where none answers."""
+"""Transports: the in-process virtual bus with python-can's own on one channel, udp_multicast
+buses that do not cross and do not echo (rig, emulate, controller), msgpack declared, an external
+controller refused where none can join and given up on where none answers."""
+import queue
 import re
 import signal
 import subprocess
@@ -13,7 +15,7 @@ import can
 import pytest
 
 from wheelleg.controller.bus_args import BusChoice
-from wheelleg.hil.bus.transport import open_bus
+from wheelleg.hil.bus.transport import FrameQueue, open_bus
 from wheelleg.hil.cli import build_parser, main
 from wheelleg.hil.commands import emulate
 from wheelleg.hil.run.rig import Rig, RigConfig
@@ -29,6 +31,44 @@ def _udp_pair(config: RigConfig):
                 for i, ch in enumerate(config.channels)]
     except Exception as exc:  # noqa: BLE001 - a host without multicast
         pytest.skip(f"udp_multicast unavailable here: {exc}")
+
+
+def test_lockstep_virtual_bus_and_pythons_can_virtual_bus_talk_both_ways_in_order():
+    ours = open_bus("virtual", "transport-test-both-ways")
+    theirs = can.Bus(interface="virtual", channel="transport-test-both-ways", receive_own_messages=False)
+    try:
+        for i in range(3):
+            ours.send(can.Message(arbitration_id=0x100 + i, data=[i], is_extended_id=False))
+            theirs.send(can.Message(arbitration_id=0x200 + i, data=[i, i], is_extended_id=False))
+        got_theirs = [theirs.recv(timeout=1.0) for _ in range(3)]
+        got_ours = [ours.recv(timeout=0) for _ in range(3)]
+        assert [m.arbitration_id for m in got_theirs] == [0x100, 0x101, 0x102]
+        assert [(m.arbitration_id, bytes(m.data)) for m in got_ours] == [(0x200, b"\0\0"), (0x201, b"\1\1"),
+                                                                          (0x202, b"\2\2")]
+        assert all(m.is_rx for m in got_ours + got_theirs)
+        assert ours.recv(timeout=0) is None and theirs.recv(timeout=0.01) is None
+    finally:
+        ours.shutdown()
+        theirs.shutdown()
+
+
+def test_frame_queue_wakes_a_blocked_reader_and_times_out_when_empty():
+    q = FrameQueue()
+    with pytest.raises(queue.Empty):
+        q.get(timeout=0.01)
+    with pytest.raises(queue.Empty):
+        q.get_nowait()
+    assert q.pop() is None
+    got = []
+    reader = threading.Thread(target=lambda: got.append(q.get(timeout=10.0)))
+    reader.start()
+    threading.Event().wait(0.05)  # the reader is (most likely) blocked by now; either way it gets the frame
+    q.put("frame")
+    reader.join(timeout=10.0)
+    assert got == ["frame"] and not reader.is_alive()
+    q.put(1)
+    q.put(2)
+    assert (q.qsize(), q.pop(), q.get(), q.empty()) == (2, 1, 2, True)
 
 
 def test_udp_multicast_buses_do_not_cross():

@@ -12,6 +12,8 @@ ratios, which share the load, more than the absolute figures):
 3. microseconds per control tick in each phase of the lockstep schedule
    (``PHASES``: the rig's public steps as the schedule calls them, and the
    plant's physics step; recording happens inside them, as frames pass);
+   the trace's size per simulated second and the CPU time the checks take
+   to read it back (``load_run``);
 4. under cProfile, each part of the rig's share of the run (profiling slows
    everything, so only shares are reported from it);
 5. the candump log of each reference run (``REFERENCES``: the logs committed
@@ -33,6 +35,7 @@ import mujoco
 
 from wheelleg.emulators.physics import Physics
 from wheelleg.hil import scenarios
+from wheelleg.hil.record.rundata import load_run
 from wheelleg.hil.run.rig import Rig, RigConfig
 
 TRACES = Path(__file__).resolve().parents[1] / "tests" / "traces"
@@ -103,8 +106,12 @@ def timed_run(scenario, decode: bool, out: Path) -> dict:
         rig.schedule.run(phases, ticks)
     finally:
         rig.close()
-    return {"sim_s": ticks * rig.config.period_s, "wall_s": time.perf_counter() - wall0,
-            "cpu_s": time.process_time() - cpu0, "ticks": ticks, "phases": seconds}
+    wall_s, cpu_s = time.perf_counter() - wall0, time.process_time() - cpu0
+    read0 = time.process_time()
+    load_run(rig.trace_path)
+    return {"sim_s": ticks * rig.config.period_s, "wall_s": wall_s, "cpu_s": cpu_s, "ticks": ticks,
+            "phases": seconds, "trace_bytes": rig.trace_path.stat().st_size,
+            "read_cpu_s": time.process_time() - read0}
 
 
 def mujoco_only(scenario, sim_s: float) -> dict:
@@ -159,6 +166,8 @@ def report_speed(scenario, run: dict, alone: dict) -> None:
     for name, seconds in run["phases"].items():
         print(f"  {name:<20} {1e6 * seconds / run['ticks']:8.1f}")
     print(f"  {'whole tick':<20} {total:8.1f}")
+    print(f"trace {run['trace_bytes'] / run['sim_s'] / 1e6:.3f} MB per simulated s; the checks read it back in "
+          f"{run['read_cpu_s']:.2f} s CPU ({run['read_cpu_s'] / run['sim_s']:.3f} s per simulated s)")
 
 
 def report_profile(profiler: cProfile.Profile) -> None:

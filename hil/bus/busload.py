@@ -83,6 +83,11 @@ def stuff_bits(value: int, nbits: int) -> int:
     the next run. The bits before the first whole byte go through one lookup,
     the rest a byte at a time through a precomputed table.
     """
+    return _stuffed(value, nbits)[1]
+
+
+def _stuffed(value: int, nbits: int) -> tuple[int, int]:
+    """(stuffing state after the bits, stuff bits added) for the ``nbits`` low bits of ``value`` from the start."""
     lead = nbits % 8
     body = nbits - lead
     packed = _STUFF_LEAD[lead][value >> body]
@@ -91,13 +96,20 @@ def stuff_bits(value: int, nbits: int) -> int:
         packed = _STUFF[(state << 8) | byte]
         state = packed >> 4
         count += packed & 15
-    return count
+    return state, count
 
 
-@functools.lru_cache(maxsize=65536)
-def frame_bits(arbitration_id: int, is_extended: bool, data: bytes, is_remote: bool = False) -> int:
-    """Bits one classic CAN frame occupies on the wire, stuff bits included."""
-    dlc = len(data)
+# the CRC's low 7 bits from any state: index (state << 7) | bits
+_STUFF_7 = [_stuff_chunk(state, bits, 7) for state in range(15) for bits in range(128)]
+
+
+@functools.lru_cache(maxsize=4096)
+def _header(arbitration_id: int, is_extended: bool, dlc: int, is_remote: bool) -> tuple[int, int, int, int]:
+    """(bits, CRC register, stuffing state, stuff bits) of a frame's header: SOF to DLC.
+
+    What the payload does not change, worked out once per identifier and length;
+    ``frame_bits`` goes on from there a payload byte at a time.
+    """
     if is_extended:  # SOF, base id, SRR, IDE, extension, RTR, r1, r0, DLC
         head = ((arbitration_id >> 18) << 27) | (0b11 << 25) | ((arbitration_id & 0x3FFFF) << 7) \
             | (int(is_remote) << 6) | dlc
@@ -105,12 +117,30 @@ def frame_bits(arbitration_id: int, is_extended: bool, data: bytes, is_remote: b
     else:  # SOF, id, RTR, IDE, r0, DLC
         head = (arbitration_id << 7) | (int(is_remote) << 6) | dlc
         head_bits = 1 + 11 + 3 + 4
-    payload = b"" if is_remote else data
-    value = (head << (8 * len(payload))) | int.from_bytes(payload, "big")
-    nbits = head_bits + 8 * len(payload)
-    value = (value << 15) | crc15(value, nbits)
-    nbits += 15
-    return nbits + stuff_bits(value, nbits) + TRAILER_BITS
+    return (head_bits, crc15(head, head_bits), *_stuffed(head, head_bits))
+
+
+@functools.lru_cache(maxsize=65536)
+def frame_bits(arbitration_id: int, is_extended: bool, data: bytes, is_remote: bool = False) -> int:
+    """Bits one classic CAN frame occupies on the wire, stuff bits included.
+
+    The header's CRC register and stuffing state come from ``_header``; each
+    payload byte then moves both through their tables (the CRC table works from
+    any register, the stuffing table from any state), and the CRC's own 15
+    bits are stuffed last.
+    """
+    nbits, crc, state, count = _header(arbitration_id, is_extended, len(data), is_remote)
+    if not is_remote:
+        crc_table, stuff_table = _CRC_TABLE, _STUFF
+        for byte in data:
+            crc = ((crc << 8) & 0x7FFF) ^ crc_table[((crc >> 7) ^ byte) & 0xFF]
+            packed = stuff_table[(state << 8) | byte]
+            state = packed >> 4
+            count += packed & 15
+        nbits += 8 * len(data)
+    packed = _STUFF[(state << 8) | (crc >> 7)]
+    count += (packed & 15) + (_STUFF_7[((packed >> 4) << 7) | (crc & 0x7F)] & 15)
+    return nbits + 15 + count + TRAILER_BITS
 
 
 def wire_ns(arbitration_id: int, is_extended: bool, data: bytes, bitrate: int) -> int:

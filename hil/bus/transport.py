@@ -3,20 +3,82 @@
 For python-can's in-process ``virtual`` interface the rig uses a subclass
 whose ``send`` copies a frame by constructing a new ``can.Message`` instead
 of ``copy.deepcopy`` (which costs most of the rig's bus time at ~10,000
-frames per simulated second), and whose non-blocking receive (the lockstep
-drain) asks the queue whether it holds a frame instead of raising and
-catching ``queue.Empty``. Same channels, same semantics: it talks to
-plain ``virtual`` buses in the same process.
+frames per simulated second), and whose receive queue is a ``FrameQueue``:
+a deque whose put and non-blocking get are one operation each, where
+``queue.Queue`` takes a lock and signals a condition every time (the
+lockstep drain polls each bus about 15 times a tick, mostly empty). Same
+channels, same semantics: it talks to plain ``virtual`` buses in the same
+process.
 """
 from __future__ import annotations
 
 import queue
+import threading
 import time
+from collections import deque
 
 import can
+from can.interfaces import virtual
 from can.interfaces.virtual import VirtualBus
 
 from wheelleg.controller.bus_args import open_bus as python_can_bus
+
+
+class FrameQueue:
+    """An unbounded FIFO with the ``queue.Queue`` calls python-can's virtual buses make.
+
+    ``put`` and ``pop`` (a non-blocking get: None when empty) are one deque
+    operation, atomic under the GIL; only a blocking ``get`` (real-time mode,
+    tools) takes the condition, and ``put`` signals it only while a reader waits.
+    One reader: the bus that owns the queue.
+    """
+
+    def __init__(self):
+        self.frames: deque = deque()
+        self._ready = threading.Condition(threading.Lock())
+        self._waiting = 0  # readers in a blocking get
+
+    def put(self, item, block: bool = True, timeout: float | None = None) -> None:
+        self.frames.append(item)
+        if self._waiting:  # read after the append: a reader that starts waiting later sees the item
+            with self._ready:
+                self._ready.notify()
+
+    put_nowait = put
+
+    def pop(self):
+        """The oldest frame, or None at once."""
+        frames = self.frames
+        return frames.popleft() if frames else None
+
+    def get(self, block: bool = True, timeout: float | None = None):
+        """As ``queue.Queue.get``: the oldest frame, waiting up to ``timeout`` s (None: forever); ``queue.Empty``."""
+        frames = self.frames
+        if frames or not block:
+            if frames:
+                return frames.popleft()
+            raise queue.Empty
+        deadline = None if timeout is None else time.monotonic() + timeout
+        with self._ready:
+            self._waiting += 1
+            try:
+                while not frames:
+                    left = None if deadline is None else deadline - time.monotonic()
+                    if left is not None and left <= 0:
+                        raise queue.Empty
+                    self._ready.wait(left)
+                return frames.popleft()
+            finally:
+                self._waiting -= 1
+
+    def get_nowait(self):
+        return self.get(block=False)
+
+    def qsize(self) -> int:
+        return len(self.frames)
+
+    def empty(self) -> bool:
+        return not self.frames
 
 
 class LockstepVirtualBus(VirtualBus):
@@ -29,6 +91,10 @@ class LockstepVirtualBus(VirtualBus):
     def __init__(self, *args, **kwargs):
         super().__init__(*args, **kwargs)
         self._closed = False
+        if kwargs.get("rx_queue_size", 0) == 0:  # a bounded queue stays python-can's queue.Queue
+            with virtual.channels_lock:
+                slot = next(i for i, q in enumerate(self.channel) if q is self.queue)
+                self.queue = self.channel[slot] = FrameQueue()
 
     def _check_open(self) -> None:
         if self._closed:
@@ -45,6 +111,8 @@ class LockstepVirtualBus(VirtualBus):
         # finding it empty; queue.get would raise (and catch) queue.Empty each time.
         self._check_open()
         rx = self.queue
+        if type(rx) is FrameQueue:
+            return rx.pop(), False
         if not rx.queue:  # this bus is its queue's only reader: a frame seen is a frame to get
             return None, False
         return rx.get_nowait(), False

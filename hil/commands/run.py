@@ -13,7 +13,6 @@ from wheelleg.emulators.plant import PlantConfig
 from wheelleg.hil import cli, robots, scenarios
 from wheelleg.hil.record.run_metadata import parse_epoch
 from wheelleg.hil.run.loop_timing import describe, describe_plant
-from wheelleg.hil.analyze.plot import plot_run
 from wheelleg.hil.run.progress import RunProgress
 from wheelleg.hil.run.rig import Rig, RigConfig
 from wheelleg.hil.run.schedule import CONTACT_S, NoController
@@ -134,6 +133,8 @@ def execute(args: argparse.Namespace, started_s: float | None = None):
     outcome = replace(outcome, startup_s=first_tick_s - started_s,
                       verdict_wall_s=time.perf_counter() - first_tick_s)
     if not args.no_plot:
+        from wheelleg.hil.analyze.plot import plot_run  # noqa: PLC0415 (matplotlib: ~1 s of start-up, only to plot)
+
         plot_run(run, args.out / f"{scenario.name}.png", title=f"{scenario.name}: {scenario.summary}")
     return outcome, results, run
 

@@ -16,12 +16,15 @@ Speed: cantools' ``Message.decode`` costs 3-5 us per frame here, too much for
 the rig's hot path; payloads of the message's length go through the compiled
 codec (``wheelleg.dbc.codec``, checked against cantools in tests/test_dbc.py),
 others (and layouts the codec does not compile) through cantools. Lookups are
-cached per (channel, id) and the CyberGear id fields per id.
+cached per (channel, id) and the CyberGear id fields per id. The trace writer
+decodes each message's frames in batches (``DecodePlan.decode_many``): one
+numpy pass over the payloads per signal, the same dicts as ``decode`` gives.
 """
 from __future__ import annotations
 
 from typing import Callable
 
+import numpy as np
 from cantools.database.errors import DecodeError
 
 from wheelleg import dbc
@@ -100,7 +103,8 @@ _CYBERGEAR_MESSAGES = _cybergear_names()
 class DecodePlan:
     """How to decode frames of one identifier: the DBC message and the id fields."""
 
-    __slots__ = ("message", "name", "codec", "id_fields", "id_units", "renamed", "bare_requests", "_id_cache")
+    __slots__ = ("message", "name", "codec", "id_fields", "id_units", "renamed", "bare_requests", "_id_cache",
+                 "_columns", "vectorised")
 
     def __init__(self, message, id_fields: Callable[[int], dict] | None = None,
                  id_units: tuple[tuple[str, str], ...] = (), renamed: tuple[tuple[str, str], ...] = (),
@@ -113,6 +117,8 @@ class DecodePlan:
         self.renamed = renamed  # id field -> name used (the payload wins a clash)
         self.bare_requests = bare_requests  # requests carry no payload: id fields only
         self._id_cache: dict[int, dict] = {}
+        self._columns = _column_reader(self.codec) if not bare_requests else None
+        self.vectorised = self._columns is not None  # decode_many takes the numpy path
 
     def decode(self, can_id: int, data: bytes) -> dict | None:
         if self.bare_requests and not cg.from_motor(can_id, CG_HOST_ID):
@@ -129,6 +135,32 @@ class DecodePlan:
             values.update(self._fields_of(can_id))
         return values
 
+    def decode_many(self, can_ids: list[int], payloads: list[bytes]) -> list[dict | None]:
+        """``decode`` of each frame (the same dicts); one numpy pass when every payload has the codec's length."""
+        batch = self.decode_columns(can_ids, payloads)
+        if batch is None:
+            return [self.decode(i, d) for i, d in zip(can_ids, payloads)]
+        names, columns, id_fields = batch
+        rows = [dict(zip(names, values)) for values in zip(*columns)] if names else [{} for _ in payloads]
+        if id_fields is not None:
+            for row, fields in zip(rows, id_fields):
+                row.update(fields)
+        return rows
+
+    def decode_columns(self, can_ids: list[int], payloads: list[bytes]):
+        """What ``decode`` gives each frame, by column: (signal names, one list of values per signal,
+        each frame's id-field dict or None when the message has none), or None when the batch is not
+        for the numpy path (too few frames, a payload of another length, a layout it cannot read).
+
+        The id-field dicts are shared between frames of one id: read, do not change them.
+        """
+        length = self.codec.length if self._columns is not None else -1
+        if len(payloads) < _MIN_BATCH or any(len(d) != length for d in payloads):
+            return None
+        names, columns = self._columns(payloads)
+        id_fields = None if self.id_fields is None else [self._fields_of(i) for i in can_ids]
+        return names, columns, id_fields
+
     def _fields_of(self, can_id: int) -> dict:
         fields = self._id_cache.get(can_id)
         if fields is None:
@@ -139,6 +171,57 @@ class DecodePlan:
             if len(self._id_cache) < _ID_CACHE_LIMIT:
                 self._id_cache[can_id] = fields
         return fields
+
+
+_MIN_BATCH = 8  # fewer frames: decoded one by one (numpy's per-call cost would outweigh it)
+
+
+def _column_reader(codec: MessageCodec | None):
+    """``payloads -> (signal names, one list of values per signal)`` for ``codec``, or None where it cannot.
+
+    Numpy over all payloads (each exactly ``codec.length`` bytes): the payload
+    as a little- and a big-endian 64-bit word, each signal shifted and masked
+    out, sign-extended, an IEEE float reinterpreted, then ``raw * scale +
+    offset`` in the same order and types as the compiled codec (ints stay
+    ints where cantools keeps them), so ``tolist`` gives the same numbers.
+    Not for multiplexed messages, payloads over 8 bytes or fields over 62 bits.
+    """
+    if codec is None or codec.branches or codec.length > 8 \
+            or any(f.float_format is None and f.mask.bit_length() > 62 for f in codec.fields):
+        return None
+    length, fields = codec.length, codec.fields
+    names = [f.name for f in fields]
+    orders = sorted({f.big for f in fields})
+
+    def columns(payloads: list[bytes]) -> tuple[list[str], list[list]]:
+        raw = np.frombuffer(b"".join(payloads), dtype=np.uint8).reshape(len(payloads), length)
+        words = {}
+        for big in orders:
+            padded = np.zeros((len(payloads), 8), dtype=np.uint8)
+            if big:
+                padded[:, 8 - length:] = raw
+            else:
+                padded[:, :length] = raw
+            words[big] = padded.view(">u8" if big else "<u8")[:, 0]
+        return names, [_signal_values(f, words[f.big]).tolist() for f in fields]
+
+    return columns
+
+
+def _signal_values(field, words: np.ndarray) -> np.ndarray:
+    """One signal's physical values from the payload words (uint64, shape (n,)), typed as the codec types them."""
+    raw = (words >> np.uint64(field.shift)) & np.uint64(field.mask)
+    if field.float_format == "f":
+        values = raw.astype(np.uint32).view(np.float32).astype(np.float64)
+    elif field.float_format == "d":
+        values = raw.view(np.float64)
+    else:
+        values = raw.astype(np.int64)
+        if field.sign:
+            values = values - ((values & field.sign) != 0) * (field.sign << 1)
+    if field.conv_scale is not None:
+        values = values * field.conv_scale + field.conv_offset
+    return values
 
 
 def _compiled(message) -> MessageCodec | None:

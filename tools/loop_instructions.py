@@ -1,0 +1,74 @@
+"""Machine instructions per lockstep control tick, counted by valgrind: a speed figure load cannot blur.
+
+    python -m tools.loop_instructions [SCENARIO] [--duration S] [--no-decode]
+
+Timings on the shared 2-core machine swing by 30 % with the other jobs on it;
+an instruction count does not. This runs the scenario's lockstep loop inside
+``valgrind --tool=callgrind`` with counting switched on (``callgrind_control
+-i on``) only after the rig is built and its first tick ran, and off after
+the recorder closed: start-up is left out, the trace's last chunk is in.
+Chunks close by size and bus time only (the wall-clock flush would close
+them every few ticks under valgrind's ~50x slowdown). Needs valgrind; a
+0.6 s run takes about a minute. Compare two trees by running it in each.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import re
+import subprocess
+import sys
+import tempfile
+from dataclasses import replace
+from pathlib import Path
+
+
+def count_loop(scenario_name: str, duration_s: float, decode: bool, out: Path) -> int:
+    """Inside valgrind: build the rig, count the instructions of its ticks; returns the ticks counted."""
+    from wheelleg.hil import scenarios  # noqa: PLC0415 (the outer process needs none of the rig)
+    from wheelleg.hil.run.rig import Rig, RigConfig  # noqa: PLC0415
+
+    scenario = replace(scenarios.get(scenario_name), duration_s=duration_s)
+    rig = Rig(scenario, RigConfig(decode=decode, trace_flush_s=None), out)
+    ticks = round(scenario.duration_s / rig.config.period_s)
+    rig.schedule.step_tick(rig, 0)  # first-use caches filled outside the count
+    _callgrind("on")
+    for tick in range(1, ticks):
+        rig.schedule.step_tick(rig, tick)
+    rig.close()
+    _callgrind("off")
+    return ticks - 1
+
+
+def _callgrind(state: str) -> None:
+    subprocess.run(["callgrind_control", "-i", state, str(os.getpid())], check=True, capture_output=True)
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("scenario", nargs="?", default="balance")
+    parser.add_argument("--duration", type=float, default=0.6, help="simulated seconds (default 0.6)")
+    parser.add_argument("--no-decode", action="store_true", help="record raw frames only (no /decoded/)")
+    parser.add_argument("--inside", action="store_true", help=argparse.SUPPRESS)  # the run under valgrind
+    args = parser.parse_args(argv)
+    with tempfile.TemporaryDirectory() as tmp:
+        if args.inside:
+            print(f"ticks {count_loop(args.scenario, args.duration, not args.no_decode, Path(tmp))}")
+            return 0
+        command = ["valgrind", "--tool=callgrind", "--instr-atstart=no", f"--callgrind-out-file={tmp}/cg.out",
+                   sys.executable, "-m", "tools.loop_instructions", args.scenario, "--duration", str(args.duration),
+                   "--inside"] + (["--no-decode"] if args.no_decode else [])
+        done = subprocess.run(command, capture_output=True, text=True, cwd=Path(__file__).resolve().parents[1])
+    counted = re.search(r"Collected : (\d+)", done.stderr)
+    ticks = re.search(r"ticks (\d+)", done.stdout)
+    if done.returncode != 0 or counted is None or ticks is None:
+        print(f"loop_instructions: valgrind run failed (exit {done.returncode}):\n{done.stderr[-2000:]}",
+              file=sys.stderr)
+        return 1
+    total, n = int(counted.group(1)), int(ticks.group(1))
+    print(f"{args.scenario}: {n} ticks, {total / 1e9:.3f} G instructions, {total / n / 1e6:.2f} M per tick")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
