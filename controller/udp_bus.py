@@ -5,10 +5,13 @@ every member, the sender included) and python-can's ``UdpMulticastBus`` cannot
 turn that off (``receive_own_messages=True`` is "not yet implemented", False
 still echoes). The rig's plant would record each of its frames twice and
 count it twice in the bus load; a controller or an emulated device would take
-its own frames for the bus's. This bus remembers what it sent, in order,
-and drops the first received frame equal to the oldest one not yet echoed
-back (the loopback keeps the sender's order). Only this bus's frames are
-dropped: the rig's two sides never send the same identifier.
+its own frames for the bus's. This bus remembers what it sent and
+not yet heard back, and drops a received frame equal to one of those (the
+first such). Not only the oldest: a program that sends from two threads (the
+controller's tick and its start-up or stop sequence) puts datagrams on the wire
+in another order than it noted them, and matching only the oldest then let
+every echo after it through. Only this bus's frames are dropped: the rig's two
+sides never send the same identifier.
 
 It lives with the controller (the robot's program must not import the rig)
 so that every node on the rig's buses, ``wheelleg run``'s plant and
@@ -37,12 +40,23 @@ class EchoFreeUdpMulticastBus(UdpMulticastBus):
         self.pending = deque(maxlen=MAX_PENDING)  # keys of frames sent and not yet heard back
 
     def send(self, msg: can.Message, timeout: float | None = None) -> None:
-        super().send(msg, timeout)
-        self.pending.append(_key(msg))
+        # noted before sending: the host loops the datagram back inside sendto, and a
+        # reader in another thread can take the echo before send returns
+        key = _key(msg)
+        self.pending.append(key)
+        try:
+            super().send(msg, timeout)
+        except BaseException:
+            if self.pending and self.pending[-1] == key:
+                self.pending.pop()
+            raise
 
     def _recv_internal(self, timeout: float | None) -> tuple[can.Message | None, bool]:
         msg, filtered = super()._recv_internal(timeout)
-        if msg is not None and self.pending and _key(msg) == self.pending[0]:
-            self.pending.popleft()
+        if msg is not None and self.pending:
+            try:
+                self.pending.remove(_key(msg))
+            except ValueError:
+                return msg, filtered  # another node's
             return None, filtered  # our own frame come back
         return msg, filtered
