@@ -210,7 +210,8 @@ class ChassisController:
         if not math.isfinite(bus.imu.received_s):
             return
         self.gyro.update(bus.imu.quat, bus.imu.gyro)
-        legs = {leg: leg_state(bus, leg, self.attitude(bus)) for leg in LEGS}
+        att = self.attitude(bus)
+        legs = {leg: leg_state(bus, leg, att) for leg in LEGS}
         self.slip.update(estimate.forward_accel(bus.imu.quat, bus.imu.accel),
                          _mean_speed(legs) - _legs_under_body(legs))
 
@@ -271,17 +272,19 @@ class ChassisController:
         return _mean_speed(legs)
 
     def _air_step(self, legs: dict, att: Attitude, speed: float, cmd: Command) -> Output:
-        """In the air (docs/control.md, in the air): wheel torque 0, a leg-angle PD holds each
-        leg vertical (theta -> 0), a leg PD without gravity feed-forward holds
-        ``cmd.leg_length`` (or ``cmd.leg_force`` pushes); no roll, no yaw. The
-        position and heading references follow the robot, so nothing winds up."""
+        """In the air (docs/control.md, in the air): the wheels' torque only levels the body
+        (``cmd.air_pitch_hold``, else 0), a leg-angle PD holds each leg vertical
+        (theta -> 0), a leg PD without gravity feed-forward holds ``cmd.leg_length``
+        (or ``cmd.leg_force`` pushes); no roll, no yaw. The position and heading
+        references follow the robot, so nothing winds up."""
         self.x_ref, self.yaw_ref = self.x, att.yaw
         out = Output(legs=legs)
+        levelling = self._air_pitch_torque(att, cmd) if cmd.air_pitch_hold else 0.0  # N m, each wheel
         wheel_t, tp = {}, {}
         for leg in LEGS:
             s = legs[leg]
             self.leg_ref[leg] = min(max(cmd.leg_length, P.LEG_LENGTH_MIN), P.LEG_LENGTH_MAX)
-            wheel_t[leg] = self._air_pitch_torque(att, cmd) if cmd.air_pitch_hold else 0.0
+            wheel_t[leg] = levelling
             tp[leg] = -(P.AIR_THETA_KP * s.theta + P.AIR_THETA_KD * s.dtheta) if cmd.air_leg_hold else 0.0
             # the wheel's reaction acts on its leg: the hip passes it on to the body
             tp[leg] += wheel_t[leg]
