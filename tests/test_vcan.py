@@ -133,8 +133,8 @@ def test_real_ip_error_is_quoted_where_the_kernel_cannot():
 
 
 def test_vcan_uml_without_a_command_is_a_usage_error(capsys):
-    assert vcan_command.run(argparse.Namespace(action="uml", command=["--"], channel=None,
-                                               txqueuelen=vcan.TXQUEUELEN)) == 2
+    assert _run_command(["uml", "--"]) == 2
+    assert _run_command(["uml"]) == 2
     assert "wheelleg vcan uml -- CMD" in capsys.readouterr().err
 
 

@@ -26,11 +26,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    command = args.command[1:] if args.command[:1] == ["--"] else args.command
     if args.action == "uml":
-        return _run_in_uml(command)
-    if command:
-        print(f"wheelleg vcan {args.action}: unexpected arguments {' '.join(command)}", file=sys.stderr)
+        return _run_in_uml(args.command)  # argparse has taken the "--" out
+    if args.command:
+        print(f"wheelleg vcan {args.action}: unexpected arguments {' '.join(args.command)}", file=sys.stderr)
         return 2
     channels = tuple(args.channel or vcan.CHANNELS)
     if args.action == "status":
