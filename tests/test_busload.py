@@ -1,8 +1,8 @@
 """Bus-load model: frame lengths with exact bit stuffing, arbitration rank."""
 import random
 
-
-from wheelleg.hil.bus.busload import arbitration_priority, frame_bits
+from wheelleg.hil.bus.busload import BATCH_MIN, arbitration_priority, frame_bits, wire_ns, wire_ns_batch
+from wheelleg.hil.record.frame import Frame
 
 
 def _reference_bits(arbitration_id, extended, data):
@@ -52,3 +52,19 @@ def test_arbitration_rank_is_the_bits_as_they_meet_on_the_wire():
     assert rank(0x123, False) < rank(0x123, False, is_remote=True)  # RTR: data over remote
     assert rank(0x0200_0001, True) < rank(0x0200_0002, True) < rank(0x0200_0002, True, is_remote=True)
     assert rank(0x0100_FD01, True) < rank(0x0200_01FD, True) < rank(0x0400_FD02, True)  # CyberGear types 1 < 2 < 4
+
+
+def test_wire_time_of_a_batch_is_each_frames_wire_time():
+    rng = random.Random(12)
+    frames = []
+    for _ in range(500):
+        ext = rng.random() < 0.5
+        data = bytes(rng.choice([0x00, 0xFF, rng.getrandbits(8)]) for _ in range(rng.randint(0, 8)))
+        frames.append(Frame(0, "vcan0", rng.getrandbits(29 if ext else 11), ext, data, len(data),
+                            is_error=rng.random() < 0.05))
+    for bitrate in (1_000_000, 500_000, 333_333):
+        expected = [wire_ns(f.arbitration_id, f.is_extended, f.data, bitrate) for f in frames]
+        assert wire_ns_batch(frames, bitrate) == expected  # numpy
+        assert wire_ns_batch(frames[:BATCH_MIN - 1], bitrate) == expected[:BATCH_MIN - 1]  # one by one
+    odd = [*frames[:BATCH_MIN], Frame(0, "vcan0", 0x900, False, b"\x01", 1)]  # a standard id past 11 bits
+    assert wire_ns_batch(odd, 1_000_000)[-1] == wire_ns(0x900, False, b"\x01", 1_000_000)

@@ -248,6 +248,29 @@ def test_a_last_line_cut_off_by_a_killed_writer_is_left_out(tmp_path):
         list(read_candump(path))
 
 
+@settings(max_examples=50, deadline=None)
+@given(st.lists(st.tuples(st.sampled_from(["can0", "vcan1"]), st.integers(0, 2**62), _frames), max_size=30),
+       st.integers(0, 2**40))
+def test_a_batch_gives_the_lines_of_its_frames_one_by_one(tmp_path_factory, rows, epoch_ns):
+    frames = [_frame(ch, t, can_id, ext, data, **kw) for ch, t, (can_id, ext, data, kw) in rows]
+    one, batch = tmp_path_factory.mktemp("b") / "one.log", tmp_path_factory.mktemp("b") / "batch.log"
+    with CandumpWriter(one, epoch_ns=epoch_ns) as log:
+        for f in frames:
+            log.write(f)
+    with CandumpWriter(batch, epoch_ns=epoch_ns) as log:
+        log.on_frames(frames)
+        assert log.frames == len(frames)
+    assert batch.read_bytes() == one.read_bytes()
+
+
+def test_a_bad_frame_in_a_batch_raises_after_the_frames_before_it_are_written(tmp_path):
+    good = _frame("can0", 1_000, 0x100, False, b"\x01")
+    with CandumpWriter(tmp_path / "w.log") as log:
+        with pytest.raises(ValueError, match="0x7FF"):
+            log.on_frames([good, _frame("can0", 2_000, 0x800, False, b""), good])
+    assert (tmp_path / "w.log").read_text() == "(0000000000.000001) can0 100#01\n"
+
+
 @pytest.mark.parametrize("args, error", [
     (("can0", 0, 0x800, False, b""), "0x7FF"),
     (("can0", 0, 0x20000000, True, b""), "0x1FFFFFFF"),

@@ -263,6 +263,20 @@ def test_batched_and_frame_by_frame_decoding_write_the_same_messages(tmp_path, t
     assert _records_by_topic(path) == _records_by_topic(tmp_path / "batched.mcap")
 
 
+def test_frames_in_batches_write_the_records_of_frame_by_frame(tmp_path):
+    """A recorder hands its frames over a list at a time (``on_frames``): the same records per topic."""
+    frames = _frames()
+    with TraceWriter(tmp_path / "batches.mcap", metadata=METADATA, dbs=DBS, chunk_size=2_000) as trace:
+        for start in range(0, len(frames), 64):
+            trace.on_frames(frames[start:start + 64])
+    with TraceWriter(tmp_path / "one.mcap", metadata=METADATA, dbs=DBS, chunk_size=2_000) as trace:
+        for f in frames:
+            trace.on_frame(f)
+    batches = _records_by_topic(tmp_path / "batches.mcap")
+    assert batches == _records_by_topic(tmp_path / "one.mcap") and len(batches["/can/can2"]) == 120
+    assert TraceReader(tmp_path / "batches.mcap").scan.chunks > 3
+
+
 def _records_by_topic(path: Path) -> dict[str, list[tuple[int, bytes]]]:
     """Each topic's (log time, record bytes) in time order, as mcap's reader gives them."""
     out: dict[str, list[tuple[int, bytes]]] = {}

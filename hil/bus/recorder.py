@@ -29,7 +29,7 @@ from typing import Protocol, Sequence
 import can
 
 from wheelleg.dbc import CAN1, load_bus
-from wheelleg.hil.bus.busload import LoadMeter
+from wheelleg.hil.bus.busload import LoadMeter, wire_ns_batch
 from wheelleg.hil.bus.wire_order import BusWire, Queued
 from wheelleg.hil.record.frame import Frame
 
@@ -39,12 +39,12 @@ SYNC_ID = load_bus(CAN1).get_message_by_name("SYNC").frame_id
 class FrameSink(Protocol):
     """Where recorded frames go, in the manner of python-can's ``Listener``.
 
-    ``on_frame`` gets every frame in time order, at its bus time; ``stop``
-    ends the recording (flush and close). ``TraceWriter`` (MCAP) and
-    ``CandumpWriter`` (candump log) are the rig's two sinks.
+    ``on_frames`` gets every frame in time order, at its bus time, a list at a
+    time; ``stop`` ends the recording (flush and close). ``TraceWriter``
+    (MCAP) and ``CandumpWriter`` (candump log) are the rig's two sinks.
     """
 
-    def on_frame(self, frame: Frame) -> None: ...
+    def on_frames(self, frames: list[Frame]) -> None: ...
 
     def stop(self) -> None: ...
 
@@ -60,18 +60,26 @@ class Recorder:
     ``clock``: the run's simulated time (``wheelleg.hil.bus.plant_bus.SimClock``);
     ``channels``: every bus the run records, in the order that breaks ties of
     time; ``load_to``: where the ``/bus/load`` windows go (the MCAP trace), or None.
+
+    ``sent`` and ``received`` only note a frame with the clock's time; the
+    wire models take the noted frames ``batch`` at a time (``settle``; ``stop``
+    takes the rest), in the order they were noted: the same calls in the same
+    order as frame by frame, so the same record, with each frame's wire time
+    computed for the whole batch at once (``busload.wire_ns_batch``) and the
+    sinks handed a list. Nothing the run does waits for the record.
     """
 
     def __init__(self, sinks: Sequence[FrameSink], clock, channels: Sequence[str], *, load_to=None,
-                 bitrate: int = 1_000_000):
+                 bitrate: int = 1_000_000, batch: int = 1024):
         self.sinks = list(sinks)
-        self._to_sinks = tuple(sink.on_frame for sink in self.sinks)  # bound once: the per-frame path
         self.sim_clock = clock
         self.bitrate = bitrate
+        self.batch = max(1, int(batch))
         self.wires: dict[str, BusWire] = {channel: BusWire(bitrate) for channel in channels}
         self.frames = 0
         self.load = LoadMeter(self.wires, load_to)  # /bus/load every 100 ms of bus time
-        self._sync_end_ns: dict[str, int] = {}  # channel -> end of its latest SYNC
+        self._noted: list[tuple] = []  # (clock ns, channel, Frame, answers, handle of a received frame)
+        self._tick_ns = 0  # end of the latest SYNC on any bus: the controller has had its turn
         self._run_to_ns = -1  # the wires have been run up to here
 
     def wire(self, channel: str) -> BusWire:
@@ -81,50 +89,59 @@ class Recorder:
 
     def sent(self, channel: str, msg: can.Message, answers: Queued | None = None) -> None:
         """A frame the plant side put on ``channel``; ``answers``: the received frame it replies to."""
-        now_ns = self._arrive()
-        frame = self._frame(channel, msg)
-        if is_sync(msg):
-            self._sync_end_ns[channel] = self.wire(channel).barrier(frame, now_ns)
-            self._advance(now_ns, emit=True)
-        else:
-            self.wire(channel).queue(frame, now_ns, answers)
-            self._advance(now_ns)
+        self._noted.append((self.sim_clock.now_ns, channel, _frame(channel, msg), answers, None))
+        if len(self._noted) >= self.batch:
+            self.settle()
 
     def received(self, channel: str, msg: can.Message) -> Queued:
         """A frame the plant side took off ``channel`` (the controller's); its place on the wire."""
-        now_ns = self._arrive()
-        tick_ns = max(self._sync_end_ns.values(), default=0)
-        item = self.wire(channel).queue_controller(self._frame(channel, msg), max(now_ns, tick_ns))
-        self._advance(now_ns)
-        return item
+        frame = _frame(channel, msg)
+        handle = Queued(frame)  # filled in when it is settled
+        self._noted.append((self.sim_clock.now_ns, channel, frame, None, handle))
+        if len(self._noted) >= self.batch:
+            self.settle()
+        return handle
 
-    def _arrive(self) -> int:
-        now_ns = self.sim_clock.now_ns
-        self.load.sample(now_ns)
-        self.frames += 1
-        return now_ns
+    def settle(self) -> None:
+        """Every noted frame on its wire, in the order noted; what is settled handed to the sinks.
 
-    @staticmethod
-    def _frame(channel: str, msg: can.Message) -> Frame:
-        return Frame(0, channel, msg.arbitration_id, msg.is_extended_id, bytes(msg.data[:msg.dlc]), msg.dlc, "",
-                     msg.is_error_frame, msg.is_remote_frame, msg.is_fd)
-
-    def _advance(self, now_ns: int, emit: bool = False) -> None:
-        """Once the clock has moved (or ``emit``): every wire run up to it, what is settled to the sinks.
-
-        A frame queued at the clock's time starts at it or later, so wires run up
-        to ``now_ns`` stay so while the clock stands still.
+        Each frame first closes the load window its time reached (the frames
+        before it counted); the rig's SYNC is its bus's barrier; a controller's
+        frame is queued no earlier than the end of the latest SYNC; whenever
+        the clock has moved the wires run up to it.
         """
-        if now_ns > self._run_to_ns:
-            for wire in self.wires.values():
-                wire.run_until(now_ns)
-            self._run_to_ns = now_ns
-            emit = True
-        if emit:
-            self._emit(now_ns)
+        noted, self._noted = self._noted, []
+        if not noted:
+            return
+        durations = wire_ns_batch([n[2] for n in noted], self.bitrate)
+        load, out = self.load, []
+        wires = self.wires
+        self.frames += len(noted)
+        for (now_ns, channel, frame, answers, handle), duration in zip(noted, durations):
+            if now_ns >= load.due_ns:
+                load.sample(now_ns)
+            wire = wires.get(channel) or self.wire(channel)
+            emit = False
+            if handle is not None:
+                wire.queue_controller(frame, max(now_ns, self._tick_ns), duration, handle)
+            elif frame.arbitration_id == SYNC_ID and not frame.is_extended and not frame.is_error:
+                self._tick_ns = max(self._tick_ns, wire.barrier(frame, now_ns, duration))
+                emit = True
+            else:
+                wire.queue(frame, now_ns, answers, duration)
+            if now_ns > self._run_to_ns:
+                # a frame queued at the clock's time starts at it or later, so wires run up
+                # to ``now_ns`` stay so while the clock stands still
+                for each in wires.values():
+                    each.run_until(now_ns)
+                self._run_to_ns = now_ns
+                emit = True
+            if emit:
+                self._emit(now_ns, out)
+        self._hand_over(out)
 
-    def _emit(self, now_ns: int | None) -> None:
-        """Hand the sinks every sent frame no later frame can precede (None: every one), in time order.
+    def _emit(self, now_ns: int | None, out: list[Frame]) -> None:
+        """Onto ``out``: every sent frame no later frame can precede (None: every one), in time order.
 
         A wire's next frame ends after its last one and after ``now_ns`` (nothing
         is queued in the past), so frames up to the earliest of those are settled.
@@ -134,7 +151,6 @@ class Recorder:
             settled = None
         else:
             settled = min(max(wire.free_ns, now_ns) for wire in self.wires.values())
-        to_sinks = self._to_sinks
         while True:
             first = None
             for queue in queues:
@@ -142,15 +158,26 @@ class Recorder:
                     first = queue
             if first is None or (settled is not None and first[0].t_ns > settled):
                 return
-            frame = first.popleft()
-            for on_frame in to_sinks:
-                on_frame(frame)
+            out.append(first.popleft())
+
+    def _hand_over(self, frames: list[Frame]) -> None:
+        if frames:
+            for sink in self.sinks:
+                sink.on_frames(frames)
 
     def stop(self) -> None:
         """Every frame still queued sent and handed over, the last (partial) load window, every sink stopped."""
+        self.settle()
         for wire in self.wires.values():
             wire.run_until(None)
-        self._emit(None)
+        out: list[Frame] = []
+        self._emit(None, out)
+        self._hand_over(out)
         self.load.sample(self.sim_clock.now_ns, final=True)
         for sink in self.sinks:
             sink.stop()
+
+
+def _frame(channel: str, msg: can.Message) -> Frame:
+    return Frame(0, channel, msg.arbitration_id, msg.is_extended_id, bytes(msg.data[:msg.dlc]), msg.dlc, "",
+                 msg.is_error_frame, msg.is_remote_frame, msg.is_fd)

@@ -28,7 +28,9 @@ later, since nothing is ever queued in the past.
 """
 from __future__ import annotations
 
+import heapq
 from collections import deque
+from functools import lru_cache
 
 from wheelleg.hil.bus.busload import arbitration_priority, wire_ns
 from wheelleg.hil.record.frame import Frame
@@ -40,32 +42,40 @@ from wheelleg.hil.record.frame import Frame
 # changes only the enable ticks, 0.45 ms every tick: measured on balance).
 RESPONSE_NS = 0
 _FIRST = -1  # priority of an error frame: it takes the wire right after the frame it flags
+_priority = lru_cache(maxsize=4096)(arbitration_priority)  # a bus has a few dozen identifiers
+_SEQ_BITS = 40  # a frame's key: its priority, then the order it was queued in (2^40 frames a run)
 
 
 class Queued:
-    """One frame waiting for (or put on) the wire; ``frame.t_ns`` is set when it has been sent."""
+    """One frame waiting for (or put on) the wire; ``frame.t_ns`` is set when it has been sent.
 
-    __slots__ = ("frame", "wire_ns", "key", "ready_ns", "answers", "delay_ns", "end_ns")
+    ``key`` orders arbitration (smaller wins): the frame's priority, then
+    the order it was queued in. ``ready_ns`` is when its sender queued it,
+    None while the frame it answers is still waiting; ``end_ns`` the end of
+    its transmission once sent.
+    """
 
-    def __init__(self, frame: Frame, duration_ns: int, key: tuple, ready_ns: int | None,
+    __slots__ = ("frame", "wire_ns", "key", "ready_ns", "answers", "delay_ns", "end_ns", "replies")
+
+    def __init__(self, frame: Frame, duration_ns: int = 0, key: int = 0, ready_ns: int | None = None,
                  answers: "Queued | None" = None, delay_ns: int = 0):
         self.frame, self.wire_ns, self.key = frame, duration_ns, key
-        self.ready_ns = ready_ns  # None while the frame it answers is still waiting
+        self.ready_ns = ready_ns
         self.answers, self.delay_ns = answers, delay_ns
         self.end_ns: int | None = None
-
-    def ready(self) -> int | None:
-        """When the sender queued it (ns), None while that is not known yet."""
-        if self.ready_ns is None and self.answers.end_ns is not None:
-            self.ready_ns = self.answers.end_ns + self.delay_ns
-        return self.ready_ns
+        self.replies: list | None = None  # (wire, reply) queued before this frame was sent
 
 
 class BusWire:
     """One bus's wire in the record: frames queued in the rig's order, sent in the bus's.
 
     ``busy_ns_total`` and ``frames_total`` count every frame when it is queued
-    (``busload.LoadMeter`` windows them into ``/bus/load``).
+    (``busload.LoadMeter`` windows them into ``/bus/load``). Arbitration keeps
+    two heaps instead of scanning every waiting frame: ``_timed`` (ready time,
+    key) of the frames whose queueing time is known, and ``_eligible`` (key) of
+    those queued by the wire's clock (``free_ns`` never goes back, so a frame
+    once eligible stays so); a reply joins ``_timed`` when the frame it answers
+    has been sent.
     """
 
     def __init__(self, bitrate: int):
@@ -74,86 +84,118 @@ class BusWire:
         self.busy_ns_total = 0
         self.frames_total = 0
         self.controller: deque[Queued] = deque()  # the controller's transmit queue, in its order
-        self.waiting: list[Queued] = []  # every other node's frames
+        self._timed: list[tuple] = []  # heap of (ready ns, key, Queued): every other node's frames
+        self._eligible: list[tuple] = []  # heap of (key, Queued): those queued by the wire's clock
+        self._unresolved = 0  # replies whose frame has not been sent yet
         self.sent: deque[Frame] = deque()  # frames on the wire, in wire order, not yet taken
         self._seq = 0
         self._last: Queued | None = None  # the frame queued last (an error frame flags it)
 
     def _queued(self, frame: Frame, ready_ns: int | None, answers: Queued | None = None,
-                delay_ns: int = 0) -> Queued:
-        duration = wire_ns(frame.arbitration_id, frame.is_extended, frame.data, self.bitrate)
-        self.busy_ns_total += duration
+                delay_ns: int = 0, duration_ns: int | None = None, item: Queued | None = None) -> Queued:
+        if duration_ns is None:
+            duration_ns = wire_ns(frame.arbitration_id, frame.is_extended, frame.data, self.bitrate)
+        self.busy_ns_total += duration_ns
         self.frames_total += 1
         self._seq += 1
-        priority = _FIRST if frame.is_error else arbitration_priority(
-            frame.arbitration_id, frame.is_extended, frame.is_remote)
-        item = Queued(frame, duration, (priority, self._seq), ready_ns, answers, delay_ns)
+        priority = _FIRST if frame.is_error else _priority(frame.arbitration_id, frame.is_extended, frame.is_remote)
+        key = (priority << _SEQ_BITS) + self._seq
+        if item is None:
+            item = Queued(frame, duration_ns, key, ready_ns, answers, delay_ns)
+        else:  # a handle made when the frame was handed over (``Recorder.received``)
+            item.frame, item.wire_ns, item.key, item.ready_ns = frame, duration_ns, key, ready_ns
         self._last = item
         return item
 
-    def queue(self, frame: Frame, ready_ns: int, answers: Queued | None = None) -> Queued:
-        """A device's frame, queued at ``ready_ns``, or ``RESPONSE_NS`` after ``answers`` ends."""
+    def queue(self, frame: Frame, ready_ns: int, answers: Queued | None = None,
+              duration_ns: int | None = None) -> Queued:
+        """A device's frame, queued at ``ready_ns``, or ``RESPONSE_NS`` after ``answers`` ends.
+
+        ``duration_ns``: its wire time when the caller has it (``busload.wire_ns`` otherwise).
+        """
         if frame.is_error and self._last is not None:
-            item = self._queued(frame, None, self._last)
-        elif answers is not None:
-            item = self._queued(frame, None, answers, RESPONSE_NS)
+            answers, delay_ns = self._last, 0
         else:
-            item = self._queued(frame, ready_ns)
-        self.waiting.append(item)
+            delay_ns = RESPONSE_NS
+        if answers is None:
+            item = self._queued(frame, ready_ns, duration_ns=duration_ns)
+            heapq.heappush(self._timed, (ready_ns, item.key, item))
+            return item
+        item = self._queued(frame, None, answers, delay_ns, duration_ns)
+        if answers.end_ns is not None:
+            item.ready_ns = answers.end_ns + delay_ns
+            heapq.heappush(self._timed, (item.ready_ns, item.key, item))
+        else:
+            if answers.replies is None:
+                answers.replies = []
+            answers.replies.append((self, item))
+            self._unresolved += 1
         return item
 
-    def queue_controller(self, frame: Frame, ready_ns: int) -> Queued:
+    def queue_controller(self, frame: Frame, ready_ns: int, duration_ns: int | None = None,
+                         item: Queued | None = None) -> Queued:
         """A frame of the controller, queued at ``ready_ns`` behind its earlier ones."""
-        item = self._queued(frame, ready_ns)
+        item = self._queued(frame, ready_ns, duration_ns=duration_ns, item=item)
         self.controller.append(item)
         return item
 
-    def barrier(self, frame: Frame, ready_ns: int) -> int:
+    def barrier(self, frame: Frame, ready_ns: int, duration_ns: int | None = None) -> int:
         """Everything queued goes first, then ``frame`` from ``ready_ns``; returns its end (ns)."""
         self.run_until(None)
-        item = self._queued(frame, ready_ns)
+        item = self._queued(frame, ready_ns, duration_ns=duration_ns)
         self._send(item, max(ready_ns, self.free_ns))
         return self.free_ns
 
+    @property
+    def waiting(self) -> int:
+        """Frames queued by other nodes than the controller and not sent yet."""
+        return len(self._timed) + len(self._eligible) + self._unresolved
+
     def run_until(self, now_ns: int | None) -> None:
-        """Send every frame whose transmission starts before ``now_ns`` (None: all that wait)."""
-        while self.controller or self.waiting:
-            start, best = self._next()
-            if best is None or (now_ns is not None and start >= now_ns):
+        """Send every frame whose transmission starts before ``now_ns`` (None: all that wait).
+
+        The next frame starts when the wire is free, or, idle, when the first
+        frame is queued; it is the one with the lowest key among the frames
+        queued by then (the controller's by its queue's head only).
+        """
+        timed, eligible, controller = self._timed, self._eligible, self.controller
+        pop, push = heapq.heappop, heapq.heappush
+        while True:
+            start = self.free_ns
+            while timed and timed[0][0] <= start:
+                _, key, item = pop(timed)
+                push(eligible, (key, item))
+            head = controller[0] if controller and controller[0].ready_ns <= start else None
+            if not eligible and head is None:  # idle until the first frame is queued
+                if timed:
+                    start = timed[0][0]
+                    if controller and controller[0].ready_ns < start:
+                        start = controller[0].ready_ns
+                elif controller:
+                    start = controller[0].ready_ns
+                else:
+                    return
+                if now_ns is not None and start >= now_ns:
+                    return
+                while timed and timed[0][0] <= start:
+                    _, key, item = pop(timed)
+                    push(eligible, (key, item))
+                head = controller[0] if controller and controller[0].ready_ns <= start else None
+            elif now_ns is not None and start >= now_ns:
                 return
-            self._send(best, start)
-
-    def _next(self) -> tuple[int, Queued | None]:
-        """The frame that takes the wire next and when, if every queued frame were in."""
-        start = self.free_ns
-        best = self._winner(start)
-        if best is None:  # the bus idles until the first frame is queued
-            times = [r for r in map(Queued.ready, self.waiting) if r is not None]
-            if self.controller:
-                times.append(self.controller[0].ready_ns)
-            if not times:
-                return start, None
-            start = min(times)
-            best = self._winner(start)
-        return start, best
-
-    def _winner(self, t_ns: int) -> Queued | None:
-        """The frame that wins arbitration at ``t_ns`` among those queued by then."""
-        best = None
-        for item in self.waiting:
-            ready = item.ready()
-            if ready is not None and ready <= t_ns and (best is None or item.key < best.key):
-                best = item
-        head = self.controller[0] if self.controller else None
-        if head is not None and head.ready_ns <= t_ns and (best is None or head.key < best.key):
-            best = head
-        return best
+            if head is not None and (not eligible or head.key < eligible[0][0]):
+                controller.popleft()
+                self._send(head, start)
+            else:
+                self._send(pop(eligible)[1], start)
 
     def _send(self, item: Queued, start_ns: int) -> None:
-        if self.controller and item is self.controller[0]:
-            self.controller.popleft()
-        elif item in self.waiting:
-            self.waiting.remove(item)
         item.end_ns = self.free_ns = start_ns + item.wire_ns
         item.frame.t_ns = item.end_ns
         self.sent.append(item.frame)
+        if item.replies is not None:  # the replies to it are queued now
+            for wire, reply in item.replies:
+                reply.ready_ns = item.end_ns + reply.delay_ns
+                heapq.heappush(wire._timed, (reply.ready_ns, reply.key, reply))
+                wire._unresolved -= 1
+            item.replies = None

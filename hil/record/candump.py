@@ -48,6 +48,7 @@ CAN_EFF_MASK = 0x1FFFFFFF
 CANFD_BRS, CANFD_ESI, CANFD_FDF = 0x01, 0x02, 0x04
 CAN_MAX_DLEN, CANFD_MAX_DLEN = 8, 64
 _NS_PER_S, _NS_PER_US = 1_000_000_000, 1_000
+_STANDARD_LINE, _EXTENDED_LINE = "(%010d.%06d) %s %03X#%s\n", "(%010d.%06d) %s %08X#%s\n"  # what format_line gives
 
 _TIMESTAMP = re.compile(r"\((\d+)\.(\d{1,9})\)")
 _FRAME = re.compile(r"""
@@ -160,7 +161,32 @@ class CandumpWriter:
         if time.monotonic() >= self._flush_at:
             self.flush()
 
-    on_frame = write  # a recorder sink (wheelleg.hil.bus.recorder.FrameSink)
+    on_frame = write  # one frame, as a recorder sink would get it
+
+    def on_frames(self, frames) -> None:
+        """Frames in time order (a recorder sink, ``wheelleg.hil.bus.recorder.FrameSink``): the lines
+        ``write`` gives, written at once; a classic data frame's line made in one ``%``."""
+        if self._file is None:
+            raise ValueError(f"{self.path}: log already closed")
+        epoch, lines = self.epoch_ns, []
+        try:
+            for f in frames:
+                channel, arbitration_id, t_ns = f.channel, f.arbitration_id, f.t_ns + epoch
+                if channel not in self._channels:
+                    self._check_channel(channel)
+                if f.is_error or f.is_remote or f.is_fd or type(t_ns) is not int or t_ns < 0 \
+                        or len(f.data) > CAN_MAX_DLEN \
+                        or not 0 <= arbitration_id <= (CAN_EFF_MASK if f.is_extended else CAN_SFF_MASK):
+                    lines.append(format_line(f, epoch) + "\n")  # the checks and the other forms
+                else:
+                    lines.append((_EXTENDED_LINE if f.is_extended else _STANDARD_LINE) % (
+                        t_ns // _NS_PER_S, t_ns % _NS_PER_S // _NS_PER_US, channel, arbitration_id,
+                        f.data.hex().upper()))
+        finally:  # a bad frame raises after the lines before it are written
+            self._file.write("".join(lines))
+        self.frames += len(lines)
+        if time.monotonic() >= self._flush_at:
+            self.flush()
 
     def _check_channel(self, channel: str) -> None:
         if not isinstance(channel, str) or not channel or any(c.isspace() for c in channel) \

@@ -224,6 +224,13 @@ class ChunkedMcapWriter:
             buf += data
         self._size += len(buf) - start
 
+    def flush_if_due(self, log_time: int) -> None:
+        """Close the open chunk if ``add_message`` would have: full, spanning ``chunk_span_ns`` by
+        ``log_time`` (ns), or the wall-clock flush due (after a batch of ``add_messages``)."""
+        if self._runs and (self._size >= self._chunk_size or log_time - self._chunk_t0 >= self._chunk_span_ns
+                           or time.monotonic() >= self._flush_deadline):
+            self.flush()
+
     def _open_run(self, channel_id: int, log_time: int) -> tuple[bytearray, list[int]]:
         """The open chunk's buffer and index of a channel's first message in it."""
         if self._chunk_t0 is None:

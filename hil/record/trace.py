@@ -268,7 +268,41 @@ class TraceWriter:
         if plan is not None:
             self._decode(plan, channel, t_ns, arbitration_id, data)
 
-    on_frame = frame  # a recorder sink (wheelleg.hil.bus.recorder.FrameSink)
+    on_frame = frame  # one frame, as a recorder sink would get it
+
+    def on_frames(self, frames: Sequence[Frame]) -> None:
+        """Frames in time order (a recorder sink, ``wheelleg.hil.bus.recorder.FrameSink``): as ``frame``
+        one by one, each channel's records appended together and the chunk closed after them if due."""
+        mcap = self._mcap
+        if mcap is None or self._finished:
+            mcap = self._writer()
+        pack, cdr, decoder = _CAN_HEAD.pack, _CDR_LE, self._decoder
+        rows: dict[str, tuple[list, list]] = {}  # channel -> (times, records)
+        try:
+            for f in frames:
+                channel, arbitration_id, data = f.channel, f.arbitration_id, f.data
+                if not 0 <= arbitration_id <= _MAX_ID:
+                    raise ValueError(f"{channel}: arbitration id {arbitration_id!r} outside 0..0x1FFFFFFF")
+                times_records = rows.get(channel)
+                if times_records is None:
+                    if channel not in self._can_ids:
+                        self._can_channel(channel)
+                    times_records = rows[channel] = ([], [])
+                times_records[0].append(f.t_ns)
+                times_records[1].append(pack(cdr, arbitration_id, f.is_extended, f.dlc, f.is_error, len(data)) + data)
+                if decoder is not None and not f.is_error:
+                    plan = decoder.plan(channel, arbitration_id, f.is_extended)
+                    if plan is not None:
+                        self._decode(plan, channel, f.t_ns, arbitration_id, data)
+        finally:  # a bad frame raises after the frames before it are kept
+            for channel, (times, records) in rows.items():
+                try:
+                    mcap.add_messages(self._can_ids[channel], times, records)
+                except struct.error as exc:
+                    bad = next(t for t in times if not (isinstance(t, int) and t >= 0))
+                    raise ValueError(f"t_ns must be an int >= 0 (ns), got {bad!r}") from exc
+        if frames:
+            mcap.flush_if_due(frames[-1].t_ns)
 
     def _decode(self, plan, channel: str, t_ns: int, arbitration_id: int, data: bytes) -> None:
         """The frame's ``/decoded/`` row: now (``decode_batch`` 1), or held for its message's batch."""

@@ -118,7 +118,8 @@ class Rig:
                                  flush_interval_s=config.trace_flush_s,
                                  decode_batch=1 if config.realtime else 256)  # a real-time loop must not stall
         self.log = CandumpWriter(self.log_path, epoch_ns=config.epoch_ns)
-        self.recorder = Recorder([self.trace, self.log], self.clock, list(self.names.values()), load_to=self.trace)
+        self.recorder = Recorder([self.trace, self.log], self.clock, list(self.names.values()), load_to=self.trace,
+                                 batch=1 if config.realtime else 1024)  # a real-time loop must not stall
         self.bus_faults = {k: BusFaults(self.clock) for k in self._raw}
         self.plant_buses = {}
         for k, raw in self._raw.items():
