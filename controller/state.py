@@ -9,6 +9,7 @@ of its DBC range, an IMU quaternion that is not unit) is counted in
 """
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 
@@ -17,6 +18,7 @@ import can
 from wheelleg.controller import constants as C
 from wheelleg.dbc import cybergear as cg
 from wheelleg.dbc import CAN1, CAN2, load_bus
+from wheelleg.dbc.codec import MessageCodec
 
 _DBS = {CAN1: load_bus(CAN1), CAN2: load_bus(CAN2)}
 _SYNC_ID = _DBS[CAN1].get_message_by_name("SYNC").frame_id
@@ -149,20 +151,37 @@ def checked_decode(db, msg: can.Message, frame_id: int | None = None) -> dict:
     (a CyberGear payload sits at its type). BadFrame when a check fails.
     """
     try:
-        message = db.get_message_by_frame_id(msg.arbitration_id if frame_id is None else frame_id)
+        length, decode, limits = _layout(db, msg.arbitration_id if frame_id is None else frame_id)
     except KeyError:
         raise BadFrame("unknown id") from None
-    if msg.dlc != message.length or len(msg.data) < message.length:
+    if msg.dlc != length or len(msg.data) < length:
         raise BadFrame("wrong DLC")
-    values = message.decode(bytes(msg.data[:message.length]), decode_choices=False)
-    for sig in message.signals:
-        value = values.get(sig.name)
+    values = decode(bytes(msg.data[:length]))
+    for name, low, high in limits:
+        value = values.get(name)
         if value is None:
             continue
-        if not math.isfinite(value) or (sig.minimum is not None and value < sig.minimum - 1e-9) \
-                or (sig.maximum is not None and value > sig.maximum + 1e-9):
-            raise BadFrame(f"{sig.name} out of range")
+        if not math.isfinite(value) or (low is not None and value < low) or (high is not None and value > high):
+            raise BadFrame(f"{name} out of range")
     return values
+
+
+@functools.lru_cache(maxsize=1024)
+def _layout(db, frame_id: int) -> tuple:
+    """(length, decode, (signal, lowest, highest) per signal) of the message at ``frame_id`` in ``db``.
+
+    ``decode`` is the compiled codec's (``wheelleg.dbc.codec``: cantools' values without choices,
+    ~1 us a frame instead of ~10) where it compiles, else cantools'. The range takes 1e-9 of
+    slack beyond the DBC's minimum and maximum. KeyError for an id ``db`` does not know.
+    """
+    message = db.get_message_by_frame_id(frame_id)
+    try:
+        decode = MessageCodec.of(message).decode
+    except ValueError:  # a layout the codec does not compile
+        decode = functools.partial(message.decode, decode_choices=False)
+    limits = tuple((s.name, None if s.minimum is None else s.minimum - 1e-9,
+                    None if s.maximum is None else s.maximum + 1e-9) for s in message.signals)
+    return message.length, decode, limits
 
 
 def take_cybergear(msg: can.Message, now_s: float, feedback: dict, host_id: int, db) -> None:

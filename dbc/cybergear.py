@@ -14,6 +14,7 @@ Payloads sit in ``cybergear.dbc`` at a canonical id: the type alone.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 from wheelleg.dbc import load_file, truncating_raw
 
@@ -185,6 +186,7 @@ def reply_motor(can_id: int) -> int:
     return _REP["MotorId"].get(can_id)
 
 
+@lru_cache(maxsize=4096)  # a bus carries a few dozen reply ids; ReplyId is frozen, so one object serves all
 def parse_reply_id(can_id: int) -> ReplyId:
     ctype = _REP["Type"].get(can_id)
     faults = frozenset(name for name, field in _FAULT_FIELDS if field.get(can_id))
