@@ -25,11 +25,19 @@ _MOTION_ZERO_RAW["Kp"] = 0
 _MOTION_ZERO_RAW["Kd"] = 0
 _MOTION_DATA = _MOTION.encode(_MOTION_ZERO_RAW, scaling=False)
 _MOTION_CODEC = MessageCodec.of(_MOTION)
+# compiled encoders (wheelleg.dbc.codec): the same bytes as cantools' encode, ~10 us less a frame
+_MOTION_PAYLOAD = _MOTION_CODEC.encoder(dict.fromkeys(("PosRef", "VelRef", "Kp", "Kd"), "truncated"))
+_ESC_SLOTS = tuple(f"ESC{i}_Current" for i in range(1, 5))
+_ESC_PAYLOAD = MessageCodec.of(_ESC_CMD).encoder(dict.fromkeys(_ESC_SLOTS, "raw"))
+_ESC_SIGNALS = tuple(_ESC_CMD.get_signal_by_name(name) for name in _ESC_SLOTS)
+_HEARTBEAT_PAYLOAD = MessageCodec.of(_HEARTBEAT).encoder(dict.fromkeys(
+    ("Tick", "Mode", "WarningLevel", "OfflineCount", "OfflineMask", "MotorsEnabled", "OffGround", "Fallen",
+     "FaultLatched", "BadFrames"), "raw"))
 
 
 def _frame(arbitration_id: int, data: bytes, extended: bool, t_s: float) -> can.Message:
-    return can.Message(arbitration_id=arbitration_id, data=data, is_extended_id=extended,
-                       timestamp=t_s, check=False)
+    # python-can's parameters by position (timestamp, arbitration_id, is_extended_id): cheaper than by keyword
+    return can.Message(t_s, arbitration_id, extended, data=data)
 
 
 def joint_torque(motor_id: int, torque_nm: float, t_s: float = 0.0) -> can.Message:
@@ -45,10 +53,7 @@ def joint_mit(motor_id: int, position_rad: float, velocity_rad_s: float, kp: flo
     Set points and gains in the payload, the torque in the identifier, each
     clamped to its field by the manual's truncating encoder (``dbc.codec.truncate``).
     """
-    fields = _MOTION_CODEC.signals
-    data = _MOTION_CODEC.encode_raw({
-        "PosRef": fields["PosRef"].truncated(position_rad), "VelRef": fields["VelRef"].truncated(velocity_rad_s),
-        "Kp": fields["Kp"].truncated(kp), "Kd": fields["Kd"].truncated(kd)})
+    data = _MOTION_PAYLOAD(position_rad, velocity_rad_s, kp, kd)
     return _frame(cg.motion_id(torque_nm, motor_id), data, True, t_s)
 
 
@@ -76,20 +81,20 @@ def esc_current(amps: float) -> float:
 
 def wheel_currents(currents_a: dict[int, float], t_s: float = 0.0) -> can.Message:
     """C620 0x200 frame: ``currents_a`` maps ESC id 1..4 to amperes (others 0)."""
-    values = {f"ESC{i}_Current": 0.0 for i in range(1, 5)}
+    values = [0.0] * 4
     for esc_id, amps in currents_a.items():
-        values[f"ESC{esc_id}_Current"] = esc_current(amps)
-    return _frame(_ESC_CMD.frame_id, _ESC_CMD.encode(values, strict=False), False, t_s)
+        if 1 <= esc_id <= 4:  # (cantools' encode ignores other names)
+            values[esc_id - 1] = esc_current(amps)
+    # cantools' encode of each: round((value - offset) / scale) (NaN raises ValueError there as here)
+    raws = [int(round((value - signal.offset) / signal.scale)) for value, signal in zip(values, _ESC_SIGNALS)]
+    return _frame(_ESC_CMD.frame_id, _ESC_PAYLOAD(*raws), False, t_s)
 
 
 def heartbeat(tick: int, mode: int, warning_level: int, offline_mask: int, offline_count: int,
               *, motors_enabled: bool, off_ground: bool, fallen: bool, fault_latched: bool,
               bad_frames: int, t_s: float = 0.0) -> can.Message:
     """The controller's heartbeat (rig.dbc), sent on both buses at the end of a tick."""
-    data = _HEARTBEAT.encode({
-        "Tick": tick & 0xFFFFFFFF, "Mode": mode, "WarningLevel": min(warning_level, 15),
-        "OfflineCount": min(offline_count, 15), "OfflineMask": offline_mask & 0xFF,
-        "MotorsEnabled": int(motors_enabled), "OffGround": int(off_ground), "Fallen": int(fallen),
-        "FaultLatched": int(fault_latched), "BadFrames": bad_frames & 0xF,
-    }, strict=False)
+    data = _HEARTBEAT_PAYLOAD(tick & 0xFFFFFFFF, mode, min(warning_level, 15), min(offline_count, 15),
+                              offline_mask & 0xFF, int(motors_enabled), int(off_ground), int(fallen),
+                              int(fault_latched), bad_frames & 0xF)
     return _frame(_HEARTBEAT.frame_id, data, False, t_s)

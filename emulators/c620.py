@@ -66,8 +66,9 @@ class C620(EmulatedDevice):
         self._raw_limit = round(slot_signal.maximum / slot_signal.scale)  # 16384
         self._amps_per_raw = slot_signal.scale
         self._fb = MessageCodec.of(db.get_message_by_name(f"C620_Feedback_{esc_id}"))
-        self._speed_field, self._current_field, self._temp_field = (
-            self._fb.signals[name] for name in ("RotorSpeed", "TorqueCurrent", "MotorTemp"))
+        # the feedback payload from the angle counts (raw) and the rest rounded to their steps
+        self._fb_payload = self._fb.encoder({"RotorAngle": "raw", "RotorSpeed": "rounded", "TorqueCurrent": "rounded",
+                                             "MotorTemp": "rounded"})
         self._angle_counts = round(360.0 / self._fb.signals["RotorAngle"].scale)  # 8192 per rotor turn
         self._schedule = PeriodicSchedule(FEEDBACK_PERIOD_S)
         if not (supply_v > 0.0 and kt_scale > 0.0):
@@ -101,11 +102,8 @@ class C620(EmulatedDevice):
         rotor = (self.shaft.angle * D.M3508_GEAR + self.rotor_offset_rad) % (2 * math.pi)
         counts = int(rotor / (2 * math.pi) * self._angle_counts) % self._angle_counts
         rotor_rpm = self.shaft.speed * D.M3508_GEAR * 60.0 / (2 * math.pi)
-        raw = {"RotorAngle": counts,
-               "RotorSpeed": self._speed_field.rounded(rotor_rpm),
-               "TorqueCurrent": self._current_field.rounded(self.output_current(now_s)),
-               "MotorTemp": self._temp_field.rounded(self.temperature_c)}
-        return frame(self._fb.frame_id, self._fb.encode_raw(raw), False, now_s)
+        payload = self._fb_payload(counts, rotor_rpm, self.output_current(now_s), self.temperature_c)
+        return frame(self._fb.frame_id, payload, False, now_s)
 
     # -- physics -----------------------------------------------------------------
     def commanded_current(self, now_s: float) -> float:

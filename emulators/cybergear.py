@@ -124,7 +124,8 @@ class _Layouts:
         self.motion = MessageCodec.of(msg("CG_MotionCmd"))
         self.motion_fields = tuple(self.motion.signals[name] for name in ("PosRef", "VelRef", "Kp", "Kd"))
         self.feedback = MessageCodec.of(msg("CG_Feedback"))
-        self.fb_fields = tuple(self.feedback.signals[name] for name in ("Pos", "Vel", "Torque", "Temp"))
+        # the type-2 payload from the four values, each by the manual's truncating float_to_uint
+        self.feedback_payload = self.feedback.encoder(dict.fromkeys(("Pos", "Vel", "Torque", "Temp"), "truncated"))
         self.device_id = MessageCodec.of(msg("CG_DeviceId"))
         self.stop = MessageCodec.of(msg("CG_Stop"))
         self.set_zero = MessageCodec.of(msg("CG_SetZero"))
@@ -467,15 +468,13 @@ class CyberGear(EmulatedDevice):
 
     # -- frames out --------------------------------------------------------------
     def _feedback_frame(self, host: int, now_s: float) -> can.Message:
-        pos, vel, torque, temp = self._lay.fb_fields
-        raw = {"Pos": pos.truncated(self.mech_pos), "Vel": vel.truncated(self.shaft.speed),
-               "Torque": torque.truncated(self.firmware_torque()),
-               "Temp": temp.truncated(self.temperature_c)}
+        payload = self._lay.feedback_payload(self.mech_pos, self.shaft.speed, self.firmware_torque(),
+                                             self.temperature_c)
         key = (self.motor_id, host, self.mode, self._faults)
         can_id = self._feedback_ids.get(key)
         if can_id is None:
             can_id = self._feedback_ids[key] = cg.reply_id(cg.T_FEEDBACK, *key)
-        return frame(can_id, self._lay.feedback.encode_raw(raw), True, now_s)
+        return frame(can_id, payload, True, now_s)
 
     def _device_id_frame(self, now_s: float) -> can.Message:
         can_id = cg.reply_id(cg.T_DEVICE_ID, self.motor_id, cg.DEVICE_ID_TARGET)

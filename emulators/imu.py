@@ -80,8 +80,8 @@ class Imu(EmulatedDevice):
         self._schedule = PeriodicSchedule(period_s)
         db = load_bus(CAN1)
         self._codecs = [MessageCodec.of(db.get_message_by_name(name)) for name in FRAMES]
-        self._fields = [tuple(codec.signals[name] for name in names)
-                        for codec, names in zip(self._codecs, FRAMES.values())]
+        self._payloads = [codec.encoder(dict.fromkeys(names, "rounded")) for codec, names in zip(self._codecs,
+                                                                                                 FRAMES.values())]
         self.set_truth((1.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, D.GRAVITY_M_S2))
 
     def set_truth(self, quat_wxyz, gyro_body_rad_s, specific_force_body_m_s2) -> None:
@@ -101,9 +101,8 @@ class Imu(EmulatedDevice):
     def _periodic(self, now_s: float) -> list[can.Message]:
         if not self._schedule.due(now_s):
             return []
-        return [frame(codec.frame_id, codec.encode_raw({f.name: f.rounded(v) for f, v in zip(fields, values)}),
-                      False, now_s)
-                for codec, fields, values in zip(self._codecs, self._fields, self.measure())]
+        return [frame(codec.frame_id, payload(*values), False, now_s)
+                for codec, payload, values in zip(self._codecs, self._payloads, self.measure())]
 
     def measure(self) -> tuple[tuple, tuple, tuple]:
         """One noisy sample: quaternion (w, x, y, z), rate rad/s, specific force m/s^2."""

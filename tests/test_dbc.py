@@ -6,6 +6,7 @@ from __future__ import annotations
 import gzip
 import logging
 import math
+import re
 import struct
 import subprocess
 import sys
@@ -186,6 +187,45 @@ def test_compiled_codec_refuses_bad_input_with_a_clear_error():
     read = MessageCodec.of(load_file("cybergear.dbc").get_message_by_name("CG_ParamRead"))
     with pytest.raises(ValueError, match="no signals for multiplexer Index = 0"):
         read.decode(bytes(8))
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.data())
+def test_a_compiled_encoder_gives_encode_raw_of_the_converted_values(data):
+    """Any layout, each signal raw, rounded or truncated (where the DBC gives a range): the bytes or the
+    error of ``encode_raw`` of the values converted one by one (``SignalCodec.rounded``, ``.truncated``)."""
+    case = data.draw(st.sampled_from(CASES), label="case")
+    msg, signals = _branch(case)
+    codec = MessageCodec(msg, signals) if case[2] is not None else MessageCodec.of(msg)
+    kinds, values, raw = {}, [], {}
+    for f in data.draw(st.permutations(codec.fields), label="order"):
+        ways = ["raw"] if f.float_format is not None else ["raw", "rounded"] + (
+            ["truncated"] if f.minimum is not None and f.maximum is not None else [])
+        how = kinds[f.name] = data.draw(st.sampled_from(ways), label=f.name)
+        if how == "raw":
+            value = data.draw(st.integers(f.raw_lo - 1, f.raw_hi + 1) if f.float_format is None
+                              else st.floats(width=32), label=f"{f.name} raw")
+            raw[f.name] = value
+        else:
+            value = data.draw(st.floats(allow_nan=True, allow_infinity=True), label=f"{f.name} value")
+            raw[f.name] = f.rounded(value) if how == "rounded" else f.truncated(value)
+        values.append(value)
+    encode = codec.encoder(kinds)
+    try:
+        expected = codec.encode_raw(raw)
+    except ValueError as exc:
+        with pytest.raises(ValueError, match=re.escape(str(exc))):
+            encode(*values)
+    else:
+        assert encode(*values) == expected, (msg.name, kinds)
+
+
+def test_a_compiled_encoder_needs_every_signal_once():
+    feedback = MessageCodec.of(load_file("cybergear.dbc").get_message_by_name("CG_Feedback"))
+    with pytest.raises(ValueError, match="once as raw, rounded or truncated"):
+        feedback.encoder({"Pos": "truncated"})
+    with pytest.raises(ValueError, match="once as raw, rounded or truncated"):
+        feedback.encoder({name: "clamped" for name in feedback.signals})
 
 
 @settings(max_examples=400, deadline=None)
