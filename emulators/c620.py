@@ -114,7 +114,10 @@ class C620(EmulatedDevice):
         return self.command_raw * self._amps_per_raw
 
     def output_torque(self, now_s: float) -> float:
-        tau = self.commanded_current(now_s) * self.torque_constant
+        if self.command_timeout_s is None:  # commanded_current, inline: asked ~5 times a millisecond
+            tau = self.command_raw * self._amps_per_raw * self.torque_constant
+        else:
+            tau = self.commanded_current(now_s) * self.torque_constant
         speed = self.shaft.speed
         if tau * speed > 0.0:  # driving: back-EMF leaves less torque near no-load speed
             available = max(0.0, BACK_EMF_NM_S_PER_RAD * (self.no_load_speed - abs(speed)))

@@ -243,17 +243,27 @@ class CyberGear(EmulatedDevice):
         In brake mode the windings are shorted: the back-EMF drives a current
         that brakes the shaft, -K_EMF * speed (within +-12 N m).
         """
-        if self.mode == MODE_BRAKE and not self._faults:
-            limit = D.CG_TORQUE_LIMIT_NM
-            return _clamp(-BACK_EMF_NM_S_PER_RAD * self.shaft.speed, -limit, limit)
-        if self.mode != MODE_RUN or self._faults:
+        # The plant asks ~10 times a control period per motor: the clamps are written out
+        # (each as ``_clamp``, ``min`` and ``max`` decide, NaN included).
+        mode, faults, speed = self.mode, self._faults, self.shaft.speed
+        if mode != MODE_RUN or faults:
+            if mode == MODE_BRAKE and not faults:
+                return _clamp(-BACK_EMF_NM_S_PER_RAD * speed, -D.CG_TORQUE_LIMIT_NM, D.CG_TORQUE_LIMIT_NM)
             return 0.0
-        limit = min(self.params["limit_torque"], D.CG_TORQUE_LIMIT_NM)
-        tau = _clamp(self._demand_torque(), -limit, limit)
-        speed = self.shaft.speed
+        limit = self.params["limit_torque"]
+        if D.CG_TORQUE_LIMIT_NM < limit:  # min(limit_torque, the motor's)
+            limit = D.CG_TORQUE_LIMIT_NM
+        if self.params["run_mode"] == RUN_OPERATION:  # _demand_torque's MIT law, inline
+            p_ref, v_ref, kp, kd, tau_ff = self._motion
+            tau = kp * (p_ref - (self.shaft.angle - self._zero_rad)) + kd * (v_ref - speed) + tau_ff
+        else:
+            tau = self._demand_torque()
+        tau = -limit if tau < -limit else limit if tau > limit else tau
         if tau * speed > 0.0:  # driving, not braking: back-EMF limit
-            available = max(0.0, BACK_EMF_NM_S_PER_RAD * (self.speed_limit_rad_s - abs(speed)))
-            tau = _clamp(tau, -available, available)
+            available = BACK_EMF_NM_S_PER_RAD * (self.speed_limit_rad_s - abs(speed))
+            if not available > 0.0:  # max(0.0, available)
+                available = 0.0
+            tau = -available if tau < -available else available if tau > available else tau
         return tau
 
     def _demand_torque(self) -> float:

@@ -86,9 +86,9 @@ class Imu(EmulatedDevice):
 
     def set_truth(self, quat_wxyz, gyro_body_rad_s, specific_force_body_m_s2) -> None:
         """True orientation (body->world, shape (4,)), rate and specific force (shape (3,) each)."""
-        self._quat = tuple(float(v) for v in quat_wxyz)
-        self._gyro = tuple(float(v) for v in gyro_body_rad_s)
-        self._accel = tuple(float(v) for v in specific_force_body_m_s2)
+        self._quat = tuple(map(float, quat_wxyz))
+        self._gyro = tuple(map(float, gyro_body_rad_s))
+        self._accel = tuple(map(float, specific_force_body_m_s2))
         if len(self._quat) != 4 or len(self._gyro) != 3 or len(self._accel) != 3:
             raise ValueError("IMU truth needs a (4,) quaternion and (3,) rate and specific force")
 

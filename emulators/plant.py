@@ -90,6 +90,9 @@ class Plant:
             CAN1: DeviceNode(buses[CAN1], [*self.wheels.values(), self.imu, self.remote], **delays),
             CAN2: DeviceNode(buses[CAN2], list(self.joints.values()), **delays),
         }
+        self._motor_names = (*self.joints, *self.wheels)  # the motors the physics moves, hips first
+        self._motors = (*self.joints.values(), *self.wheels.values())
+        self._dt = physics.model.opt.timestep  # s, one physics step
         self._sync_shafts()
 
     @property
@@ -102,12 +105,12 @@ class Plant:
         wheels = {name: dev.output_torque(now_s) for name, dev in self.wheels.items()}
         self.physics.set_torques(hips, wheels)
         self.physics.step()
-        dt = self.physics.model.opt.timestep
-        for dev in (*self.joints.values(), *self.wheels.values()):
+        dt = self._dt
+        for dev in self._motors:
             dev.advance(dt, now_s + dt)
         self._sync_shafts()
 
     def _sync_shafts(self) -> None:
-        for name, dev in {**self.joints, **self.wheels}.items():
-            dev.shaft.angle, dev.shaft.speed = self.physics.shaft_state(name)
-        self.imu.set_truth(*self.physics.imu())
+        for dev, (angle, speed) in zip(self._motors, self.physics.shaft_states(self._motor_names)):
+            dev.shaft.angle, dev.shaft.speed = angle, speed
+        self.imu.set_truth(*self.physics.imu_truth())

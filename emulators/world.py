@@ -63,7 +63,7 @@ class World:
         self._scratch = mujoco.MjData(self.model)  # for readings that must not touch self.data
         # numpy views into MjData's C memory, cached: the attribute lookups cost
         # microseconds each and ground_truth runs every control period
-        self._qpos, self._qvel = self.data.qpos, self.data.qvel
+        self._qpos, self._qvel, self._ctrl = self.data.qpos, self.data.qvel, self.data.ctrl
         self._kin_qpos, self._kin_site_xpos = self._scratch.qpos, self._scratch.site_xpos
         self._kin_geom_xpos, self._kin_geom_xmat = self._scratch.geom_xpos, self._scratch.geom_xmat
         self._index()
@@ -100,13 +100,14 @@ class World:
 
     def _set_motor_torques(self, names: tuple[str, ...], torques_nm: dict[str, float]) -> None:
         """Motor torques (N m, shaft sign) of the motors ``names`` by joint name, held until changed."""
+        ctrl, actuator = self._ctrl, self._actuator
         for name, value in torques_nm.items():
             if name not in names:
                 raise KeyError(f"no motor named {name!r} here; expected one of {names}")
             value = float(value)
             if not math.isfinite(value):
                 raise ValueError(f"torque for {name} must be finite, got {value}")
-            self.data.ctrl[self._actuator[name]] = value
+            ctrl[actuator[name]] = value
 
     def apply_body_force(self, force_world_n, point_body_m=(0.0, 0.0, 0.0)) -> None:
         """Hold a force (N, world frame, (3,)) on the body at ``point_body_m`` (m, body frame, (3,)).
@@ -150,6 +151,19 @@ class World:
         except KeyError:
             raise KeyError(f"no motor named {name!r}; expected one of {self.MOTORS}") from None
         return float(self._qpos[qadr]), float(self._qvel[dadr])
+
+    def shaft_states(self, names) -> list[tuple[float, float]]:
+        """``shaft_state`` of each of ``names`` (motor joints), ``qpos``/``qvel`` read once."""
+        qpos, qvel, shafts = self._qpos.tolist(), self._qvel.tolist(), self._shafts
+        try:
+            return [(qpos[shafts[name][0]], qvel[shafts[name][1]]) for name in names]
+        except KeyError as exc:
+            raise KeyError(f"no motor named {exc.args[0]!r}; expected one of {self.MOTORS}") from None
+
+    def imu_truth(self) -> tuple[tuple, tuple, tuple]:
+        """``imu`` as tuples of floats: quaternion (4), gyro (3), specific force (3)."""
+        s = self.data.sensordata.tolist()
+        return tuple(s[self._quat_s]), tuple(s[self._gyro_s]), tuple(s[self._accel_s])
 
     def imu(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """IMU at its site: quaternion w,x,y,z body->world (4,), gyro rad/s body (3,),
