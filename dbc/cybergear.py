@@ -16,7 +16,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from functools import lru_cache
 
-from wheelleg.dbc import load_file, truncating_raw
+from wheelleg.dbc import load_file
+from wheelleg.dbc.codec import truncate
 
 TYPE_SHIFT = 24
 ID_DBC = "cybergear_id.dbc"  # the id's fields, and the payloads a type alone does not select
@@ -57,11 +58,18 @@ _SET = _fields("CG_Id_SetId")
 _TAB = _fields("CG_Id_ParamTable")
 _TORQUE_SIGNAL = load_file(ID_DBC).get_message_by_name("CG_Id_Motion").get_signal_by_name("TorqueRef")
 _FAULT_FIELDS = [(name, _REP[name]) for name in FAULT_NAMES]
+# the fields the rig reads on every frame, as plain shift and mask (no dict or method call a frame)
+_TYPE_SHIFT, _TYPE_MASK = _REQ["Type"].shift, _REQ["Type"].mask
+_TARGET_SHIFT, _TARGET_MASK = _REQ["Target"].shift, _REQ["Target"].mask
+_HOST_SHIFT, _HOST_MASK = _REQ["Host"].shift, _REQ["Host"].mask
+_TORQUE_SHIFT, _TORQUE_MASK = _MOT["TorqueRef"].shift, _MOT["TorqueRef"].mask
+_MOTION_TYPE = _MOT["Type"].put(T_MOTION)
+_TORQUE_TRUNCATE = (_TORQUE_SIGNAL.minimum, _TORQUE_SIGNAL.maximum, (1 << _TORQUE_SIGNAL.length) - 1)
 
 
 def comm_type(can_id: int) -> int:
     """Communication type (bits 28..24)."""
-    return _REQ["Type"].get(can_id)
+    return (can_id >> _TYPE_SHIFT) & _TYPE_MASK
 
 
 def canonical_id(can_id: int) -> int:
@@ -71,7 +79,7 @@ def canonical_id(can_id: int) -> int:
 
 def target(can_id: int) -> int:
     """Bits 7..0: the receiver's address."""
-    return _REQ["Target"].get(can_id)
+    return (can_id >> _TARGET_SHIFT) & _TARGET_MASK
 
 
 # --- host -> motor -----------------------------------------------------------
@@ -82,18 +90,18 @@ def request_id(ctype: int, host: int, motor: int) -> int:
 
 def request_host(can_id: int) -> int:
     """Host id (bits 15..8) of a request."""
-    return _REQ["Host"].get(can_id)
+    return (can_id >> _HOST_SHIFT) & _HOST_MASK
 
 
 def motion_id(torque_nm: float, motor: int) -> int:
     """Id of a type-1 motion command carrying ``torque_nm`` (truncating encoder)."""
-    raw = truncating_raw(_TORQUE_SIGNAL, torque_nm)
-    return _MOT["Type"].put(T_MOTION) | _MOT["TorqueRef"].put(raw) | _MOT["Target"].put(motor)
+    raw = truncate(*_TORQUE_TRUNCATE, torque_nm)  # truncating_raw of the torque signal
+    return _MOTION_TYPE | ((raw & _TORQUE_MASK) << _TORQUE_SHIFT) | _MOT["Target"].put(motor)
 
 
 def motion_torque(can_id: int) -> float:
     """Feed-forward torque (N m) of a type-1 id."""
-    raw = _MOT["TorqueRef"].get(can_id)
+    raw = (can_id >> _TORQUE_SHIFT) & _TORQUE_MASK
     return raw * _TORQUE_SIGNAL.scale + _TORQUE_SIGNAL.offset
 
 

@@ -120,7 +120,8 @@ class EmulatedDevice(abc.ABC):
 
     def periodic(self, now_s: float) -> list[can.Message]:
         """Frames due by ``now_s`` that the device sends on its own, after the fault policy."""
-        return self._emit(self._periodic(now_s), now_s)
+        frames = self._periodic(now_s)
+        return self._emit(frames, now_s) if frames else frames  # mostly none: the policy has nothing to do
 
     def _periodic(self, now_s: float) -> list[can.Message]:
         """Device-specific periodic frames (none by default)."""

@@ -68,11 +68,13 @@ class DeviceNode:
 
         Frames held back by a latency go first, in the order they were made.
         """
-        for msg in _due(self._outbound, now_s):
-            msg.timestamp = now_s
-            self._send(msg)
-        for msg in _due(self._inbound, now_s):
-            self.dispatch(msg, now_s)
+        if self._outbound:
+            for msg in _due(self._outbound, now_s):
+                msg.timestamp = now_s
+                self._send(msg)
+        if self._inbound:
+            for msg in _due(self._inbound, now_s):
+                self.dispatch(msg, now_s)
         received = 0
         recv = self.bus.recv
         while (msg := recv(timeout=0)) is not None:

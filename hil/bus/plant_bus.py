@@ -59,6 +59,7 @@ class PlantBus:
         self._outbound = tuple(stage.outbound for stage in self.stages)  # bound once: the per-frame path
         self._inbound = tuple(stage.inbound for stage in self.stages)
         self._answering = None  # the recorder's handle of the frame the devices are answering
+        self._poll = getattr(bus, "poll", None)  # an in-process end: a frame without python-can's recv loop
 
     def send(self, msg: can.Message, timeout: float | None = None) -> None:
         frames = [msg]
@@ -71,7 +72,7 @@ class PlantBus:
 
     def recv(self, timeout: float | None = None) -> can.Message | None:
         while True:
-            msg = self.bus.recv(timeout)
+            msg = self._poll() if timeout == 0 and self._poll is not None else self.bus.recv(timeout)
             if msg is None:
                 self._answering = None
                 return None

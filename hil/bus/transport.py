@@ -104,6 +104,17 @@ class LockstepVirtualBus(VirtualBus):
         self._closed = True
         super().shutdown()
 
+    def poll(self) -> can.Message | None:
+        """The oldest frame received, or None at once: ``recv(timeout=0)`` for an end without
+        filters (the plant's), without ``BusABC.recv``'s wait loop and log call."""
+        if self.filters is not None:
+            return self.recv(timeout=0)
+        self._check_open()
+        rx = self.queue
+        if type(rx) is FrameQueue:
+            return rx.pop()
+        return rx.get_nowait() if rx.queue else None
+
     def _recv_internal(self, timeout: float | None) -> tuple[can.Message | None, bool]:
         if timeout != 0:  # a blocking wait (real-time mode, tools): python-can's own
             return super()._recv_internal(timeout)
