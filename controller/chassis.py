@@ -181,6 +181,30 @@ def leg_targets(length: float, difference: float) -> dict:
     return {"left": mean + sign * half, "right": mean - sign * half}
 
 
+def speed_set_point(speed: float, accel: float, target: float, dt: float) -> tuple[float, float]:
+    """The speed set point one period on: (speed m/s, its acceleration m/s^2), towards ``target`` (m/s).
+
+    Speeding up (or from standing) it slews at ACCEL_LIMIT and reports no acceleration:
+    the LQR's speed error leans the robot as before. Slowing down it follows an S-curve
+    the robot can follow: the deceleration ramps at BRAKE_JERK up to BRAKE_DECEL and back
+    to 0 as the speed arrives (a reversal brakes to 0 first); ``accel`` is that curve's
+    acceleration, whose lean the chassis asks of the legs (LEAN_PER_ACCEL).
+    """
+    if speed == 0.0 or (target * speed > 0.0 and abs(target) >= abs(speed)):
+        return speed + _clamp(target - speed, P.ACCEL_LIMIT * dt), 0.0
+    end = target if target * speed > 0.0 else 0.0
+    sign = math.copysign(1.0, speed)
+    left = abs(speed - end)  # m/s still to shed
+    decel = -sign * accel  # m/s^2, >= 0 on the curve
+    # ramp down once what is left is what ramping down sheds: decel^2 / (2 jerk)
+    aim = 0.0 if decel * decel >= 2.0 * P.BRAKE_JERK * left else P.BRAKE_DECEL
+    decel = max(0.0, decel + _clamp(aim - decel, P.BRAKE_JERK * dt))
+    left -= decel * dt
+    if left <= 0.0:
+        return end, 0.0
+    return end + sign * left, -sign * decel
+
+
 def _clamp(value: float, limit: float) -> float:
     return max(-limit, min(limit, value))
 
@@ -193,6 +217,7 @@ class ChassisController:
         self.x = 0.0  # m, wheel travel since reset
         self.x_ref = 0.0  # m
         self.speed_ref = 0.0  # m/s, slewed
+        self.accel_ref = 0.0  # m/s^2, the speed set point's braking curve (speed_set_point)
         self.yaw_ref = 0.0  # rad
         self.leg_ref = {leg: P.LEG_LENGTH_NOMINAL for leg in LEGS}
         self.roll_offset = 0.0  # m, integral levelling: left minus right leg length
@@ -224,7 +249,7 @@ class ChassisController:
         att = self.attitude(bus)
         self.x = self.x_ref = self.x_integral = self.trim_hold_s = 0.0
         self.u_prev = {leg: (0.0, 0.0) for leg in LEGS}
-        self.speed_ref = 0.0
+        self.speed_ref = self.accel_ref = 0.0
         self.lean = 0.0
         self.yaw_ref = att.yaw
         for leg in LEGS:
@@ -322,19 +347,19 @@ class ChassisController:
     # -- pieces ----------------------------------------------------------------
     def _track_references(self, cmd: Command, att: Attitude) -> None:
         target = _clamp(cmd.speed, P.SPEED_LIMIT)
-        step = P.ACCEL_LIMIT * self.dt
-        self.speed_ref += _clamp(target - self.speed_ref, step)
+        self.speed_ref, self.accel_ref = speed_set_point(self.speed_ref, self.accel_ref, target, self.dt)
         self.x_ref += self.speed_ref * self.dt
-        if self.speed_ref != 0.0:
+        if self.accel_ref != 0.0 or (self.speed_ref == 0.0 and self.trim_hold_s > 0.0):
+            # braking, or just stopped: the position is tracked along the braking curve, so
+            # the LQR's position term brakes too and the spot is where the curve stops. The
+            # robot may still overshoot it; the LQR sees the error clamped (_lqr), so dragging
+            # the spot to within the clamp changes no braking torque; it only spares the walk
+            # back at the clamp's speed (0.3 m/s), which left `sprint` still moving 3.5 s later
+            self.x_ref = self.x - _clamp(self.x - self.x_ref, P.POSITION_ERROR_LIMIT)
+        elif self.speed_ref != 0.0:
             # moving: speed alone is tracked (a position lead would overshoot the speed
             # and wind up against a wall); the spot to hold is where it stops
             self.x_ref = self.x
-        elif self.trim_hold_s > 0.0:
-            # just stopped: the braking overshoots the spot where the set point reached 0
-            # (0.5 m from 2 m/s). The LQR sees the error clamped (_lqr), so dragging the spot
-            # to within the clamp changes no braking torque; it only spares the walk back
-            # at the clamp's speed (0.3 m/s), which left `sprint` still moving 3.5 s later
-            self.x_ref = self.x - _clamp(self.x - self.x_ref, P.POSITION_ERROR_LIMIT)
         # standing, it stays put: pushed away, the robot comes back to its spot, with the
         # error the LQR sees clamped (_lqr), so at a bounded speed
         self.yaw_ref = _wrap(self.yaw_ref + _clamp(cmd.yaw_rate, P.YAW_RATE_LIMIT) * self.dt)
@@ -379,7 +404,7 @@ class ChassisController:
         """u = -K (s - s_ref): wheel torque T and virtual hip torque Tp (N m) of leg ``name``."""
         k = lqr.gain_matrix(leg.L0)
         phi, dphi = -att.pitch, -att.wy  # nose-up body angle and rate
-        err = (leg.theta, leg.dtheta, _clamp(self.x - self.x_ref, P.POSITION_ERROR_LIMIT), speed - self.speed_ref,
+        err = (leg.theta - P.LEAN_PER_ACCEL * self.accel_ref, leg.dtheta, _clamp(self.x - self.x_ref, P.POSITION_ERROR_LIMIT), speed - self.speed_ref,
                phi - (-cmd.pitch), dphi, self.x_integral, *self.u_prev[name])
         # the wheel's share for where the robot is and goes (position, speed and their
         # integral) is limited apart: a hard push asks for far more than the wheel has, and

@@ -66,7 +66,20 @@ YAW_TORQUE_LIMIT = 2.0  # N m
 
 # --- motion commands --------------------------------------------------------------
 SPEED_LIMIT = 2.0  # m/s
-ACCEL_LIMIT = 4.0  # m/s^2, slew of the speed set point (Reborn)
+ACCEL_LIMIT = 4.0  # m/s^2, slew of the speed set point speeding up (Reborn)
+# Braking (chassis.speed_set_point): the set point slows at what the robot can follow, the
+# legs lean back for it (LEAN_PER_ACCEL) and the position is tracked along it. At ACCEL_LIMIT
+# with no lean asked, the LQR had to lean the legs on its travel share alone, which saturates
+# (TRAVEL_TORQUE_LIMIT / K_theta ~ 0.26 rad, ~1.8 m/s^2): `drive` took 0.474 m to stop from
+# 1 m/s. 2 m/s^2 asks a lean of 0.35 rad (0.2 g: grip down to friction 0.5 has 2.5x margin).
+BRAKE_DECEL = 2.0  # m/s^2
+# m/s^3: the lean reaches BRAKE_DECEL's in 0.1 s, near the leg pendulum's own time,
+# sqrt(L0 / g) = 0.13 s; a step asked the wheel's full 5.5 N m to swing the legs (linear model)
+BRAKE_JERK = 20.0
+# rad per m/s^2: leg angle theta of the model accelerating steadily with the body level
+# (controller/design/lqr.py acceleration_equilibrium: 0.1765 at L0 = 0.17 m, 0.206 at 0.12,
+# 0.151 at 0.26; the LQR's position and speed terms take up the rest at other lengths)
+LEAN_PER_ACCEL = 0.1765
 POSITION_ERROR_LIMIT = 0.15  # m, position error fed to the LQR is clamped (Skythinker)
 # m s, bound of the position error's integral (the LQR's ix state, anti-windup): holds
 # a CoM ~5 cm off the axle (3 cm needs ~0.6 m s with the designed gains)

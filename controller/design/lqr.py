@@ -159,6 +159,21 @@ def continuous_model(L0: float) -> tuple[np.ndarray, np.ndarray]:
     return a, b
 
 
+def acceleration_equilibrium(L0: float) -> np.ndarray:
+    """(theta rad, T N m, Tp N m) per m/s^2 of steady acceleration at leg length L0 (m), shape (3,).
+
+    Accelerating steadily at a with the body level (phi = 0, all rates constant), the
+    model's theta, x and phi rows of A s + B u read (0, a, 0); neither x nor its speed
+    enters them, so theta, T and Tp follow from one 3x3 solve, each linear in a. The
+    legs lean into the acceleration (theta > 0 speeding up: the wheel behind the hip);
+    controller/params.py LEAN_PER_ACCEL is theta here at the nominal leg length.
+    """
+    a, b = continuous_model(L0)
+    rows = [2 * i + 1 for i in range(3)]  # ddtheta, ddx, ddphi
+    unknowns = np.column_stack([a[rows, STATE_NAMES.index("theta")], b[rows]])
+    return np.linalg.solve(unknowns, np.array([0.0, 1.0, 0.0]))
+
+
 def discretise(a: np.ndarray, b: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
     """Exact zero-order hold: (Ad (n, n), Bd (n, m)) from expm([[A, B], [0, 0]] dt)."""
     n, m = b.shape
