@@ -19,8 +19,10 @@ from wheelleg.controller import constants as C
 from wheelleg.controller import estimate
 from wheelleg.controller import fivebar
 from wheelleg.controller import lqr
+from wheelleg.controller import motion
 from wheelleg.controller import params as P
 from wheelleg.controller.attitude import euler_zyx
+from wheelleg.controller.motion import Travel
 from wheelleg.controller.state import BusState, ImuReading
 
 LEGS = ("left", "right")
@@ -112,6 +114,11 @@ class Output:
 
 _LEG_WHEEL = {w.leg: w for w in C.WHEELS}
 _TRAVEL = tuple(lqr.GAIN_NAMES.index(name) for name in ("x", "dx", "ix"))  # LQR states of the travel
+# s: a speed error e (m/s) asks of the wheel what a trim of e times this does (K_dx / K_ix
+# of the wheel's row: 0.54 s at the nominal length, 0.54-0.55 over the whole leg range), so
+# the trim takes up a steady speed error by growing this much per m/s of it (``_trim``)
+_WHEEL_GAINS = dict(zip(lqr.GAIN_NAMES, lqr.gain_matrix(P.LEG_LENGTH_NOMINAL)[0]))
+SPEED_TO_TRIM_S = _WHEEL_GAINS["dx"] / _WHEEL_GAINS["ix"]
 
 
 def leg_state(bus: BusState, leg: str, att: Attitude) -> LegState:
@@ -181,30 +188,6 @@ def leg_targets(length: float, difference: float) -> dict:
     return {"left": mean + sign * half, "right": mean - sign * half}
 
 
-def speed_set_point(speed: float, accel: float, target: float, dt: float) -> tuple[float, float]:
-    """The speed set point one period on: (speed m/s, its acceleration m/s^2), towards ``target`` (m/s).
-
-    Speeding up (or from standing) it slews at ACCEL_LIMIT and reports no acceleration:
-    the LQR's speed error leans the robot as before. Slowing down it follows an S-curve
-    the robot can follow: the deceleration ramps at BRAKE_JERK up to BRAKE_DECEL and back
-    to 0 as the speed arrives (a reversal brakes to 0 first); ``accel`` is that curve's
-    acceleration, whose lean the chassis asks of the legs (LEAN_PER_ACCEL).
-    """
-    if speed == 0.0 or (target * speed > 0.0 and abs(target) >= abs(speed)):
-        return speed + _clamp(target - speed, P.ACCEL_LIMIT * dt), 0.0
-    end = target if target * speed > 0.0 else 0.0
-    sign = math.copysign(1.0, speed)
-    left = abs(speed - end)  # m/s still to shed
-    decel = -sign * accel  # m/s^2, >= 0 on the curve
-    # ramp down once what is left is what ramping down sheds: decel^2 / (2 jerk)
-    aim = 0.0 if decel * decel >= 2.0 * P.BRAKE_JERK * left else P.BRAKE_DECEL
-    decel = max(0.0, decel + _clamp(aim - decel, P.BRAKE_JERK * dt))
-    left -= decel * dt
-    if left <= 0.0:
-        return end, 0.0
-    return end + sign * left, -sign * decel
-
-
 def _clamp(value: float, limit: float) -> float:
     return max(-limit, min(limit, value))
 
@@ -217,7 +200,8 @@ class ChassisController:
         self.x = 0.0  # m, wheel travel since reset
         self.x_ref = 0.0  # m
         self.speed_ref = 0.0  # m/s, slewed
-        self.accel_ref = 0.0  # m/s^2, the speed set point's braking curve (speed_set_point)
+        self.accel_ref = 0.0  # m/s^2, the speed set point's own (motion.speed_set_point)
+        self.travel = Travel.STANDING  # what the speed set point does (motion.travel_phase)
         self.yaw_ref = 0.0  # rad
         self.leg_ref = {leg: P.LEG_LENGTH_NOMINAL for leg in LEGS}
         self.roll_offset = 0.0  # m, integral levelling: left minus right leg length
@@ -250,6 +234,7 @@ class ChassisController:
         self.x = self.x_ref = self.x_integral = self.trim_hold_s = 0.0
         self.u_prev = {leg: (0.0, 0.0) for leg in LEGS}
         self.speed_ref = self.accel_ref = 0.0
+        self.travel = Travel.STANDING
         self.lean = 0.0
         self.yaw_ref = att.yaw
         for leg in LEGS:
@@ -347,19 +332,21 @@ class ChassisController:
     # -- pieces ----------------------------------------------------------------
     def _track_references(self, cmd: Command, att: Attitude) -> None:
         target = _clamp(cmd.speed, P.SPEED_LIMIT)
-        self.speed_ref, self.accel_ref = speed_set_point(self.speed_ref, self.accel_ref, target, self.dt)
+        self.speed_ref, self.accel_ref = motion.speed_set_point(self.speed_ref, self.accel_ref, target, self.dt)
+        self.travel = motion.travel_phase(self.speed_ref, self.accel_ref)
         self.x_ref += self.speed_ref * self.dt
-        if self.accel_ref != 0.0 or (self.speed_ref == 0.0 and self.trim_hold_s > 0.0):
+        if self.travel in (Travel.SPEEDING_UP, Travel.CRUISING):
+            # speed alone is tracked: the robot's lag behind a growing set point, made up
+            # along a position reference, would overshoot the speed (and a wall would
+            # wind it up); a disturbance is taken up by the trim instead (_trim)
+            self.x_ref = self.x
+        elif self.travel is Travel.BRAKING or self.trim_hold_s > 0.0:
             # braking, or just stopped: the position is tracked along the braking curve, so
             # the LQR's position term brakes too and the spot is where the curve stops. The
             # robot may still overshoot it; the LQR sees the error clamped (_lqr), so dragging
             # the spot to within the clamp changes no braking torque; it only spares the walk
             # back at the clamp's speed (0.3 m/s), which left `sprint` still moving 3.5 s later
             self.x_ref = self.x - _clamp(self.x - self.x_ref, P.POSITION_ERROR_LIMIT)
-        elif self.speed_ref != 0.0:
-            # moving: speed alone is tracked (a position lead would overshoot the speed
-            # and wind up against a wall); the spot to hold is where it stops
-            self.x_ref = self.x
         # standing, it stays put: pushed away, the robot comes back to its spot, with the
         # error the LQR sees clamped (_lqr), so at a bounded speed
         self.yaw_ref = _wrap(self.yaw_ref + _clamp(cmd.yaw_rate, P.YAW_RATE_LIMIT) * self.dt)
@@ -375,26 +362,37 @@ class ChassisController:
 
         A constant disturbance (the CoM off the axle, an IMU mounted tilted, a
         drive's torque constant) is held by this integral instead of a standing
-        position error; the trim found standing holds moving. It integrates only
-        standing still and settled, inside the LQR's position clamp:
-        - moving (speed set point not 0) it is frozen: the speed error integrated
-          there, 0.5 s x 0.5 s^-1, made `drive` miss its speed by 0.23 m/s;
-        - for TRIM_SETTLE_S after a stop it stays frozen: the overshoot past the
-          stop and the walk back are the braking's, not a disturbance's (integrated
-          they left 0.04 m s, and `drive` then missed its reverse speed by 0.07 m/s);
-        - outside the clamp (pushed away) the robot walks back on the clamp and the
-          integral keeps what it had (integrating there wound it up to 0.3 m s);
+        position error or a cruising speed error; the trim found standing holds
+        moving and the other way round. It integrates only settled:
+        - standing, the position error inside the LQR's clamp. Outside it (pushed
+          away) the robot walks back on the clamp and the integral keeps what it
+          had (integrating there wound it up to 0.3 m s);
+        - cruising, the speed error times SPEED_TO_TRIM_S / CRUISE_TRIM_TAU (the
+          trim that asks what the speed error asks, taken over in that time), while
+          the robot is within CRUISE_TRIM_WINDOW of the set point;
+        - on the set point's curve it is frozen, and for CRUISE_SETTLE_S after
+          speeding up and TRIM_SETTLE_S after braking: the lag behind the curve, the
+          overshoot past the stop and the walk back are the robot's, not a
+          disturbance's (the speed-up lag integrated, 0.5 s x 0.5 s^-1, made `drive`
+          miss its speed by 0.23 m/s; a stop's overshoot left 0.04 m s, 0.07 m/s);
         - with ``cmd.trim`` off (in the air, jumping, standing up).
         Bounded by POSITION_INTEGRAL_LIMIT (anti-windup).
         """
-        if self.speed_ref != 0.0:
-            self.trim_hold_s = P.TRIM_SETTLE_S
+        if self.travel in (Travel.SPEEDING_UP, Travel.BRAKING):
+            self.trim_hold_s = P.CRUISE_SETTLE_S if self.travel is Travel.SPEEDING_UP else P.TRIM_SETTLE_S
             return
         self.trim_hold_s = max(0.0, self.trim_hold_s - self.dt)
-        error = self.x - self.x_ref
-        if not cmd.trim or self.trim_hold_s > 0.0 or abs(error) >= P.POSITION_ERROR_LIMIT:
+        if not cmd.trim or self.trim_hold_s > 0.0:
             return
-        self.x_integral = _clamp(self.x_integral + error * self.dt, P.POSITION_INTEGRAL_LIMIT)
+        if self.travel is Travel.CRUISING:
+            error = speed - self.speed_ref
+            if abs(error) < P.CRUISE_TRIM_WINDOW * abs(self.speed_ref):
+                self.x_integral += SPEED_TO_TRIM_S / P.CRUISE_TRIM_TAU * error * self.dt
+        else:
+            error = self.x - self.x_ref
+            if abs(error) < P.POSITION_ERROR_LIMIT:
+                self.x_integral += error * self.dt
+        self.x_integral = _clamp(self.x_integral, P.POSITION_INTEGRAL_LIMIT)
 
     def roll_set_point(self, cmd: Command) -> float:
         """Roll set point (rad, > 0 left side up): the command plus the lean into a turn."""

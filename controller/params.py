@@ -66,16 +66,18 @@ YAW_TORQUE_LIMIT = 2.0  # N m
 
 # --- motion commands --------------------------------------------------------------
 SPEED_LIMIT = 2.0  # m/s
-ACCEL_LIMIT = 4.0  # m/s^2, slew of the speed set point speeding up (Reborn)
-# Braking (chassis.speed_set_point): the set point slows at what the robot can follow, the
-# legs lean back for it (LEAN_PER_ACCEL) and the position is tracked along it. At ACCEL_LIMIT
-# with no lean asked, the LQR had to lean the legs on its travel share alone, which saturates
-# (TRAVEL_TORQUE_LIMIT / K_theta ~ 0.26 rad, ~1.8 m/s^2): `drive` took 0.474 m to stop from
-# 1 m/s. 2 m/s^2 asks a lean of 0.35 rad (0.2 g: grip down to friction 0.5 has 2.5x margin).
-BRAKE_DECEL = 2.0  # m/s^2
-# m/s^3: the lean reaches BRAKE_DECEL's in 0.1 s, near the leg pendulum's own time,
+# The speed set point is an S-curve the robot can follow (motion.speed_set_point), the
+# legs are asked to lean for its acceleration (LEAN_PER_ACCEL) and, braking, the position
+# is tracked along it. Before, it slewed at 4 m/s^2 (Reborn) with no lean asked: the LQR
+# leaned the legs on its travel share alone, which saturates (TRAVEL_TORQUE_LIMIT /
+# K_theta = 0.26 rad, ~1.8 m/s^2, where the thighs also near their stops), and `drive`
+# took 0.474 m to stop from 1 m/s, 0.5-1 m with the CoM 2-3 cm off.
+# m/s^2: asks a lean of 0.35 rad (0.2 g: grip down to friction 0.5 has 2.5x margin); past
+# the thighs' stops (0.33 rad from the body at 0.17 m) the body pitches 5-10 deg with them
+ACCEL_LIMIT = 2.0
+# m/s^3: the lean reaches ACCEL_LIMIT's in 0.1 s, near the leg pendulum's own time,
 # sqrt(L0 / g) = 0.13 s; a step asked the wheel's full 5.5 N m to swing the legs (linear model)
-BRAKE_JERK = 20.0
+SPEED_JERK = 20.0
 # rad per m/s^2: leg angle theta of the model accelerating steadily with the body level
 # (controller/design/lqr.py acceleration_equilibrium: 0.1765 at L0 = 0.17 m, 0.206 at 0.12,
 # 0.151 at 0.26; the LQR's position and speed terms take up the rest at other lengths)
@@ -87,6 +89,18 @@ POSITION_INTEGRAL_LIMIT = 1.0
 # s after the speed set point returns to 0 before the position integral moves again:
 # the stop's overshoot and the walk back (~1.5 s from 1 m/s in `drive`) are left out
 TRIM_SETTLE_S = 2.0
+# Cruising (the set point steady, not 0) the trim takes up a steady speed error, the same
+# constant disturbance it holds standing (chassis._trim; a CoM 3 cm off left `drive`
+# 0.1-0.5 m/s off its speed with the trim frozen while moving):
+# s after the set point's curve before it starts: the robot settles on the speed ~0.5 s
+# after the curve (`drive`, 1 m/s); the lag and the overshoot are no disturbance
+CRUISE_SETTLE_S = 0.75
+# s, time constant of that take-over, slower than the balance's own ~0.2 s (0.3 s with the
+# settling at 0.25 s integrated the overshoot after the curve: 0.25 m/s speed error)
+CRUISE_TRIM_TAU = 0.5
+# a speed error over this fraction of the set point is no trim's: held back (a wall) or
+# pushed along, the robot is not where a disturbance would leave it
+CRUISE_TRIM_WINDOW = 0.5
 YAW_RATE_LIMIT = 4.0  # rad/s
 # N m per wheel, largest LQR wheel torque for the travel (position, speed, their integral),
 # limited before the balance terms are added: a 5 N s push asks for far more there, and

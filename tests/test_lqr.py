@@ -89,6 +89,22 @@ def test_leg_mass_properties_are_consistent():
     assert design.leg_mass_properties(0.26).L > design.leg_mass_properties(0.12).L
 
 
+@pytest.mark.parametrize("L0", [P.LEG_LENGTH_MIN, P.LEG_LENGTH_NOMINAL, P.LEG_LENGTH_MAX])
+def test_acceleration_equilibrium_accelerates_steadily_in_the_lagrangian_model(L0):
+    """Leaning theta with T and Tp of 1 m/s^2, the independent model gains 1 m/s^2 and
+    keeps every angle and rate (at any speed: the speed enters no force)."""
+    theta, t, tp = design.acceleration_equilibrium(L0)
+    a, b = lagrangian_model(L0)
+    rates = a @ np.array([theta, 0.0, 0.0, 0.7, 0.0, 0.0]) + b @ np.array([t, tp])
+    np.testing.assert_allclose(rates, [0.0, 0.0, 0.7, 1.0, 0.0, 0.0], atol=1e-9)
+    assert 0.1 < theta < 0.3  # rad per m/s^2: the wheel behind the hip, leaning into it
+
+
+def test_the_chassis_lean_per_acceleration_is_the_models_at_the_nominal_length():
+    lean = design.acceleration_equilibrium(P.LEG_LENGTH_NOMINAL)[0]
+    assert P.LEAN_PER_ACCEL == pytest.approx(lean, rel=1e-3)
+
+
 def test_open_loop_is_unstable():
     for L0 in (P.LEG_LENGTH_MIN, P.LEG_LENGTH_NOMINAL, P.LEG_LENGTH_MAX):
         a, b = design.continuous_model(L0)
