@@ -27,16 +27,20 @@ def speed_set_point(speed: float, accel: float, target: float, dt: float) -> tup
     """The set point one period ``dt`` (s) on: (speed m/s, its acceleration m/s^2), towards
     ``target`` (m/s) from ``speed`` and the ``accel`` it had.
 
-    The acceleration ramps at SPEED_JERK up to ACCEL_LIMIT and back to 0 as the speed
-    arrives (no overshoot); a reversal is one curve through 0; a target changed midway
-    is headed for from where the curve is.
+    The acceleration ramps at SPEED_JERK up to ACCEL_LIMIT and eases back to 0 at
+    SPEED_EASE_JERK as the speed arrives (no overshoot); a reversal is one curve through
+    0; a target changed midway is headed for from where the curve is.
     """
     gap = target - speed
     direction = math.copysign(1.0, gap) if gap else 0.0
-    # ease off once the speed still to gain is what easing off at the jerk gains, a^2 / 2J
-    easing = accel * direction > 0.0 and accel * accel >= 2.0 * P.SPEED_JERK * abs(gap)
-    aim = 0.0 if easing else direction * P.ACCEL_LIMIT
-    accel += max(-P.SPEED_JERK * dt, min(P.SPEED_JERK * dt, aim - accel))
+    # the largest acceleration from which easing off at SPEED_EASE_JERK lands on the
+    # target: easing off from a gains a^2 / (2 jerk)
+    landing = math.sqrt(2.0 * P.SPEED_EASE_JERK * abs(gap))
+    if accel * direction >= landing:
+        accel = direction * landing  # easing off along that parabola, at SPEED_EASE_JERK
+    else:
+        aim = direction * min(P.ACCEL_LIMIT, landing)
+        accel += max(-P.SPEED_JERK * dt, min(P.SPEED_JERK * dt, aim - accel))
     speed += accel * dt
     if (target - speed) * direction <= 0.0:
         return target, 0.0

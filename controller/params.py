@@ -78,6 +78,13 @@ ACCEL_LIMIT = 2.0
 # m/s^3: the lean reaches ACCEL_LIMIT's in 0.1 s, near the leg pendulum's own time,
 # sqrt(L0 / g) = 0.13 s; a step asked the wheel's full 5.5 N m to swing the legs (linear model)
 SPEED_JERK = 20.0
+# m/s^3, easing off as the speed arrives: the lean comes back over 0.4 s, three leg
+# pendulum times, so the legs come upright without swinging past it. At 20 m/s^3 they
+# overshot upright by 0.2 rad and surged the speed; a forward jump's run-up then
+# launched mid-swing and `jump-step` landed 21 cm short of the step's edge (10 m/s^3:
+# 9 cm short; 5 m/s^3: 23 cm past it, 17 cm with the old 4 m/s^2 slew). A stop from
+# 1 m/s takes 0.01 m longer.
+SPEED_EASE_JERK = 5.0
 # rad per m/s^2: leg angle theta of the model accelerating steadily with the body level
 # (controller/design/lqr.py acceleration_equilibrium: 0.1765 at L0 = 0.17 m, 0.206 at 0.12,
 # 0.151 at 0.26; the LQR's position and speed terms take up the rest at other lengths)
