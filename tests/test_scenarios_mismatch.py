@@ -17,6 +17,8 @@ no creep instead).
 import numpy as np
 import pytest
 
+from wheelleg.hil.scenarios.basic import forward_position
+
 
 def test_balance_with_the_com_3cm_forward_holds_its_spot(rig_run):
     run = rig_run("balance", plant={"com_x_m": 0.03})
@@ -40,6 +42,18 @@ def test_on_a_slippery_floor_the_slip_observer_keeps_the_spot(rig_run):
     run.assert_passed()
     x, y = run.state["x"], run.state["y"]
     assert float(np.hypot(x[-1] - x[0], y[-1] - y[0])) < 0.35
+
+
+def test_drive_with_a_heavy_body_and_the_com_2cm_forward_stops_short(rig_run):
+    """Body 1.4x as heavy, its CoM 2 cm forward: the legs lean ~0.11 rad to hold it, that
+    much nearer the thighs' stops, and braking forward leans them further. Before the
+    speed set point asked the LQR for the lean of its deceleration, the LQR leaned the
+    legs on its clamped travel share alone and the forward stop took STOP_BEFORE_M."""
+    run = rig_run("drive", plant={"body_mass_scale": 1.4, "com_x_m": 0.02})
+    run.assert_passed()
+    t, x = run.state["t"], forward_position(run)
+    at_stop = float(np.interp(4.0, t, x))  # the forward stop command
+    assert float(np.max(x[t >= 4.0])) - at_stop < 0.4, "a stop with 0.1 m to spare"
 
 
 @pytest.mark.parametrize("plant", [{"feedback_delay_s": 0.002}])
