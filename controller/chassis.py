@@ -90,6 +90,8 @@ class ChassisReport:
     x_m: float  # wheel travel since reset
     x_ref_m: float
     x_integral_m_s: float  # the position error's integral, the LQR's trim state
+    balance_theta_rad: float  # leg angle of the balance point (lqr.balance_lean)
+    hold_torque_nm: float  # hip torque per leg holding the body there (estimate.BalancePointObserver)
     speed_m_s: float  # mean axle speed along the ground (the IMU's figure while the wheels slip)
     slipping: bool  # the wheels' speed and the IMU's part (estimate.SlipObserver)
     speed_ref_m_s: float
@@ -203,6 +205,9 @@ class ChassisController:
         self.u_prev = {leg: (0.0, 0.0) for leg in LEGS}  # (T, Tp) N m sent last period (the LQR's delay states)
         self.gyro = estimate.GyroBiasObserver(dt, P.GYRO_BIAS_OMEGA, P.GYRO_BIAS_LIMIT)
         self.slip = estimate.SlipObserver(dt, P.SLIP_GAIN, P.SLIP_ON, P.SLIP_GRIP_WINDOW, P.SLIP_GRIP_TOL)
+        self.balance_point = estimate.BalancePointObserver(dt, P.BALANCE_POINT_TAU_LEARN, P.BALANCE_POINT_LEARN_S,
+                                                           P.BALANCE_POINT_TAU)
+        self.balance_theta = 0.0  # rad, the legs' lean at the balance point (lqr.balance_lean), this tick
 
     def observe(self, bus: BusState) -> None:
         """Every tick, enabled or not: follow the gyro's bias against the IMU's orientation
@@ -240,13 +245,17 @@ class ChassisController:
         self.x += speed * self.dt
         if cmd.airborne:
             return self._air_step(legs, att, speed, cmd)
+        mean_length = 0.5 * (legs["left"].L0 + legs["right"].L0)
+        self.balance_theta = lqr.balance_lean(self.balance_point.hold_torque, mean_length, P.BALANCE_LEAN_LIMIT)
         self._track_references(cmd, att)
-        self._trim(speed, cmd)
+        standing = self._trim(speed, cmd, mean_length)
         out = Output(legs=legs)
         wheel_t, tp = {}, {}
         for leg in LEGS:
-            wheel_t[leg], tp[leg] = self._lqr(legs[leg], leg, speed, att, cmd)
+            wheel_t[leg], tp[leg] = self._lqr(legs[leg], leg, speed, att, cmd, mean_length)
             self.u_prev[leg] = (_clamp(wheel_t[leg], P.WHEEL_TORQUE_LIMIT), tp[leg])
+        if standing:
+            self.balance_point.update(0.5 * (tp["left"] + tp["right"]))
         split = self._split(legs)
         tp["left"] += split
         tp["right"] -= split
@@ -345,8 +354,15 @@ class ChassisController:
         for leg in LEGS:
             self.leg_ref[leg] += _clamp(targets[leg] - self.leg_ref[leg], P.LEG_LENGTH_RATE * self.dt)
 
-    def _trim(self, speed: float, cmd: Command) -> None:
-        """Integrate the position error into ``x_integral`` (the LQR's ix state).
+    def position_error(self, leg_length: float) -> float:
+        """Wheel travel (m) past its set point: the spot is the body's, so with the legs
+        leaning at the balance point (``balance_theta``) the wheels stand that lean's
+        L0 sin(theta) away from it (ahead of the body when the CoM is forward)."""
+        return self.x - self.x_ref + leg_length * math.sin(self.balance_theta)
+
+    def _trim(self, speed: float, cmd: Command, leg_length: float) -> bool:
+        """Integrate the position error into ``x_integral`` (the LQR's ix state);
+        True when it did (standing still and settled: the balance point learns then too).
 
         A constant disturbance (the CoM off the axle, an IMU mounted tilted, a
         drive's torque constant) is held by this integral instead of a standing
@@ -364,30 +380,36 @@ class ChassisController:
         """
         if self.speed_ref != 0.0:
             self.trim_hold_s = P.TRIM_SETTLE_S
-            return
+            return False
         self.trim_hold_s = max(0.0, self.trim_hold_s - self.dt)
-        error = self.x - self.x_ref
+        error = self.position_error(leg_length)
         if not cmd.trim or self.trim_hold_s > 0.0 or abs(error) >= P.POSITION_ERROR_LIMIT:
-            return
+            return False
         self.x_integral = _clamp(self.x_integral + error * self.dt, P.POSITION_INTEGRAL_LIMIT)
+        return True
 
     def roll_set_point(self, cmd: Command) -> float:
         """Roll set point (rad, > 0 left side up): the command plus the lean into a turn."""
         return cmd.roll + self.lean
 
-    def _lqr(self, leg: LegState, name: str, speed: float, att: Attitude, cmd: Command) -> tuple[float, float]:
-        """u = -K (s - s_ref): wheel torque T and virtual hip torque Tp (N m) of leg ``name``."""
+    def _lqr(self, leg: LegState, name: str, speed: float, att: Attitude, cmd: Command,
+             mean_length: float) -> tuple[float, float]:
+        """u = u_ref - K (s - s_ref): wheel torque T and virtual hip torque Tp (N m) of leg
+        ``name``, about the balance point (theta_ref ``balance_theta``, Tp_ref its hold torque)."""
         k = lqr.gain_matrix(leg.L0)
         phi, dphi = -att.pitch, -att.wy  # nose-up body angle and rate
-        err = (leg.theta, leg.dtheta, _clamp(self.x - self.x_ref, P.POSITION_ERROR_LIMIT), speed - self.speed_ref,
-               phi - (-cmd.pitch), dphi, self.x_integral, *self.u_prev[name])
+        hold = self.balance_point.hold_torque
+        t_prev, tp_prev = self.u_prev[name]
+        err = (leg.theta - self.balance_theta, leg.dtheta,
+               _clamp(self.position_error(mean_length), P.POSITION_ERROR_LIMIT), speed - self.speed_ref,
+               phi - (-cmd.pitch), dphi, self.x_integral, t_prev, tp_prev - hold)
         # the wheel's share for where the robot is and goes (position, speed and their
         # integral) is limited apart: a hard push asks for far more than the wheel has, and
         # saturating the whole sum would give away the torque that keeps the legs upright
         travel = -sum(k[0][i] * err[i] for i in _TRAVEL)
         t = -sum(g * e for i, (g, e) in enumerate(zip(k[0], err)) if i not in _TRAVEL)
         t += _clamp(travel, P.SLIP_TRAVEL_TORQUE_LIMIT if self.slip.slipping else P.TRAVEL_TORQUE_LIMIT)
-        tp = -sum(g * e for g, e in zip(k[1], err))
+        tp = hold - sum(g * e for g, e in zip(k[1], err))
         return t, tp
 
     def _split(self, legs: dict) -> float:
@@ -432,7 +454,9 @@ class ChassisController:
 
     def _report(self, legs: dict, att: Attitude, speed: float, wheel_t: dict, tp: dict) -> ChassisReport:
         return ChassisReport(
-            x_m=self.x, x_ref_m=self.x_ref, x_integral_m_s=self.x_integral, speed_m_s=speed, slipping=self.slip.slipping, speed_ref_m_s=self.speed_ref,
+            x_m=self.x, x_ref_m=self.x_ref, x_integral_m_s=self.x_integral, balance_theta_rad=self.balance_theta,
+            hold_torque_nm=self.balance_point.hold_torque, speed_m_s=speed, slipping=self.slip.slipping,
+            speed_ref_m_s=self.speed_ref,
             pitch_rad=att.pitch, roll_rad=att.roll, yaw_rad=att.yaw, yaw_ref_rad=self.yaw_ref,
             legs={leg: LegReport(legs[leg].L0, self.leg_ref[leg], legs[leg].theta, wheel_t[leg], tp[leg])
                   for leg in LEGS})

@@ -100,6 +100,17 @@ SLIP_GRIP_TOL = 0.05  # m/s ... did, within this
 # to this: the floor cannot take more, and asking more only spins the wheel further
 SLIP_TRAVEL_TORQUE_LIMIT = 1.0
 
+# Balance point (estimate.BalancePointObserver, lqr.balance_lean). Measured with
+# `wheelleg run balance --plant com_x_m=0.03`: max body drift 8.5 cm on the position
+# integral alone; learning at 0.2 s 4.3 cm, 0.1 s 3.4, 0.05 s 2.7; a lag of 0.1 s
+# kept for good let the torque of the tolerance box's worst push (CoM 3 cm behind,
+# 1.3 x mass) into the estimate and `push` ran 7 m away; 0.3 s after start-up keeps it 0.02 m from
+# its spot. 3 cm of CoM offset needs ~0.15 rad of lean at 0.17 m.
+BALANCE_POINT_TAU_LEARN = 0.05  # s, lag of the hold torque while learning after start-up
+BALANCE_POINT_LEARN_S = 0.6  # s of standing still learnt at that pace
+BALANCE_POINT_TAU = 0.3  # s, lag afterwards
+BALANCE_LEAN_LIMIT = 0.35  # rad, largest lean believed (a CoM ~7 cm off the hip)
+
 # --- safety -------------------------------------------------------------------------
 FALL_PITCH = 0.6  # rad, beyond it the robot has fallen (rm_controllers)
 FALL_THETA = 0.9  # rad
