@@ -7,8 +7,8 @@ import numpy as np
 
 from wheelleg.emulators.physics import TerrainFeature
 from wheelleg.hil.run.scenario import Check, RunData, Scenario
-from wheelleg.hil.scenarios.common import (DEG, drift_below, never_tips, no_deadline_miss, pitch_below, pitch_steady,
-                                  remote, stand)
+from wheelleg.hil.scenarios.common import (DEG, drift_below, never_tips, no_deadline_miss, pitch_below,
+                                  pitch_steady, remote, stand)
 
 NOMINAL = 0.17  # m
 # A parking stand under the front of the body: folded on its mechanical stop the
