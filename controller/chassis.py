@@ -246,7 +246,8 @@ class ChassisController:
         if cmd.airborne:
             return self._air_step(legs, att, speed, cmd)
         mean_length = 0.5 * (legs["left"].L0 + legs["right"].L0)
-        self.balance_theta = lqr.balance_lean(self.balance_point.hold_torque, mean_length, P.BALANCE_LEAN_LIMIT)
+        self.balance_theta = lqr.balance_lean(self.balance_point.hold_torque, mean_length, P.BALANCE_LEAN_LIMIT,
+                                              self.weight_ratio())
         self._track_references(cmd, att)
         standing = self._trim(speed, cmd, mean_length)
         out = Output(legs=legs)
@@ -353,6 +354,14 @@ class ChassisController:
         targets = leg_targets(cmd.leg_length, diff)
         for leg in LEGS:
             self.leg_ref[leg] += _clamp(targets[leg] - self.leg_ref[leg], P.LEG_LENGTH_RATE * self.dt)
+
+    def weight_ratio(self) -> float:
+        """The weight the legs carry over the one believed (LEG_GRAVITY_FF): the leg
+        integral holds the difference standing. It scales the hold torque's lean, and
+        with it a hip torque constant off cancels (the hips under-deliver force and
+        torque alike, so both the integral and the hold torque grow by the same factor)."""
+        extra = 0.5 * (self.leg_integral["left"] + self.leg_integral["right"])
+        return max(0.5, 1.0 + extra / P.LEG_GRAVITY_FF)
 
     def position_error(self, leg_length: float) -> float:
         """Wheel travel (m) past its set point: the spot is the body's, so with the legs

@@ -132,3 +132,11 @@ def test_static_arm_is_the_moment_of_body_and_leg_about_the_axle():
 
     hold = design.BODY_MASS_SIDE * 9.81 * 0.03
     assert 0.13 < -lqr.balance_lean(hold, 0.17, 1.0) < 0.19
+
+
+def test_a_heavier_body_needs_less_lean_for_the_same_hold_torque():
+    """The hold torque M g d grows with the true mass M: the lean it implies is divided by
+    the weight the legs carry over the believed one, so d (the CoM) comes out the same."""
+    nominal = lqr.balance_lean(0.4, 0.17, 1.0)
+    heavy = lqr.balance_lean(0.4 * 1.4, 0.17, 1.0, weight_ratio=1.4)
+    assert heavy == pytest.approx(nominal, rel=1e-9)
