@@ -206,7 +206,8 @@ class ChassisController:
         self.gyro = estimate.GyroBiasObserver(dt, P.GYRO_BIAS_OMEGA, P.GYRO_BIAS_LIMIT)
         self.slip = estimate.SlipObserver(dt, P.SLIP_GAIN, P.SLIP_ON, P.SLIP_GRIP_WINDOW, P.SLIP_GRIP_TOL)
         self.balance_point = estimate.BalancePointObserver(dt, P.BALANCE_POINT_TAU_LEARN, P.BALANCE_POINT_LEARN_S,
-                                                           P.BALANCE_POINT_TAU)
+                                                           P.BALANCE_POINT_TAU, P.BALANCE_POINT_STILL,
+                                                           P.BALANCE_POINT_SETTLE_S)
         self.balance_theta = 0.0  # rad, the legs' lean at the balance point (lqr.balance_lean), this tick
 
     def observe(self, bus: BusState) -> None:
@@ -255,8 +256,7 @@ class ChassisController:
         for leg in LEGS:
             wheel_t[leg], tp[leg] = self._lqr(legs[leg], leg, speed, att, cmd, mean_length)
             self.u_prev[leg] = (_clamp(wheel_t[leg], P.WHEEL_TORQUE_LIMIT), tp[leg])
-        if standing:
-            self.balance_point.update(0.5 * (tp["left"] + tp["right"]))
+        self.balance_point.update(0.5 * (tp["left"] + tp["right"]), speed, standing)
         split = self._split(legs)
         tp["left"] += split
         tp["right"] -= split

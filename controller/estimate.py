@@ -156,16 +156,28 @@ class BalancePointObserver:
     ``learn_s`` of standing after start-up, so the robot finds its balance point
     before it has rolled far from where it was put down; ``tau_s`` afterwards, slow
     enough that a push's torque (a few hundred ms) barely moves it. It is kept across
-    falls and re-enables: the CoM does not move when the robot falls.
+    falls and re-enables: the CoM does not move when the robot falls. A push at body
+    height loads the hip as a CoM offset does: nothing is learnt while the robot moves
+    faster than ``still_m_s`` (m/s) nor for ``settle_s`` after, so a sudden push leaks
+    in only the few ms before the robot picks up speed.
     """
 
-    def __init__(self, dt_s: float, tau_learn_s: float, learn_s: float, tau_s: float):
+    def __init__(self, dt_s: float, tau_learn_s: float, learn_s: float, tau_s: float,
+                 still_m_s: float = math.inf, settle_s: float = 0.0):
         self.dt_s, self.tau_learn_s, self.learn_s, self.tau_s = dt_s, tau_learn_s, learn_s, tau_s
+        self.still_m_s, self.settle_s = still_m_s, settle_s
+        self._blocked_s = 0.0  # s left before learning again after the robot last moved fast
         self.hold_torque = 0.0  # N m per leg
         self.learnt_s = 0.0  # s of standing seen so far
 
-    def update(self, leg_torque_nm: float) -> float:
-        """One period standing still: the mean virtual hip torque asked (N m per leg) in."""
+    def update(self, leg_torque_nm: float, speed_m_s: float, standing: bool) -> float:
+        """One period: the mean virtual hip torque asked (N m per leg), the ground speed
+        (m/s) and whether the robot stands still and settled (its position integral runs)."""
+        if abs(speed_m_s) > self.still_m_s:
+            self._blocked_s = self.settle_s
+        self._blocked_s = max(0.0, self._blocked_s - self.dt_s)
+        if not standing or self._blocked_s > 0.0:
+            return self.hold_torque
         tau = self.tau_learn_s if self.learnt_s < self.learn_s else self.tau_s
         self.learnt_s += self.dt_s
         self.hold_torque += (leg_torque_nm - self.hold_torque) * min(1.0, self.dt_s / tau)

@@ -103,14 +103,27 @@ def test_an_estimate_that_drifted_while_slipping_does_not_hold_the_flag():
 def test_balance_point_learns_fast_after_start_up_then_slowly():
     obs = estimate.BalancePointObserver(0.002, tau_learn_s=0.05, learn_s=0.6, tau_s=0.3)
     for _ in range(50):  # 0.1 s = 2 lags
-        obs.update(0.4)
+        obs.update(0.4, 0.0, standing=True)
     assert 0.4 * 0.8 < obs.hold_torque < 0.4 * 0.9  # 1 - e^-2 = 0.86
     for _ in range(250):  # to 0.6 s: learnt
-        obs.update(0.4)
+        obs.update(0.4, 0.0, standing=True)
     held = obs.hold_torque
-    for _ in range(50):  # 0.1 s of a push's torque, at the slow lag
-        obs.update(-2.0)
+    for _ in range(50):  # 0.1 s of another torque, at the slow lag
+        obs.update(-2.0, 0.0, standing=True)
     assert held - obs.hold_torque == pytest.approx(2.4 * (1 - math.exp(-0.1 / 0.3)), rel=0.01)
+
+
+def test_balance_point_learns_nothing_moving_nor_just_after():
+    obs = estimate.BalancePointObserver(0.002, 0.05, 0.6, 0.3, still_m_s=0.5, settle_s=0.5)
+    obs.update(1.0, 0.0, standing=False)  # not standing (moving, in the air, beyond the clamp)
+    assert obs.hold_torque == 0.0
+    obs.update(1.0, 0.6, standing=True)  # a push has it rolling
+    for _ in range(248):  # 0.496 s after: still settling
+        obs.update(1.0, 0.1, standing=True)
+    assert obs.hold_torque == 0.0
+    for _ in range(2):
+        obs.update(1.0, 0.1, standing=True)
+    assert obs.hold_torque > 0.0
 
 
 def test_balance_lean_puts_the_com_over_the_axle():
