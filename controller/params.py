@@ -190,6 +190,8 @@ FALL_ROLL_AIR = 1.2  # rad
 RECOVERY_TUCK_LENGTH = 0.12  # m, legs pulled short (lowest of the K fit): hips down to the wheels
 RECOVERY_TUCK_MIN_S = 0.3  # s, the first ticks after enabling still see the fall's leg data
 RECOVERY_TUCK_TIMEOUT = 1.0  # s
-RECOVERY_PITCH_RATE = 0.5  # rad/s, the pitch set point ramps from lying (~0.8 rad) to level in ~1.6 s
+# rad/s, the pitch set point's fastest ramp from lying (~0.8 rad) to level (~1.6 s); a body that
+# rises faster takes the set point with it (recovery.next_pitch_ref): `fall` is level ~0.5 s after TILT_UP begins
+RECOVERY_PITCH_RATE = 0.5
 RECOVERY_TILT_TIMEOUT = 4.0  # s
 RECOVERY_FALL_PITCH = 1.3  # rad, while recovering only a body past this has fallen again
