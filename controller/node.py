@@ -272,6 +272,8 @@ class Controller:
             self.fn[leg] = self.support[leg].update(support.leg_measurement(self.bus.joints, leg, state), accel_z)
         self.contact.update(self.fn["left"], self.fn["right"],
                             support.estimate_trusted(state.theta for state in legs.values()))
+        if self.mode in (Mode.BALANCE, Mode.MOVE):  # on its wheels: what the legs carry sizes a jump
+            self.jump.observe_stance(self.fn["left"], self.fn["right"])
 
     def _disabled(self, result: TickResult, now_s: float) -> None:
         """Motors off: a stop frame to every joint each tick.
