@@ -21,6 +21,7 @@ from wheelleg.controller import fivebar
 from wheelleg.controller import lqr
 from wheelleg.controller import params as P
 from wheelleg.controller.attitude import euler_zyx
+from wheelleg.controller.jump import StanceHold
 from wheelleg.controller.state import BusState, ImuReading
 
 LEGS = ("left", "right")
@@ -70,6 +71,7 @@ class Command:
     air_leg_hold: bool = True  # in the air, hold the legs vertical (False: Tp 0, legs swing free)
     air_pitch_hold: bool = False  # in the air, level the body with the wheels' reaction (flight only)
     trim: bool = False  # standing or moving on the wheels: integrate the position error (``_trim``)
+    stance_hold: StanceHold | None = None  # a jump's push: the LQR keeps the hips over their start (``_lqr_hold``)
 
 
 @dataclass(frozen=True)
@@ -377,6 +379,8 @@ class ChassisController:
 
     def _lqr(self, leg: LegState, name: str, speed: float, att: Attitude, cmd: Command) -> tuple[float, float]:
         """u = -K (s - s_ref): wheel torque T and virtual hip torque Tp (N m) of leg ``name``."""
+        if cmd.stance_hold is not None:
+            return self._lqr_hold(leg, name, att, cmd)
         k = lqr.gain_matrix(leg.L0)
         phi, dphi = -att.pitch, -att.wy  # nose-up body angle and rate
         err = (leg.theta, leg.dtheta, _clamp(self.x - self.x_ref, P.POSITION_ERROR_LIMIT), speed - self.speed_ref,
@@ -388,6 +392,23 @@ class ChassisController:
         t = -sum(g * e for i, (g, e) in enumerate(zip(k[0], err)) if i not in _TRAVEL)
         t += _clamp(travel, P.SLIP_TRAVEL_TORQUE_LIMIT if self.slip.slipping else P.TRAVEL_TORQUE_LIMIT)
         tp = -sum(g * e for g, e in zip(k[1], err))
+        return t, tp
+
+    def _lqr_hold(self, leg: LegState, name: str, att: Attitude, cmd: Command) -> tuple[float, float]:
+        """The LQR while a jump pushes (jump.StanceHold): its references are the leg angle that
+        keeps the hip over its start point and the body's start pitch; no travel terms (the
+        trim's integral held the CoM over the axle standing, the hold keeps it there). The
+        push along a leaning leg needs Tp = -F L0 tan(theta) to stay vertical, through the CoM
+        (the standing trim's Tp, scaled with the push). CoM 3 cm off: 0.028 N m s at
+        take-off, 0.09 with the standing references (in-flight pitch 10 deg, 38 deg)."""
+        k = lqr.gain_matrix(leg.L0)
+        theta_ref, dtheta_ref = cmd.stance_hold.leg_angle(name, leg.L0, leg.dL0)
+        err = (leg.theta - theta_ref, leg.dtheta - dtheta_ref, 0.0, 0.0, cmd.stance_hold.pitch_rad - att.pitch,
+               -att.wy, 0.0, *self.u_prev[name])
+        t = -sum(g * e for g, e in zip(k[0], err))
+        tp = -sum(g * e for g, e in zip(k[1], err))
+        if cmd.leg_force is not None:
+            tp -= cmd.leg_force * leg.L0 * math.tan(leg.theta)
         return t, tp
 
     def _split(self, legs: dict) -> float:

@@ -54,6 +54,35 @@ class Thrust:
 
 
 @dataclass(frozen=True)
+class StanceHold:
+    """Where the hips stood over the axles as the thrust began; the thrust keeps them there.
+
+    Standing balanced, the robot's CoM is over the axles (with the CoM off the hips
+    the legs lean, ``theta`` off 0). Pushing along leaning legs with the leg angle
+    held moves the hips, and the body's CoM, off the axles: the push then turns the
+    whole robot (with the CoM 3 cm off, 0.09 N m s at take-off, some 2.6 rad/s, far
+    beyond what the wheels can take up in the air). Held over the same ground point
+    instead, the push stays under the CoM. The chassis' LQR tracks ``leg_angle`` and
+    ``pitch_rad`` while a jump pushes (chassis ``Command.stance_hold``)."""
+
+    axle_offset_m: tuple  # (left, right) m, L0 sin(theta) at the start: hip ahead of its axle positive
+    pitch_rad: float  # body pitch at the start, nose down positive
+
+    def leg_angle(self, leg: str, length_m: float, rate_m_s: float) -> tuple[float, float]:
+        """(theta in rad, its rate in rad/s) that keep ``leg``'s hip over its start point at
+        length ``length_m`` (m) growing at ``rate_m_s`` (m/s)."""
+        return hold_leg_angle(self.axle_offset_m[0 if leg == "left" else 1], length_m, rate_m_s)
+
+
+def hold_leg_angle(offset_m: float, length_m: float, rate_m_s: float) -> tuple[float, float]:
+    """Leg angle theta (rad) with L0 sin(theta) = ``offset_m`` (m) at L0 = ``length_m`` (m),
+    and its rate (rad/s) while L0 grows at ``rate_m_s`` (m/s): d/dt asin(y / L0)."""
+    sine = min(max(offset_m / length_m, -P.JUMP_HOLD_SINE_LIMIT), P.JUMP_HOLD_SINE_LIMIT)
+    theta = math.asin(sine)
+    return theta, -sine * rate_m_s / (length_m * math.cos(theta))
+
+
+@dataclass(frozen=True)
 class JumpView:
     """What a phase's exit (and THRUST's force) looks at this tick."""
 
@@ -73,6 +102,7 @@ class JumpCommand:
     leg_length: float | None  # m, leg-length set point (None: the operator's)
     leg_force: float | None  # N per leg, open-loop push replacing the leg PID (None: PID)
     hip_torque_limit: float  # N m
+    stance_hold: StanceHold | None = None  # while pushing: the hips kept over their start point
 
 
 # --- sizing the thrust ------------------------------------------------------------------
@@ -158,13 +188,14 @@ def thrust_amplitude(carried_n: float, start_m: float) -> float:
     return hi
 
 
-def plan_thrust(carried_n: float, start_m: float) -> Thrust:
-    """The push for a jump from ``start_m`` (m) with the legs carrying ``carried_n`` (N each),
-    the weight held within P.JUMP_CARRIED_RANGE of the believed one (a bad reading must not
+def plan_thrust(carried_n: float) -> Thrust:
+    """The push for a jump with the legs carrying ``carried_n`` (N each), sized over the
+    stroke from the squat's P.JUMP_SQUAT_DONE_LENGTH (a deeper squat pushes longer); the
+    weight held within P.JUMP_CARRIED_RANGE of the believed one (a bad reading must not
     size a wild push)."""
     lo, hi = (k * P.LEG_GRAVITY_FF for k in P.JUMP_CARRIED_RANGE)
     carried = min(max(carried_n, lo), hi)
-    return Thrust(carried, thrust_amplitude(carried, start_m))
+    return Thrust(carried, thrust_amplitude(carried, P.JUMP_SQUAT_DONE_LENGTH))
 
 
 class StanceWeight:
@@ -185,7 +216,7 @@ class StanceWeight:
 
 
 def _thrust_force(view: JumpView) -> float:
-    return thrust_force(view.thrust or plan_thrust(P.LEG_GRAVITY_FF, P.JUMP_SQUAT_LENGTH), view.leg_length)
+    return thrust_force(view.thrust or plan_thrust(P.LEG_GRAVITY_FF), view.leg_length)
 
 
 @dataclass(frozen=True)
@@ -202,7 +233,7 @@ class PhaseSpec:
 
 PHASES: dict = {
     Phase.SQUAT: PhaseSpec(False, P.JUMP_SQUAT_LENGTH, None, P.HIP_TORQUE_LIMIT,
-                           lambda v: v.leg_length < P.JUMP_SQUAT_LENGTH + 0.01 and v.elapsed_s > P.JUMP_SQUAT_MIN_S and v.steady,
+                           lambda v: v.leg_length < P.JUMP_SQUAT_DONE_LENGTH and v.elapsed_s > P.JUMP_SQUAT_MIN_S and v.steady,
                            Phase.THRUST, P.JUMP_SQUAT_TIMEOUT, Phase.THRUST),
     Phase.THRUST: PhaseSpec(False, None, _thrust_force, P.JUMP_HIP_TORQUE_LIMIT,
                             lambda v: v.leg_length > P.JUMP_THRUST_END_LENGTH,
@@ -248,6 +279,7 @@ class JumpSequencer:
         self.entered: Phase | None = None  # the phase entered this tick (None: no change)
         self.stance = StanceWeight(dt_s)
         self.thrust: Thrust | None = None  # this jump's push, sized on entering THRUST
+        self.hold: StanceHold | None = None  # where the hips stood as THRUST began
 
     def observe_stance(self, fn_left_n: float, fn_right_n: float) -> None:
         """Each tick balancing on the ground: the legs' support forces (N), for the thrust's size."""
@@ -260,9 +292,11 @@ class JumpSequencer:
     def done(self) -> bool:
         return self.phase == Phase.DONE
 
-    def step(self, lengths: tuple[float, float], touching: bool, steady: bool = True) -> JumpCommand:
-        """Advance with both legs' lengths (m), touchdown and (forward jumps) whether the
-        run-up is steady; the command for this tick."""
+    def step(self, lengths: tuple[float, float], touching: bool, steady: bool = True,
+             angles: tuple[float, float] = (0.0, 0.0), pitch_rad: float = 0.0) -> JumpCommand:
+        """Advance with both legs' lengths (m), touchdown, (forward jumps) whether the
+        run-up is steady, and both legs' angles (rad) and the body's pitch (rad) for the
+        thrust's ``StanceHold``; the command for this tick."""
         pick = max if self.phase == Phase.THRUST else min
         view = JumpView(self.elapsed_s, pick(lengths), touching, steady)
         new = next_phase(self.phase, view)
@@ -270,10 +304,14 @@ class JumpSequencer:
         if self.entered is not None:
             self.phase, self.elapsed_s = new, 0.0
         if self.entered == Phase.THRUST:
-            self.thrust = plan_thrust(self.stance.carried_n, max(lengths))
+            self.thrust = plan_thrust(self.stance.carried_n)
+            self.hold = StanceHold(tuple(n * math.sin(a) for n, a in zip(lengths, angles)), pitch_rad)
         self.elapsed_s += self.dt
         if self.phase == Phase.DONE:
             return JumpCommand(Phase.DONE, False, None, None, P.HIP_TORQUE_LIMIT)
         spec = PHASES[self.phase]
-        force = spec.force(JumpView(self.elapsed_s, pick(lengths), touching, thrust=self.thrust)) if spec.force else None
-        return JumpCommand(self.phase, spec.airborne, spec.leg_length, force, spec.hip_torque_limit)
+        if spec.force is None:
+            return JumpCommand(self.phase, spec.airborne, spec.leg_length, None, spec.hip_torque_limit)
+        force = spec.force(JumpView(self.elapsed_s, pick(lengths), touching, thrust=self.thrust))
+        hold = self.hold or StanceHold((0.0, 0.0), pitch_rad)
+        return JumpCommand(self.phase, spec.airborne, spec.leg_length, force, spec.hip_torque_limit, hold)
