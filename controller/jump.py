@@ -194,10 +194,10 @@ def thrust_amplitude(carried_n: float, start_m: float) -> float:
 def plan_thrust(carried_n: float) -> Thrust:
     """The push for a jump with the legs carrying ``carried_n`` (N each), sized over the
     stroke from the squat's P.JUMP_SQUAT_DONE_LENGTH (a deeper squat pushes longer); the
-    weight held within P.JUMP_CARRIED_RANGE of the believed one (a bad reading must not
-    size a wild push)."""
+    weight held within P.JUMP_CARRIED_RANGE of the believed one, the believed one for a
+    reading that is no number (a bad reading must not size a wild push)."""
     lo, hi = (k * P.LEG_GRAVITY_FF for k in P.JUMP_CARRIED_RANGE)
-    carried = min(max(carried_n, lo), hi)
+    carried = min(max(carried_n, lo), hi) if math.isfinite(carried_n) else P.LEG_GRAVITY_FF
     return Thrust(carried, thrust_amplitude(carried, P.JUMP_SQUAT_DONE_LENGTH))
 
 
