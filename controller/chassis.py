@@ -71,7 +71,7 @@ class Command:
     air_leg_hold: bool = True  # in the air, hold the legs vertical (False: Tp 0, legs swing free)
     air_pitch_hold: bool = False  # in the air, level the body with the wheels' reaction (flight only)
     trim: bool = False  # standing or moving on the wheels: integrate the position error (``_trim``)
-    stance_hold: StanceHold | None = None  # a jump: the hips kept over their start pushing (``_lqr_hold``), the lean in the air
+    stance_hold: StanceHold | None = None  # a jump in place: the hips over their start (``_lqr_hold``), the lean in the air
 
 
 @dataclass(frozen=True)
@@ -276,8 +276,9 @@ class ChassisController:
     def _air_step(self, legs: dict, att: Attitude, speed: float, cmd: Command) -> Output:
         """In the air (docs/control.md, in the air): the wheels' torque only levels the body
         (``cmd.air_pitch_hold``, else 0), a leg-angle PD holds each leg vertical
-        (theta -> 0; a jump's ``cmd.stance_hold``: at the lean it stood with), a leg PD without gravity feed-forward holds ``cmd.leg_length``
-        (or ``cmd.leg_force`` pushes); no roll, no yaw. The position and heading
+        (theta -> 0; with a jump's ``cmd.stance_hold``, at the lean it stood with), a leg PD
+        without gravity feed-forward holds ``cmd.leg_length`` (or ``cmd.leg_force`` pushes);
+        no roll, no yaw. The position and heading
         references follow the robot, so nothing winds up."""
         self.x_ref, self.yaw_ref = self.x, att.yaw
         out = Output(legs=legs)
@@ -287,7 +288,8 @@ class ChassisController:
             s = legs[leg]
             self.leg_ref[leg] = min(max(cmd.leg_length, P.LEG_LENGTH_MIN), P.LEG_LENGTH_MAX)
             wheel_t[leg] = levelling
-            theta_ref, dtheta_ref = (0.0, 0.0) if cmd.stance_hold is None else cmd.stance_hold.leg_angle(leg, s.L0, s.dL0)
+            hold = cmd.stance_hold
+            theta_ref, dtheta_ref = (0.0, 0.0) if hold is None else hold.leg_angle(leg, s.L0, s.dL0)
             tp[leg] = -(P.AIR_THETA_KP * (s.theta - theta_ref) + P.AIR_THETA_KD * (s.dtheta - dtheta_ref)) \
                 if cmd.air_leg_hold else 0.0
             # the wheel's reaction acts on its leg: the hip passes it on to the body

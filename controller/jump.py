@@ -21,7 +21,9 @@ leg carries, in the hip motors' own torque units, so a heavier body and a weaker
 hip motor read the same way: both need more commanded force), and on entering
 THRUST ``thrust_amplitude`` picks the Hermite push that does the work for the
 commanded rise (``P.JUMP_RISE``) with that weight, every point of the stroke
-within the hips' torque limit.
+within the hips' torque limit. In place, the push keeps the hips over the ground
+point they stood on and the legs keep that lean in the air (``StanceHold``), so a
+CoM off the hips does not send the robot off spinning.
 """
 from __future__ import annotations
 
@@ -236,7 +238,8 @@ class PhaseSpec:
 
 PHASES: dict = {
     Phase.SQUAT: PhaseSpec(False, P.JUMP_SQUAT_LENGTH, None, P.HIP_TORQUE_LIMIT,
-                           lambda v: v.leg_length < P.JUMP_SQUAT_DONE_LENGTH and v.elapsed_s > P.JUMP_SQUAT_MIN_S and v.steady,
+                           lambda v: (v.leg_length < P.JUMP_SQUAT_DONE_LENGTH and v.elapsed_s > P.JUMP_SQUAT_MIN_S
+                                      and v.steady),
                            Phase.THRUST, P.JUMP_SQUAT_TIMEOUT, Phase.THRUST),
     Phase.THRUST: PhaseSpec(False, None, _thrust_force, P.JUMP_HIP_TORQUE_LIMIT,
                             lambda v: v.leg_length > P.JUMP_THRUST_END_LENGTH,
@@ -290,6 +293,7 @@ class JumpSequencer:
 
     def start(self, forward: bool = False) -> None:
         self.phase, self.elapsed_s, self.forward, self.entered = Phase.SQUAT, 0.0, forward, Phase.SQUAT
+        self.thrust = self.hold = None  # sized and taken anew on entering THRUST
 
     @property
     def done(self) -> bool:
@@ -320,5 +324,7 @@ class JumpSequencer:
         hold = None
         if not self.forward and (spec.force or spec.airborne):
             hold = self.hold or StanceHold((0.0, 0.0), pitch_rad)
-        force = spec.force(JumpView(self.elapsed_s, pick(lengths), touching, thrust=self.thrust)) if spec.force else None
+        force = None
+        if spec.force is not None:
+            force = spec.force(JumpView(self.elapsed_s, pick(lengths), touching, thrust=self.thrust))
         return JumpCommand(self.phase, spec.airborne, spec.leg_length, force, spec.hip_torque_limit, hold)

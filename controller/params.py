@@ -158,10 +158,12 @@ JUMP_HIP_TORQUE_LIMIT = 12.0  # N m, the CyberGear's peak, only while thrusting/
 # Hermite on 17 N) 5.7 J and a little more: the nominal jump as high as before. A deeper
 # squat (a forward jump's run-up waits in it, ~0.11 m) pushes longer: the work grows
 JUMP_RISE = 0.172
-JUMP_WEIGHT_TAU = 0.2  # s, low-pass of the standing support force (balancing sways it +-1 N at ~2 Hz)
+# s, low-pass of the standing support force: balancing sways it (0.14 N std nominal, 1.3 N with
+# the body x1.4 and hips x0.85, over 0.4-0.8 s of `jump`); settled 4 tau before `jump` presses at 0.8 s
+JUMP_WEIGHT_TAU = 0.2
 JUMP_CARRIED_RANGE = (0.5, 2.5)  # x LEG_GRAVITY_FF: a weight read outside this is held to it
 JUMP_THRUST_TORQUE_SHARE = 0.85  # of JUMP_HIP_TORQUE_LIMIT for the push; the rest for balance (Tp) and roll
-JUMP_AMPLITUDE_MAX = 1000.0  # N, bisection bound: far above every push_limit (~100-260 N)
+JUMP_AMPLITUDE_MAX = 1000.0  # N, bisection bound: far above every push_limit (125-182 N over the stroke)
 # |sin(theta)| the thrust's leg-angle hold asks at most (jump.hold_leg_angle): 0.5 is 30 deg,
 # far past the ~0.15 rad a 3 cm CoM offset leans the legs at the squat
 JUMP_HOLD_SINE_LIMIT = 0.5

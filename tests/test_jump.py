@@ -134,7 +134,8 @@ def test_the_heavy_push_stays_within_the_hip_torque_limit_and_still_does_its_wor
     allowed = P.JUMP_THRUST_TORQUE_SHARE * P.JUMP_HIP_TORQUE_LIMIT
     assert all(_upright_hip_torque(thrust_force(heavy, x), x) <= allowed * 1.005 for x in STROKE)
     # the limit binds at the bottom of the stroke: the work comes from pushing longer near it
-    assert thrust_force(heavy, P.JUMP_SQUAT_DONE_LENGTH) == pytest.approx(push_limit(P.JUMP_SQUAT_DONE_LENGTH), rel=0.01)
+    bottom = P.JUMP_SQUAT_DONE_LENGTH
+    assert thrust_force(heavy, bottom) == pytest.approx(push_limit(bottom), rel=0.01)
     assert stroke_work(heavy, P.JUMP_SQUAT_DONE_LENGTH) == pytest.approx(takeoff_work(HEAVY_CARRIED_N), rel=1e-4)
 
 
