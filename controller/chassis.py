@@ -21,6 +21,7 @@ from wheelleg.controller import fivebar
 from wheelleg.controller import lqr
 from wheelleg.controller import params as P
 from wheelleg.controller.attitude import euler_zyx
+from wheelleg.controller.jump import StanceHold
 from wheelleg.controller.state import BusState, ImuReading
 
 LEGS = ("left", "right")
@@ -70,6 +71,7 @@ class Command:
     air_leg_hold: bool = True  # in the air, hold the legs vertical (False: Tp 0, legs swing free)
     air_pitch_hold: bool = False  # in the air, level the body with the wheels' reaction (flight only)
     trim: bool = False  # standing or moving on the wheels: integrate the position error (``_trim``)
+    stance_hold: StanceHold | None = None  # a jump in place: the hips over their start (``_lqr_hold``), the lean in the air
 
 
 @dataclass(frozen=True)
@@ -284,8 +286,9 @@ class ChassisController:
     def _air_step(self, legs: dict, att: Attitude, speed: float, cmd: Command) -> Output:
         """In the air (docs/control.md, in the air): the wheels' torque only levels the body
         (``cmd.air_pitch_hold``, else 0), a leg-angle PD holds each leg vertical
-        (theta -> 0), a leg PD without gravity feed-forward holds ``cmd.leg_length``
-        (or ``cmd.leg_force`` pushes); no roll, no yaw. The position and heading
+        (theta -> 0; with a jump's ``cmd.stance_hold``, at the lean it stood with), a leg PD
+        without gravity feed-forward holds ``cmd.leg_length`` (or ``cmd.leg_force`` pushes);
+        no roll, no yaw. The position and heading
         references follow the robot, so nothing winds up."""
         self.x_ref, self.yaw_ref = self.x, att.yaw
         out = Output(legs=legs)
@@ -295,7 +298,10 @@ class ChassisController:
             s = legs[leg]
             self.leg_ref[leg] = min(max(cmd.leg_length, P.LEG_LENGTH_MIN), P.LEG_LENGTH_MAX)
             wheel_t[leg] = levelling
-            tp[leg] = -(P.AIR_THETA_KP * s.theta + P.AIR_THETA_KD * s.dtheta) if cmd.air_leg_hold else 0.0
+            hold = cmd.stance_hold
+            theta_ref, dtheta_ref = (0.0, 0.0) if hold is None else hold.leg_angle(leg, s.L0, s.dL0)
+            tp[leg] = -(P.AIR_THETA_KP * (s.theta - theta_ref) + P.AIR_THETA_KD * (s.dtheta - dtheta_ref)) \
+                if cmd.air_leg_hold else 0.0
             # the wheel's reaction acts on its leg: the hip passes it on to the body
             tp[leg] += wheel_t[leg]
             self.u_prev[leg] = (0.0, tp[leg])
@@ -405,6 +411,8 @@ class ChassisController:
              mean_length: float) -> tuple[float, float]:
         """u = u_ref - K (s - s_ref): wheel torque T and virtual hip torque Tp (N m) of leg
         ``name``, about the balance point (theta_ref ``balance_theta``, Tp_ref its hold torque)."""
+        if cmd.stance_hold is not None:
+            return self._lqr_hold(leg, name, att, cmd)
         k = lqr.gain_matrix(leg.L0)
         phi, dphi = -att.pitch, -att.wy  # nose-up body angle and rate
         hold = self.balance_point.hold_torque
@@ -419,6 +427,23 @@ class ChassisController:
         t = -sum(g * e for i, (g, e) in enumerate(zip(k[0], err)) if i not in _TRAVEL)
         t += _clamp(travel, P.SLIP_TRAVEL_TORQUE_LIMIT if self.slip.slipping else P.TRAVEL_TORQUE_LIMIT)
         tp = hold - sum(g * e for g, e in zip(k[1], err))
+        return t, tp
+
+    def _lqr_hold(self, leg: LegState, name: str, att: Attitude, cmd: Command) -> tuple[float, float]:
+        """The LQR while a jump pushes (jump.StanceHold): its references are the leg angle that
+        keeps the hip over its start point and the body's start pitch; no travel terms (the
+        trim's integral held the CoM over the axle standing, the hold keeps it there). The
+        push along a leaning leg needs Tp = -F L0 tan(theta) to stay vertical, through the CoM
+        (the standing trim's Tp, scaled with the push). CoM 3 cm off: 0.028 N m s at
+        take-off, 0.09 with the standing references (in-flight pitch 10 deg, 38 deg)."""
+        k = lqr.gain_matrix(leg.L0)
+        theta_ref, dtheta_ref = cmd.stance_hold.leg_angle(name, leg.L0, leg.dL0)
+        err = (leg.theta - theta_ref, leg.dtheta - dtheta_ref, 0.0, 0.0, cmd.stance_hold.pitch_rad - att.pitch,
+               -att.wy, 0.0, *self.u_prev[name])
+        t = -sum(g * e for g, e in zip(k[0], err))
+        tp = -sum(g * e for g, e in zip(k[1], err))
+        if cmd.leg_force is not None:
+            tp -= cmd.leg_force * leg.L0 * math.tan(leg.theta)
         return t, tp
 
     def _split(self, legs: dict) -> float:

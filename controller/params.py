@@ -163,12 +163,27 @@ AIR_PITCH_KD = 0.5  # N m s/rad per wheel
 
 # --- jump (controller/jump.py; public jumps mapped to this robot) ---------------------------
 JUMP_SQUAT_LENGTH = 0.12  # m, lowest leg length of the K(L0) fit: the longest stroke
+JUMP_SQUAT_DONE_LENGTH = 0.13  # m, the squat is deep enough below this (the thrust is sized from here)
 JUMP_SQUAT_MIN_S = 0.15  # s, settle in the squat before pushing
 JUMP_SQUAT_TIMEOUT = 1.5  # s, push anyway if the squat (and a forward run-up) is not reached
-JUMP_THRUST_FORCE = 100.0  # N per leg on top of gravity, Hermite decay over the stroke
 JUMP_THRUST_END_LENGTH = 0.25  # m, thrust ends near full stretch (K fit ends at 0.26)
 JUMP_THRUST_TIMEOUT = 0.25  # s
 JUMP_HIP_TORQUE_LIMIT = 12.0  # N m, the CyberGear's peak, only while thrusting/retracting
+# The thrust is sized for the weight measured standing (controller/jump.py, plan_thrust):
+# m, the body's rise once the wheels are off. With the nominal robot's measured 15.0 N per
+# leg its work from JUMP_SQUAT_DONE_LENGTH is 6.0 J per leg, the open-loop thrust's (a 100 N
+# Hermite on 17 N) 5.7 J and a little more: the nominal jump as high as before. A deeper
+# squat (a forward jump's run-up waits in it, ~0.11 m) pushes longer: the work grows
+JUMP_RISE = 0.172
+# s, low-pass of the standing support force: balancing sways it (0.14 N std nominal, 1.3 N with
+# the body x1.4 and hips x0.85, over 0.4-0.8 s of `jump`); settled 4 tau before `jump` presses at 0.8 s
+JUMP_WEIGHT_TAU = 0.2
+JUMP_CARRIED_RANGE = (0.5, 2.5)  # x LEG_GRAVITY_FF: a weight read outside this is held to it
+JUMP_THRUST_TORQUE_SHARE = 0.85  # of JUMP_HIP_TORQUE_LIMIT for the push; the rest for balance (Tp) and roll
+JUMP_AMPLITUDE_MAX = 1000.0  # N, bisection bound: far above every push_limit (125-182 N over the stroke)
+# |sin(theta)| the thrust's leg-angle hold asks at most (jump.hold_leg_angle): 0.5 is 30 deg,
+# far past the ~0.15 rad a 3 cm CoM offset leans the legs at the squat
+JUMP_HOLD_SINE_LIMIT = 0.5
 # retract with the in-air leg PD towards a short target (its damping stops the legs
 # before the mechanical stop: an open-loop pull slammed them into it at 0.105 m)
 JUMP_RETRACT_TARGET = 0.13  # m
