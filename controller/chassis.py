@@ -22,6 +22,7 @@ from wheelleg.controller import lqr
 from wheelleg.controller import motion
 from wheelleg.controller import params as P
 from wheelleg.controller.attitude import euler_zyx
+from wheelleg.controller.jump import StanceHold
 from wheelleg.controller.motion import Travel
 from wheelleg.controller.state import BusState, ImuReading
 
@@ -72,6 +73,7 @@ class Command:
     air_leg_hold: bool = True  # in the air, hold the legs vertical (False: Tp 0, legs swing free)
     air_pitch_hold: bool = False  # in the air, level the body with the wheels' reaction (flight only)
     trim: bool = False  # standing or moving on the wheels: integrate the position error (``_trim``)
+    stance_hold: StanceHold | None = None  # a jump in place: the hips over their start (``_lqr_hold``), the lean in the air
 
 
 @dataclass(frozen=True)
@@ -92,6 +94,8 @@ class ChassisReport:
     x_m: float  # wheel travel since reset
     x_ref_m: float
     x_integral_m_s: float  # the position error's integral, the LQR's trim state
+    balance_theta_rad: float  # leg angle of the balance point (lqr.balance_lean)
+    hold_torque_nm: float  # hip torque per leg holding the body there (estimate.BalancePointObserver)
     speed_m_s: float  # mean axle speed along the ground (the IMU's figure while the wheels slip)
     slipping: bool  # the wheels' speed and the IMU's part (estimate.SlipObserver)
     speed_ref_m_s: float
@@ -212,6 +216,10 @@ class ChassisController:
         self.u_prev = {leg: (0.0, 0.0) for leg in LEGS}  # (T, Tp) N m sent last period (the LQR's delay states)
         self.gyro = estimate.GyroBiasObserver(dt, P.GYRO_BIAS_OMEGA, P.GYRO_BIAS_LIMIT)
         self.slip = estimate.SlipObserver(dt, P.SLIP_GAIN, P.SLIP_ON, P.SLIP_GRIP_WINDOW, P.SLIP_GRIP_TOL)
+        self.balance_point = estimate.BalancePointObserver(dt, P.BALANCE_POINT_TAU_LEARN, P.BALANCE_POINT_LEARN_S,
+                                                           P.BALANCE_POINT_TAU, P.BALANCE_POINT_STILL,
+                                                           P.BALANCE_POINT_SETTLE_S)
+        self.balance_theta = 0.0  # rad, the legs' lean at the balance point (lqr.balance_lean), this tick
 
     def observe(self, bus: BusState) -> None:
         """Every tick, enabled or not: follow the gyro's bias against the IMU's orientation
@@ -250,13 +258,17 @@ class ChassisController:
         self.x += speed * self.dt
         if cmd.airborne:
             return self._air_step(legs, att, speed, cmd)
+        mean_length = 0.5 * (legs["left"].L0 + legs["right"].L0)
+        self.balance_theta = lqr.balance_lean(self.balance_point.hold_torque, mean_length, P.BALANCE_LEAN_LIMIT,
+                                              self.weight_ratio())
         self._track_references(cmd, att)
-        self._trim(speed, cmd)
+        standing = self._trim(speed, cmd, mean_length)
         out = Output(legs=legs)
         wheel_t, tp = {}, {}
         for leg in LEGS:
-            wheel_t[leg], tp[leg] = self._lqr(legs[leg], leg, speed, att, cmd)
+            wheel_t[leg], tp[leg] = self._lqr(legs[leg], leg, speed, att, cmd, mean_length)
             self.u_prev[leg] = (_clamp(wheel_t[leg], P.WHEEL_TORQUE_LIMIT), tp[leg])
+        self.balance_point.update(0.5 * (tp["left"] + tp["right"]), speed, standing)
         split = self._split(legs)
         tp["left"] += split
         tp["right"] -= split
@@ -284,8 +296,9 @@ class ChassisController:
     def _air_step(self, legs: dict, att: Attitude, speed: float, cmd: Command) -> Output:
         """In the air (docs/control.md, in the air): the wheels' torque only levels the body
         (``cmd.air_pitch_hold``, else 0), a leg-angle PD holds each leg vertical
-        (theta -> 0), a leg PD without gravity feed-forward holds ``cmd.leg_length``
-        (or ``cmd.leg_force`` pushes); no roll, no yaw. The position and heading
+        (theta -> 0; with a jump's ``cmd.stance_hold``, at the lean it stood with), a leg PD
+        without gravity feed-forward holds ``cmd.leg_length`` (or ``cmd.leg_force`` pushes);
+        no roll, no yaw. The position and heading
         references follow the robot, so nothing winds up."""
         self.x_ref, self.yaw_ref = self.x, att.yaw
         out = Output(legs=legs)
@@ -295,7 +308,10 @@ class ChassisController:
             s = legs[leg]
             self.leg_ref[leg] = min(max(cmd.leg_length, P.LEG_LENGTH_MIN), P.LEG_LENGTH_MAX)
             wheel_t[leg] = levelling
-            tp[leg] = -(P.AIR_THETA_KP * s.theta + P.AIR_THETA_KD * s.dtheta) if cmd.air_leg_hold else 0.0
+            hold = cmd.stance_hold
+            theta_ref, dtheta_ref = (0.0, 0.0) if hold is None else hold.leg_angle(leg, s.L0, s.dL0)
+            tp[leg] = -(P.AIR_THETA_KP * (s.theta - theta_ref) + P.AIR_THETA_KD * (s.dtheta - dtheta_ref)) \
+                if cmd.air_leg_hold else 0.0
             # the wheel's reaction acts on its leg: the hip passes it on to the body
             tp[leg] += wheel_t[leg]
             self.u_prev[leg] = (0.0, tp[leg])
@@ -357,8 +373,24 @@ class ChassisController:
         for leg in LEGS:
             self.leg_ref[leg] += _clamp(targets[leg] - self.leg_ref[leg], P.LEG_LENGTH_RATE * self.dt)
 
-    def _trim(self, speed: float, cmd: Command) -> None:
-        """Integrate the position error into ``x_integral`` (the LQR's ix state).
+    def weight_ratio(self) -> float:
+        """The weight the legs carry over the one believed (LEG_GRAVITY_FF): the leg
+        integral holds the difference standing. It scales the hold torque's lean, and
+        with it a hip torque constant off cancels (the hips under-deliver force and
+        torque alike, so both the integral and the hold torque grow by the same factor)."""
+        extra = 0.5 * (self.leg_integral["left"] + self.leg_integral["right"])
+        return max(0.5, 1.0 + extra / P.LEG_GRAVITY_FF)
+
+    def position_error(self, leg_length: float) -> float:
+        """Wheel travel (m) past its set point: the spot is the body's, so with the legs
+        leaning at the balance point (``balance_theta``) the wheels stand that lean's
+        L0 sin(theta) away from it (ahead of the body when the CoM is forward)."""
+        return self.x - self.x_ref + leg_length * math.sin(self.balance_theta)
+
+    def _trim(self, speed: float, cmd: Command, leg_length: float) -> bool:
+        """Integrate the position error (standing) or the speed error (cruising) into
+        ``x_integral`` (the LQR's ix state); True when it integrated standing still and
+        settled (the balance point learns then too).
 
         A constant disturbance (the CoM off the axle, an IMU mounted tilted, a
         drive's torque constant) is held by this integral instead of a standing
@@ -380,37 +412,63 @@ class ChassisController:
         """
         if self.travel in (Travel.SPEEDING_UP, Travel.BRAKING):
             self.trim_hold_s = P.CRUISE_SETTLE_S if self.travel is Travel.SPEEDING_UP else P.TRIM_SETTLE_S
-            return
+            return False
         self.trim_hold_s = max(0.0, self.trim_hold_s - self.dt)
         if not cmd.trim or self.trim_hold_s > 0.0:
-            return
+            return False
         if self.travel is Travel.CRUISING:
             error = speed - self.speed_ref
             if abs(error) < P.CRUISE_TRIM_WINDOW * abs(self.speed_ref):
-                self.x_integral += SPEED_TO_TRIM_S / P.CRUISE_TRIM_TAU * error * self.dt
-        else:
-            error = self.x - self.x_ref
-            if abs(error) < P.POSITION_ERROR_LIMIT:
-                self.x_integral += error * self.dt
-        self.x_integral = _clamp(self.x_integral, P.POSITION_INTEGRAL_LIMIT)
+                step = SPEED_TO_TRIM_S / P.CRUISE_TRIM_TAU * error * self.dt
+                self.x_integral = _clamp(self.x_integral + step, P.POSITION_INTEGRAL_LIMIT)
+            return False
+        error = self.position_error(leg_length)
+        if abs(error) >= P.POSITION_ERROR_LIMIT:
+            return False
+        self.x_integral = _clamp(self.x_integral + error * self.dt, P.POSITION_INTEGRAL_LIMIT)
+        return True
 
     def roll_set_point(self, cmd: Command) -> float:
         """Roll set point (rad, > 0 left side up): the command plus the lean into a turn."""
         return cmd.roll + self.lean
 
-    def _lqr(self, leg: LegState, name: str, speed: float, att: Attitude, cmd: Command) -> tuple[float, float]:
-        """u = -K (s - s_ref): wheel torque T and virtual hip torque Tp (N m) of leg ``name``."""
+    def _lqr(self, leg: LegState, name: str, speed: float, att: Attitude, cmd: Command,
+             mean_length: float) -> tuple[float, float]:
+        """u = u_ref - K (s - s_ref): wheel torque T and virtual hip torque Tp (N m) of leg
+        ``name``, about the balance point (theta_ref ``balance_theta``, Tp_ref its hold torque)."""
+        if cmd.stance_hold is not None:
+            return self._lqr_hold(leg, name, att, cmd)
         k = lqr.gain_matrix(leg.L0)
         phi, dphi = -att.pitch, -att.wy  # nose-up body angle and rate
-        err = (leg.theta - P.LEAN_PER_ACCEL * self.accel_ref, leg.dtheta, _clamp(self.x - self.x_ref, P.POSITION_ERROR_LIMIT), speed - self.speed_ref,
-               phi - (-cmd.pitch), dphi, self.x_integral, *self.u_prev[name])
+        hold = self.balance_point.hold_torque
+        t_prev, tp_prev = self.u_prev[name]
+        err = (leg.theta - self.balance_theta - P.LEAN_PER_ACCEL * self.accel_ref, leg.dtheta,
+               _clamp(self.position_error(mean_length), P.POSITION_ERROR_LIMIT), speed - self.speed_ref,
+               phi - (-cmd.pitch), dphi, self.x_integral, t_prev, tp_prev - hold)
         # the wheel's share for where the robot is and goes (position, speed and their
         # integral) is limited apart: a hard push asks for far more than the wheel has, and
         # saturating the whole sum would give away the torque that keeps the legs upright
         travel = -sum(k[0][i] * err[i] for i in _TRAVEL)
         t = -sum(g * e for i, (g, e) in enumerate(zip(k[0], err)) if i not in _TRAVEL)
         t += _clamp(travel, P.SLIP_TRAVEL_TORQUE_LIMIT if self.slip.slipping else P.TRAVEL_TORQUE_LIMIT)
+        tp = hold - sum(g * e for g, e in zip(k[1], err))
+        return t, tp
+
+    def _lqr_hold(self, leg: LegState, name: str, att: Attitude, cmd: Command) -> tuple[float, float]:
+        """The LQR while a jump pushes (jump.StanceHold): its references are the leg angle that
+        keeps the hip over its start point and the body's start pitch; no travel terms (the
+        trim's integral held the CoM over the axle standing, the hold keeps it there). The
+        push along a leaning leg needs Tp = -F L0 tan(theta) to stay vertical, through the CoM
+        (the standing trim's Tp, scaled with the push). CoM 3 cm off: 0.028 N m s at
+        take-off, 0.09 with the standing references (in-flight pitch 10 deg, 38 deg)."""
+        k = lqr.gain_matrix(leg.L0)
+        theta_ref, dtheta_ref = cmd.stance_hold.leg_angle(name, leg.L0, leg.dL0)
+        err = (leg.theta - theta_ref, leg.dtheta - dtheta_ref, 0.0, 0.0, cmd.stance_hold.pitch_rad - att.pitch,
+               -att.wy, 0.0, *self.u_prev[name])
+        t = -sum(g * e for g, e in zip(k[0], err))
         tp = -sum(g * e for g, e in zip(k[1], err))
+        if cmd.leg_force is not None:
+            tp -= cmd.leg_force * leg.L0 * math.tan(leg.theta)
         return t, tp
 
     def _split(self, legs: dict) -> float:
@@ -455,7 +513,9 @@ class ChassisController:
 
     def _report(self, legs: dict, att: Attitude, speed: float, wheel_t: dict, tp: dict) -> ChassisReport:
         return ChassisReport(
-            x_m=self.x, x_ref_m=self.x_ref, x_integral_m_s=self.x_integral, speed_m_s=speed, slipping=self.slip.slipping, speed_ref_m_s=self.speed_ref,
+            x_m=self.x, x_ref_m=self.x_ref, x_integral_m_s=self.x_integral, balance_theta_rad=self.balance_theta,
+            hold_torque_nm=self.balance_point.hold_torque, speed_m_s=speed, slipping=self.slip.slipping,
+            speed_ref_m_s=self.speed_ref,
             pitch_rad=att.pitch, roll_rad=att.roll, yaw_rad=att.yaw, yaw_ref_rad=self.yaw_ref,
             legs={leg: LegReport(legs[leg].L0, self.leg_ref[leg], legs[leg].theta, wheel_t[leg], tp[leg])
                   for leg in LEGS})

@@ -17,6 +17,8 @@ u = [T, Tp]: T wheel torque per wheel (forward rolling positive), Tp virtual
 hip torque per leg (drives theta positive); ix the position error's integral
 (m s), T_prev/Tp_prev last period's command (N m). See controller/design/lqr.py.
 COEFFS[i][j] = (c3, c2, c1, c0): K[i][j] = ((c3 L0 + c2) L0 + c1) L0 + c0.
+ARM = (c3, c2, c1, c0): g (M L0 + m_p L) in N m, the static moment arm of the
+balance point (design.static_arm): sin(theta) = -Tp / ARM(L0) standing still.
 """
 
 DT = 0.002
@@ -51,3 +53,5 @@ COEFFS = (
         (-13.01636571488195, 10.03296696023115, -2.764294769362964, 0.5534450564337157),  # Tp_prev
     ),
 )
+
+ARM = (-2.978476989293699, 2.7803870921864355, 14.240571018029115, 0.10349613301772574)

@@ -134,6 +134,23 @@ SLIP_GRIP_TOL = 0.05  # m/s ... did, within this
 # to this: the floor cannot take more, and asking more only spins the wheel further
 SLIP_TRAVEL_TORQUE_LIMIT = 1.0
 
+# Balance point (estimate.BalancePointObserver, lqr.balance_lean). Measured with
+# `wheelleg run balance --plant com_x_m=0.03`: max body drift 8.5 cm on the position
+# integral alone; learning at 0.2 s 4.3 cm, 0.1 s 3.4, 0.05 s 2.7; a lag of 0.1 s
+# kept for good let the torque of the tolerance box's worst push (CoM 3 cm behind,
+# 1.3 x mass) into the estimate and `push` ran 7 m away; 0.3 s after start-up keeps it 0.02 m from
+# its spot. 3 cm of CoM offset needs ~0.15 rad of lean at 0.17 m.
+BALANCE_POINT_TAU_LEARN = 0.05  # s, lag of the hold torque while learning after start-up
+BALANCE_POINT_LEARN_S = 0.6  # s of standing still learnt at that pace
+BALANCE_POINT_TAU = 0.3  # s, lag afterwards
+# m/s: nothing learnt faster than this nor for SETTLE_S after. A 5 N s sudden push in the
+# learning window (tolerance sample: CoM 2.4 cm back, mass x0.83) took the hold torque from
+# -0.27 to -0.11 N m and `push` ended 1.15 m from its spot; gated, 0.32 m. Start-up with
+# the CoM 3 cm off moves at ~0.3 m/s and keeps learning.
+BALANCE_POINT_STILL = 0.5
+BALANCE_POINT_SETTLE_S = 0.5  # s
+BALANCE_LEAN_LIMIT = 0.35  # rad, largest lean believed (a CoM ~7 cm off the hip)
+
 # --- safety -------------------------------------------------------------------------
 FALL_PITCH = 0.6  # rad, beyond it the robot has fallen (rm_controllers)
 FALL_THETA = 0.9  # rad
@@ -180,12 +197,27 @@ AIR_PITCH_KD = 0.5  # N m s/rad per wheel
 
 # --- jump (controller/jump.py; public jumps mapped to this robot) ---------------------------
 JUMP_SQUAT_LENGTH = 0.12  # m, lowest leg length of the K(L0) fit: the longest stroke
+JUMP_SQUAT_DONE_LENGTH = 0.13  # m, the squat is deep enough below this (the thrust is sized from here)
 JUMP_SQUAT_MIN_S = 0.15  # s, settle in the squat before pushing
 JUMP_SQUAT_TIMEOUT = 1.5  # s, push anyway if the squat (and a forward run-up) is not reached
-JUMP_THRUST_FORCE = 100.0  # N per leg on top of gravity, Hermite decay over the stroke
 JUMP_THRUST_END_LENGTH = 0.25  # m, thrust ends near full stretch (K fit ends at 0.26)
 JUMP_THRUST_TIMEOUT = 0.25  # s
 JUMP_HIP_TORQUE_LIMIT = 12.0  # N m, the CyberGear's peak, only while thrusting/retracting
+# The thrust is sized for the weight measured standing (controller/jump.py, plan_thrust):
+# m, the body's rise once the wheels are off. With the nominal robot's measured 15.0 N per
+# leg its work from JUMP_SQUAT_DONE_LENGTH is 6.0 J per leg, the open-loop thrust's (a 100 N
+# Hermite on 17 N) 5.7 J and a little more: the nominal jump as high as before. A deeper
+# squat (a forward jump's run-up waits in it, ~0.11 m) pushes longer: the work grows
+JUMP_RISE = 0.172
+# s, low-pass of the standing support force: balancing sways it (0.14 N std nominal, 1.3 N with
+# the body x1.4 and hips x0.85, over 0.4-0.8 s of `jump`); settled 4 tau before `jump` presses at 0.8 s
+JUMP_WEIGHT_TAU = 0.2
+JUMP_CARRIED_RANGE = (0.5, 2.5)  # x LEG_GRAVITY_FF: a weight read outside this is held to it
+JUMP_THRUST_TORQUE_SHARE = 0.85  # of JUMP_HIP_TORQUE_LIMIT for the push; the rest for balance (Tp) and roll
+JUMP_AMPLITUDE_MAX = 1000.0  # N, bisection bound: far above every push_limit (125-182 N over the stroke)
+# |sin(theta)| the thrust's leg-angle hold asks at most (jump.hold_leg_angle): 0.5 is 30 deg,
+# far past the ~0.15 rad a 3 cm CoM offset leans the legs at the squat
+JUMP_HOLD_SINE_LIMIT = 0.5
 # retract with the in-air leg PD towards a short target (its damping stops the legs
 # before the mechanical stop: an open-loop pull slammed them into it at 0.105 m)
 JUMP_RETRACT_TARGET = 0.13  # m
@@ -207,6 +239,8 @@ FALL_ROLL_AIR = 1.2  # rad
 RECOVERY_TUCK_LENGTH = 0.12  # m, legs pulled short (lowest of the K fit): hips down to the wheels
 RECOVERY_TUCK_MIN_S = 0.3  # s, the first ticks after enabling still see the fall's leg data
 RECOVERY_TUCK_TIMEOUT = 1.0  # s
-RECOVERY_PITCH_RATE = 0.5  # rad/s, the pitch set point ramps from lying (~0.8 rad) to level in ~1.6 s
+# rad/s, the pitch set point's fastest ramp from lying (~0.8 rad) to level (~1.6 s); a body that
+# rises faster takes the set point with it (recovery.next_pitch_ref): `fall` is level ~0.5 s after TILT_UP begins
+RECOVERY_PITCH_RATE = 0.5
 RECOVERY_TILT_TIMEOUT = 4.0  # s
 RECOVERY_FALL_PITCH = 1.3  # rad, while recovering only a body past this has fallen again

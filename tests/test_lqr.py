@@ -1,4 +1,5 @@
 """The LQR gain table: model, fit, stability, signs, and that the committed table is current."""
+import dataclasses
 import math
 
 import numpy as np
@@ -161,10 +162,12 @@ def test_committed_table_is_what_the_script_produces(fresh_design):
 def test_table_check_catches_a_stale_table(fresh_design, tmp_path, monkeypatch, capsys):
     stale = fresh_design.coeffs.copy()
     stale[1, 4, 3] *= 1.001  # Tp's phi gain, constant term
-    bad = design.Design(fresh_design.dt, fresh_design.grid, fresh_design.K, stale, fresh_design.fit_error)
+    bad = dataclasses.replace(fresh_design, coeffs=stale)
     path = tmp_path / "lqr_gains.py"
     path.write_text(design.render(bad))
     assert design.table_matches(fresh_design, design.load_table(path)) != []
+    path.write_text(design.render(dataclasses.replace(fresh_design, arm_coeffs=fresh_design.arm_coeffs * 1.001)))
+    assert any(p.startswith("ARM") for p in design.table_matches(fresh_design, design.load_table(path)))
     monkeypatch.setattr(design, "GAINS_PATH", path)
     assert design.main(["--check"]) == 1
     assert "stale table" in capsys.readouterr().err
