@@ -74,7 +74,8 @@ def test_drive_with_a_heavy_body_and_the_com_2cm_forward_stops_short(rig_run):
     """Body 1.4x as heavy, its CoM 2 cm forward: the legs lean ~0.11 rad to hold it, that
     much nearer the thighs' stops, and braking forward leans them further. Before the
     speed set point asked the LQR for the lean of its deceleration, the LQR leaned the
-    legs on its clamped travel share alone and the forward stop took STOP_BEFORE_M."""
+    legs on its clamped travel share alone and the forward stop took 0.484 m (limit 0.5;
+    0.494 m with the CoM 3 cm forward); now 0.328 m."""
     run = rig_run("drive", plant={"body_mass_scale": 1.4, "com_x_m": 0.02})
     run.assert_passed()
     t, x = run.state["t"], forward_position(run)
