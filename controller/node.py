@@ -101,7 +101,7 @@ class Controller:
         if self.mode == Mode.JUMP and previous != Mode.JUMP:
             self.jump.start(forward=self._jump_forward)
         elif previous == Mode.AIRBORNE and self.mode == Mode.BALANCE:
-            self.chassis.touchdown(self.bus)
+            self.chassis.touchdown(self.bus, keep_spot=True)
         if self.mode == Mode.STAND_UP and previous != Mode.STAND_UP and self._lying():
             self.recovery.start()
         elif self.mode != Mode.STAND_UP:

@@ -97,3 +97,29 @@ def test_stand_up_with_the_com_3cm_off_rises_from_its_stand(rig_run, com_x_m):
     run.assert_passed()
     start_pitch = float(run.state["pitch"][0])  # rad, nose down positive
     assert (start_pitch < -0.05) if com_x_m < 0 else (start_pitch > 0.05), "rests on the block on its CoM's side"
+
+
+def test_balance_with_the_imu_tilted_against_the_com_keeps_its_spot(rig_run):
+    """The tolerance box's worst balance draw so far (campaign seed 3, sample 7): IMU 2.85 deg
+    nose up, CoM 2.4 cm behind, body 1.13x. The balance point's lean is the gravity
+    frame's, the legs' angle the tilted IMU's, so the integral takes up the difference;
+    with its design weight at 1000 the body moved 5.4 cm (limit 5) before it had, at
+    3000 4.3 cm."""
+    plant = {"imu_tilt_pitch_deg": -2.854, "com_x_m": -0.024, "body_mass_scale": 1.128}
+    rig_run("balance", plant=plant).assert_passed()
+
+
+def test_a_side_push_that_lifts_the_wheels_keeps_the_spot(rig_run):
+    """Tolerance draw (campaign seed 5, sample 2): the sudden 5 N s side push throws the
+    wheels off the ground for ~60 ms (AIRBORNE) while the robot still walks home from the
+    steady front push. The landing used to reset the spot to where the robot was (and the
+    free-spinning wheels had counted 0.5 m of travel in the air): `push` ended 0.62 m from
+    its start (limit 0.5); keeping the take-off's position error, 0.31 m."""
+    plant = {"body_mass_scale": 0.861, "com_x_m": 0.0156, "com_z_m": 0.0107, "command_delay_s": 0.00188,
+             "feedback_delay_s": 0.00064, "friction": 1.154, "hip_kt_scale": 0.962, "imu_gyro_bias": 0.0399,
+             "imu_tilt_pitch_deg": 2.5, "imu_tilt_roll_deg": 1.89, "supply_voltage_v": 25.6,
+             "wheel_kt_scale": 0.953}
+    run = rig_run("push", seed=1613061882, plant=plant)
+    run.assert_passed()
+    t, mode = run.heartbeat["t"], run.heartbeat["Mode"]
+    assert np.any((mode == 6) & (t > 8.0)), "the side push no longer lifts the wheels: the test lost its case"
