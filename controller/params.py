@@ -196,8 +196,10 @@ AIR_LEG_FORCE_LIMIT = 40.0  # N, leg PD clamp in the air (no gravity feed-forwar
 # The wheels as reaction wheels in flight: a spin picked up at take-off (a jump with the CoM
 # off the hips: lifting the wheels pulls below and behind it) would land the robot on its
 # tail. Whole robot ~0.035 kg m^2 about its pitch axis at ~15 rad/s: kp = I w^2, kd = 2 I w,
-# split over two wheels. Each wheel's ~0.0024 kg m^2 (rotor reflected) takes up 0.14 N m s
-# (4 rad/s of body spin) in ~30 rad/s of its own speed, well inside the M3508's ~50 rad/s.
+# split over two wheels. What they can take up is small: a wheel's own 0.00023 kg m^2 plus
+# its rotor's J_rotor G ~0.0001 (the reflected J_rotor G^2 = 0.0022 only slows its spin-up)
+# holds ~0.015 N m s at the M3508's ~50 rad/s no-load speed: both wheels together take up
+# less than 1 rad/s of the whole robot's spin (docs/control.md, in the air).
 AIR_PITCH_KP = 4.0  # N m/rad per wheel
 AIR_PITCH_KD = 0.5  # N m s/rad per wheel
 
