@@ -23,7 +23,7 @@ from wheelleg.controller import motion
 from wheelleg.controller import params as P
 from wheelleg.controller.jump import StanceHold
 from wheelleg.controller.legs import (LEG_WHEEL, LEGS, Attitude, LegState, attitude, clamp, leg_state, leg_targets, legs_under_body,
-                                      mean_speed, roll_leg_difference, turn_lean, wrap)
+                                      mean_speed, roll_leg_difference, turn_lean, unwind, wrap)
 from wheelleg.controller.motion import Travel
 from wheelleg.controller.state import BusState
 
@@ -309,8 +309,11 @@ class ChassisController:
         position error or a cruising speed error; the trim found standing holds
         moving and the other way round. It integrates only settled:
         - standing, the position error inside the LQR's clamp. Outside it (pushed
-          away) the robot walks back on the clamp and the integral keeps what it
-          had (integrating there wound it up to 0.3 m s);
+          away) the robot walks back on the clamp and the integral only unwinds
+          (``unwind``): integrating there wound it up to 0.3 m s, and frozen, a trim
+          wound up by a steady push that ended with the robot past the clamp held
+          the clamped error's pull for good: the robot crept away at 2-3 cm/s (two
+          tolerance `push` draws ended 0.5 and 0.6 m off their spot);
         - cruising, the speed error times SPEED_TO_TRIM_S / CRUISE_TRIM_TAU (the
           trim that asks what the speed error asks, taken over in that time), while
           the robot is within CRUISE_TRIM_WINDOW of the set point;
@@ -336,6 +339,7 @@ class ChassisController:
             return False
         error = self.position_error(leg_length)
         if abs(error) >= P.POSITION_ERROR_LIMIT:
+            self.x_integral = unwind(self.x_integral, clamp(error, P.POSITION_ERROR_LIMIT) * self.dt)
             return False
         self.x_integral = clamp(self.x_integral + error * self.dt, P.POSITION_INTEGRAL_LIMIT)
         return True

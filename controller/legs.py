@@ -123,3 +123,12 @@ def leg_targets(length: float, difference: float) -> dict:
 def clamp(value: float, limit: float) -> float:
     """``value`` within +-``limit``."""
     return max(-limit, min(limit, value))
+
+
+def unwind(integral: float, step: float) -> float:
+    """``integral`` moved by ``step`` only towards zero, never past it (anti-windup that
+    lets a stale integral go while it must not grow)."""
+    if integral * step >= 0.0:  # it would grow, or there is nothing to unwind
+        return integral
+    moved = integral + step
+    return moved if moved * integral > 0.0 else 0.0
