@@ -21,41 +21,11 @@ from wheelleg.controller import fivebar
 from wheelleg.controller import lqr
 from wheelleg.controller import motion
 from wheelleg.controller import params as P
-from wheelleg.controller.attitude import euler_zyx
 from wheelleg.controller.jump import StanceHold
+from wheelleg.controller.legs import (LEG_WHEEL, LEGS, Attitude, LegState, attitude, clamp, leg_state, leg_targets, legs_under_body,
+                                      mean_speed, roll_leg_difference, turn_lean, unwind, wrap)
 from wheelleg.controller.motion import Travel
-from wheelleg.controller.state import BusState, ImuReading
-
-LEGS = ("left", "right")
-
-
-@dataclass(frozen=True)
-class Attitude:
-    """Body attitude from the IMU: ZYX angles (rad), body rates (rad/s)."""
-
-    roll: float
-    pitch: float  # nose down positive
-    yaw: float
-    wx: float
-    wy: float
-    wz: float
-
-
-def attitude(imu: ImuReading, gyro_bias: tuple = (0.0, 0.0, 0.0)) -> Attitude:
-    """Euler angles of the IMU quaternion (ZYX) and its body rates less ``gyro_bias`` (rad/s, (3,))."""
-    return Attitude(*euler_zyx(imu.quat), *(g - b for g, b in zip(imu.gyro, gyro_bias)))
-
-
-@dataclass(frozen=True)
-class LegState:
-    """One leg's virtual-leg state, from its two hip motors and the IMU."""
-
-    kin: object  # fivebar.LegKinematics
-    L0: float  # m
-    dL0: float  # m/s
-    theta: float  # rad, from vertical, wheel behind hip positive
-    dtheta: float  # rad/s
-    wheel_speed: float  # m/s, axle speed along the ground, forward positive
+from wheelleg.controller.state import BusState
 
 
 @dataclass
@@ -116,84 +86,12 @@ class Output:
     legs: dict = field(default_factory=dict)  # leg name -> LegState this tick
 
 
-_LEG_WHEEL = {w.leg: w for w in C.WHEELS}
 _TRAVEL = tuple(lqr.GAIN_NAMES.index(name) for name in ("x", "dx", "ix"))  # LQR states of the travel
 # s: a speed error e (m/s) asks of the wheel what a trim of e times this does (K_dx / K_ix
 # of the wheel's row: 0.54 s at the nominal length, 0.54-0.55 over the whole leg range), so
 # the trim takes up a steady speed error by growing this much per m/s of it (``_trim``)
 _WHEEL_GAINS = dict(zip(lqr.GAIN_NAMES, lqr.gain_matrix(P.LEG_LENGTH_NOMINAL)[0]))
 SPEED_TO_TRIM_S = _WHEEL_GAINS["dx"] / _WHEEL_GAINS["ix"]
-
-
-def leg_state(bus: BusState, leg: str, att: Attitude) -> LegState:
-    """Virtual-leg state of ``leg`` from its joint feedback and the attitude."""
-    front, rear = C.LEG_JOINTS[leg]
-    fa, fe = bus.joints[front.motor_id], bus.joints[rear.motor_id]
-    phi1, phi4 = fivebar.phi_from_shaft(front, fa.position), fivebar.phi_from_shaft(rear, fe.position)
-    dphi1, dphi4 = front.sign * fa.speed, rear.sign * fe.speed
-    kin = fivebar.forward_kinematics(phi1, phi4)
-    dL0, dphi0 = fivebar.leg_velocity(kin, dphi1, dphi4)
-    body_rate = -att.wy  # nose-up pitch rate
-    theta = math.pi / 2 - kin.phi0 + att.pitch  # phi = -pitch
-    dtheta = -dphi0 - body_rate
-    # The wheel motor's stator sits on link BC, so its encoder reads the wheel
-    # relative to that link: add the link's own rotation (wy - dphi2).
-    eps = 1e-4
-    phi2_ahead = fivebar.forward_kinematics(phi1 + eps * dphi1, phi4 + eps * dphi4).phi2
-    dphi2 = _wrap(phi2_ahead - kin.phi2) / eps
-    wheel = _LEG_WHEEL[leg]
-    spin = wheel.forward_sign * bus.wheels[wheel.esc_id].speed + att.wy - dphi2
-    return LegState(kin, kin.L0, dL0, theta, dtheta, spin * C.WHEEL_RADIUS)
-
-
-def _mean_speed(legs: dict) -> float:
-    """Mean axle speed (m/s) the two wheels report."""
-    return 0.5 * (legs["left"].wheel_speed + legs["right"].wheel_speed)
-
-
-def _legs_under_body(legs: dict) -> float:
-    """Mean forward speed (m/s) of the axles relative to the hips, from the legs'
-    motion: the axle sits L0 sin(theta) behind the hip."""
-    return -0.5 * sum(s.dL0 * math.sin(s.theta) + s.L0 * math.cos(s.theta) * s.dtheta for s in legs.values())
-
-
-def _wrap(angle: float) -> float:
-    return (angle + math.pi) % (2 * math.pi) - math.pi
-
-
-def turn_lean(speed: float, yaw_rate: float) -> float:
-    """Roll (rad) that leans into a turn: -atan(v w / g), left side down turning left.
-
-    The body's weight and the centripetal force v w then add up along the
-    legs, as a cyclist leans (docs/control.md, leaning into turns).
-    """
-    lean = math.atan(speed * yaw_rate / C.GRAVITY)
-    return -_clamp(lean, P.TURN_LEAN_LIMIT)
-
-
-def roll_leg_difference(roll_set_point: float, level_offset: float) -> float:
-    """Left minus right leg length (m): the feed-forward that tilts the body by
-    ``roll_set_point`` (rad) on flat ground, plus the levelling integral's
-    ``level_offset`` (m, the ground's own tilt), together within +-ROLL_LEVEL_LIMIT."""
-    feed_forward = 2.0 * C.HALF_TRACK * math.tan(roll_set_point)
-    return _clamp(feed_forward + level_offset, P.ROLL_LEVEL_LIMIT)
-
-
-def leg_targets(length: float, difference: float) -> dict:
-    """Leg length targets (m) by leg: mean ``length``, left minus right ``difference``.
-
-    When one leg would leave [LEG_LENGTH_MIN, LEG_LENGTH_MAX] both shift
-    together, so the difference (the body's level) is kept over the height.
-    """
-    length = min(max(length, P.LEG_LENGTH_MIN), P.LEG_LENGTH_MAX)
-    half = 0.5 * min(abs(difference), P.LEG_LENGTH_MAX - P.LEG_LENGTH_MIN)
-    mean = min(max(length, P.LEG_LENGTH_MIN + half), P.LEG_LENGTH_MAX - half)
-    sign = 1.0 if difference >= 0 else -1.0
-    return {"left": mean + sign * half, "right": mean - sign * half}
-
-
-def _clamp(value: float, limit: float) -> float:
-    return max(-limit, min(limit, value))
 
 
 class ChassisController:
@@ -233,7 +131,7 @@ class ChassisController:
         att = self.attitude(bus)
         legs = {leg: leg_state(bus, leg, att) for leg in LEGS}
         self.slip.update(estimate.forward_accel(bus.imu.quat, bus.imu.accel),
-                         _mean_speed(legs) - _legs_under_body(legs))
+                         mean_speed(legs) - legs_under_body(legs))
 
     def attitude(self, bus: BusState) -> Attitude:
         """The body's attitude with the gyro's estimated bias taken out."""
@@ -252,7 +150,7 @@ class ChassisController:
             self.leg_integral[leg] = 0.0
             self.leg_ref[leg] = leg_state(bus, leg, att).L0
         # levelling starts from the legs as they stand (uneven ground: already apart)
-        self.roll_offset = _clamp(self.leg_ref["left"] - self.leg_ref["right"], P.ROLL_LEVEL_LIMIT)
+        self.roll_offset = clamp(self.leg_ref["left"] - self.leg_ref["right"], P.ROLL_LEVEL_LIMIT)
 
     def step(self, bus: BusState, cmd: Command) -> Output:
         att = self.attitude(bus)
@@ -276,7 +174,7 @@ class ChassisController:
         wheel_t, tp = {}, {}
         for leg in LEGS:
             wheel_t[leg], tp[leg] = self._lqr(legs[leg], leg, speed, att, cmd, mean_length)
-            self.u_prev[leg] = (_clamp(wheel_t[leg], P.WHEEL_TORQUE_LIMIT), tp[leg])
+            self.u_prev[leg] = (clamp(wheel_t[leg], P.WHEEL_TORQUE_LIMIT), tp[leg])
         self.balance_point.update(0.5 * (tp["left"] + tp["right"]), speed, standing)
         split = self._split(legs)
         tp["left"] += split
@@ -289,8 +187,8 @@ class ChassisController:
             push = self._leg_force(legs[leg], leg) if cmd.leg_force is None else cmd.leg_force
             force = push + sign * roll_f
             self._hips(out, leg, legs[leg], force, tp[leg])
-            wheel = _LEG_WHEEL[leg]
-            out.wheel_torque[wheel.esc_id] = wheel.forward_sign * _clamp(wheel_t[leg], P.WHEEL_TORQUE_LIMIT)
+            wheel = LEG_WHEEL[leg]
+            out.wheel_torque[wheel.esc_id] = wheel.forward_sign * clamp(wheel_t[leg], P.WHEEL_TORQUE_LIMIT)
         self._limit_hips(out, cmd.hip_torque_limit)
         out.report = self._report(legs, att, speed, wheel_t, tp)
         return out
@@ -299,8 +197,8 @@ class ChassisController:
         """Mean axle speed along the ground (m/s): the wheels' own while they grip,
         the IMU's (plus the legs' motion) while they slip (``observe`` this tick)."""
         if self.slip.slipping:
-            return self.slip.speed_m_s + _legs_under_body(legs)
-        return _mean_speed(legs)
+            return self.slip.speed_m_s + legs_under_body(legs)
+        return mean_speed(legs)
 
     def _air_step(self, legs: dict, att: Attitude, speed: float, cmd: Command) -> Output:
         """In the air (docs/control.md, in the air): the wheels' torque only levels the body
@@ -324,10 +222,10 @@ class ChassisController:
             # the wheel's reaction acts on its leg: the hip passes it on to the body
             tp[leg] += wheel_t[leg]
             self.u_prev[leg] = (0.0, tp[leg])
-            force = cmd.leg_force if cmd.leg_force is not None else _clamp(
+            force = cmd.leg_force if cmd.leg_force is not None else clamp(
                 P.LEG_KP * (self.leg_ref[leg] - s.L0) - P.LEG_KD * s.dL0, P.AIR_LEG_FORCE_LIMIT)
             self._hips(out, leg, s, force, tp[leg])
-            wheel = _LEG_WHEEL[leg]
+            wheel = LEG_WHEEL[leg]
             out.wheel_torque[wheel.esc_id] = wheel.forward_sign * wheel_t[leg]
         self._limit_hips(out, cmd.hip_torque_limit)
         out.report = self._report(legs, att, speed, wheel_t, tp)
@@ -339,7 +237,7 @@ class ChassisController:
 
         A wheel torque T (forward rolling positive) turns the body nose up by T:
         T = kp (pitch - pitch_ref) + kd pitch_rate, nose down positive."""
-        return _clamp(P.AIR_PITCH_KP * (att.pitch - cmd.pitch) + P.AIR_PITCH_KD * att.wy, P.WHEEL_TORQUE_LIMIT)
+        return clamp(P.AIR_PITCH_KP * (att.pitch - cmd.pitch) + P.AIR_PITCH_KD * att.wy, P.WHEEL_TORQUE_LIMIT)
 
     def follow_position(self) -> None:
         """The position reference jumps to where the robot is (no pull back this tick)."""
@@ -361,7 +259,7 @@ class ChassisController:
 
     # -- pieces ----------------------------------------------------------------
     def _track_references(self, cmd: Command, att: Attitude) -> None:
-        target = _clamp(cmd.speed, P.SPEED_LIMIT)
+        target = clamp(cmd.speed, P.SPEED_LIMIT)
         self.speed_ref, self.accel_ref = motion.speed_set_point(self.speed_ref, self.accel_ref, target, self.dt)
         self.travel = motion.travel_phase(self.speed_ref, self.accel_ref)
         self.x_ref += self.speed_ref * self.dt
@@ -376,16 +274,16 @@ class ChassisController:
             # robot may still overshoot it; the LQR sees the error clamped (_lqr), so dragging
             # the spot to within the clamp changes no braking torque; it only spares the walk
             # back at the clamp's speed (0.3 m/s), which left `sprint` still moving 3.5 s later
-            self.x_ref = self.x - _clamp(self.x - self.x_ref, P.POSITION_ERROR_LIMIT)
+            self.x_ref = self.x - clamp(self.x - self.x_ref, P.POSITION_ERROR_LIMIT)
         # standing, it stays put: pushed away, the robot comes back to its spot, with the
         # error the LQR sees clamped (_lqr), so at a bounded speed
-        self.yaw_ref = _wrap(self.yaw_ref + _clamp(cmd.yaw_rate, P.YAW_RATE_LIMIT) * self.dt)
-        target_lean = turn_lean(self.speed_ref, _clamp(cmd.yaw_rate, P.YAW_RATE_LIMIT))
+        self.yaw_ref = wrap(self.yaw_ref + clamp(cmd.yaw_rate, P.YAW_RATE_LIMIT) * self.dt)
+        target_lean = turn_lean(self.speed_ref, clamp(cmd.yaw_rate, P.YAW_RATE_LIMIT))
         self.lean += (target_lean - self.lean) * min(1.0, self.dt / P.TURN_LEAN_TAU)
         diff = roll_leg_difference(self.roll_set_point(cmd), self.roll_offset)
         targets = leg_targets(cmd.leg_length, diff)
         for leg in LEGS:
-            self.leg_ref[leg] += _clamp(targets[leg] - self.leg_ref[leg], P.LEG_LENGTH_RATE * self.dt)
+            self.leg_ref[leg] += clamp(targets[leg] - self.leg_ref[leg], P.LEG_LENGTH_RATE * self.dt)
 
     def weight_ratio(self) -> float:
         """The weight the legs carry over the one believed (LEG_GRAVITY_FF): the leg
@@ -411,8 +309,11 @@ class ChassisController:
         position error or a cruising speed error; the trim found standing holds
         moving and the other way round. It integrates only settled:
         - standing, the position error inside the LQR's clamp. Outside it (pushed
-          away) the robot walks back on the clamp and the integral keeps what it
-          had (integrating there wound it up to 0.3 m s);
+          away) the robot walks back on the clamp and the integral only unwinds
+          (``unwind``): integrating there wound it up to 0.3 m s, and frozen, a trim
+          wound up by a steady push that ended with the robot past the clamp held
+          the clamped error's pull for good: the robot crept away at 2-3 cm/s (two
+          tolerance `push` draws ended 0.5 and 0.6 m off their spot);
         - cruising, the speed error times SPEED_TO_TRIM_S / CRUISE_TRIM_TAU (the
           trim that asks what the speed error asks, taken over in that time), while
           the robot is within CRUISE_TRIM_WINDOW of the set point;
@@ -434,12 +335,13 @@ class ChassisController:
             error = speed - self.speed_ref
             if abs(error) < P.CRUISE_TRIM_WINDOW * abs(self.speed_ref):
                 step = SPEED_TO_TRIM_S / P.CRUISE_TRIM_TAU * error * self.dt
-                self.x_integral = _clamp(self.x_integral + step, P.POSITION_INTEGRAL_LIMIT)
+                self.x_integral = clamp(self.x_integral + step, P.POSITION_INTEGRAL_LIMIT)
             return False
         error = self.position_error(leg_length)
         if abs(error) >= P.POSITION_ERROR_LIMIT:
+            self.x_integral = unwind(self.x_integral, clamp(error, P.POSITION_ERROR_LIMIT) * self.dt)
             return False
-        self.x_integral = _clamp(self.x_integral + error * self.dt, P.POSITION_INTEGRAL_LIMIT)
+        self.x_integral = clamp(self.x_integral + error * self.dt, P.POSITION_INTEGRAL_LIMIT)
         return True
 
     def roll_set_point(self, cmd: Command) -> float:
@@ -457,14 +359,14 @@ class ChassisController:
         hold = self.balance_point.hold_torque
         t_prev, tp_prev = self.u_prev[name]
         err = (leg.theta - self.balance_theta - P.LEAN_PER_ACCEL * self.accel_ref, leg.dtheta,
-               _clamp(self.position_error(mean_length), P.POSITION_ERROR_LIMIT), speed - self.speed_ref,
+               clamp(self.position_error(mean_length), P.POSITION_ERROR_LIMIT), speed - self.speed_ref,
                phi - (-cmd.pitch), dphi, self.x_integral, t_prev, tp_prev - hold)
         # the wheel's share for where the robot is and goes (position, speed and their
         # integral) is limited apart: a hard push asks for far more than the wheel has, and
         # saturating the whole sum would give away the torque that keeps the legs upright
         travel = -sum(k[0][i] * err[i] for i in _TRAVEL)
         t = -sum(g * e for i, (g, e) in enumerate(zip(k[0], err)) if i not in _TRAVEL)
-        t += _clamp(travel, P.SLIP_TRAVEL_TORQUE_LIMIT if self.slip.slipping else P.TRAVEL_TORQUE_LIMIT)
+        t += clamp(travel, P.SLIP_TRAVEL_TORQUE_LIMIT if self.slip.slipping else P.TRAVEL_TORQUE_LIMIT)
         tp = hold - sum(g * e for g, e in zip(k[1], err))
         return t, tp
 
@@ -489,26 +391,26 @@ class ChassisController:
         """Tp added to the left leg (and taken from the right) to keep them together."""
         diff = legs["left"].theta - legs["right"].theta
         ddiff = legs["left"].dtheta - legs["right"].dtheta
-        return _clamp(-(P.SPLIT_KP * diff + P.SPLIT_KD * ddiff), P.SPLIT_LIMIT)
+        return clamp(-(P.SPLIT_KP * diff + P.SPLIT_KD * ddiff), P.SPLIT_LIMIT)
 
     def _yaw(self, att: Attitude, cmd: Command) -> float:
-        rate_ref = P.YAW_KP * _wrap(self.yaw_ref - att.yaw) + cmd.yaw_rate
-        return _clamp(P.YAW_RATE_KP * (rate_ref - att.wz), P.YAW_TORQUE_LIMIT)
+        rate_ref = P.YAW_KP * wrap(self.yaw_ref - att.yaw) + cmd.yaw_rate
+        return clamp(P.YAW_RATE_KP * (rate_ref - att.wz), P.YAW_TORQUE_LIMIT)
 
     def _roll(self, att: Attitude, cmd: Command) -> float:
         """Force added to the left leg (taken from the right): level the body."""
         err = self.roll_set_point(cmd) - att.roll  # roll > 0: left side up
         # terrain self-levelling: integrate the roll error into a leg-length difference
         self.roll_offset += P.ROLL_LEVEL_KI * err * self.dt
-        self.roll_offset = _clamp(self.roll_offset, P.ROLL_LEVEL_LIMIT)
-        return _clamp(P.ROLL_KP * err - P.ROLL_KD * att.wx, P.ROLL_FORCE_LIMIT)
+        self.roll_offset = clamp(self.roll_offset, P.ROLL_LEVEL_LIMIT)
+        return clamp(P.ROLL_KP * err - P.ROLL_KD * att.wx, P.ROLL_FORCE_LIMIT)
 
     def _leg_force(self, leg: LegState, name: str) -> float:
         err = self.leg_ref[name] - leg.L0
-        self.leg_integral[name] = _clamp(self.leg_integral[name] + P.LEG_KI * err * self.dt,
+        self.leg_integral[name] = clamp(self.leg_integral[name] + P.LEG_KI * err * self.dt,
                                          P.LEG_INTEGRAL_LIMIT)
         pid = P.LEG_KP * err - P.LEG_KD * leg.dL0 + self.leg_integral[name]
-        return _clamp(pid, P.LEG_FORCE_LIMIT) + P.LEG_GRAVITY_FF * math.cos(leg.theta)
+        return clamp(pid, P.LEG_FORCE_LIMIT) + P.LEG_GRAVITY_FF * math.cos(leg.theta)
 
     def _hips(self, out: Output, leg: str, state: LegState, force: float, tp: float) -> None:
         t1, t4 = fivebar.joint_torques(state.kin, force, tp)

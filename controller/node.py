@@ -20,7 +20,8 @@ from wheelleg.controller import posture
 from wheelleg.controller import support
 from wheelleg.controller.can_node import CanNode
 from wheelleg.controller import params as P
-from wheelleg.controller.chassis import Attitude, ChassisController, Command
+from wheelleg.controller.chassis import ChassisController, Command
+from wheelleg.controller.legs import Attitude
 from wheelleg.controller.jump import JumpSequencer, Phase
 from wheelleg.controller.recovery import Phase as RecoveryPhase
 from wheelleg.controller.recovery import RecoverySequencer

@@ -11,7 +11,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from wheelleg.controller.chassis import LEGS, ChassisReport
+from wheelleg.controller.chassis import ChassisReport
+from wheelleg.controller.legs import LEGS
 from wheelleg.controller.jump import Phase
 
 
