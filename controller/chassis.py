@@ -19,40 +19,13 @@ from wheelleg.controller import constants as C
 from wheelleg.controller import estimate
 from wheelleg.controller import fivebar
 from wheelleg.controller import lqr
+from wheelleg.controller import motion
 from wheelleg.controller import params as P
-from wheelleg.controller.attitude import euler_zyx
-from wheelleg.controller.state import BusState, ImuReading
-
-LEGS = ("left", "right")
-
-
-@dataclass(frozen=True)
-class Attitude:
-    """Body attitude from the IMU: ZYX angles (rad), body rates (rad/s)."""
-
-    roll: float
-    pitch: float  # nose down positive
-    yaw: float
-    wx: float
-    wy: float
-    wz: float
-
-
-def attitude(imu: ImuReading, gyro_bias: tuple = (0.0, 0.0, 0.0)) -> Attitude:
-    """Euler angles of the IMU quaternion (ZYX) and its body rates less ``gyro_bias`` (rad/s, (3,))."""
-    return Attitude(*euler_zyx(imu.quat), *(g - b for g, b in zip(imu.gyro, gyro_bias)))
-
-
-@dataclass(frozen=True)
-class LegState:
-    """One leg's virtual-leg state, from its two hip motors and the IMU."""
-
-    kin: object  # fivebar.LegKinematics
-    L0: float  # m
-    dL0: float  # m/s
-    theta: float  # rad, from vertical, wheel behind hip positive
-    dtheta: float  # rad/s
-    wheel_speed: float  # m/s, axle speed along the ground, forward positive
+from wheelleg.controller.jump import StanceHold
+from wheelleg.controller.legs import (LEG_WHEEL, LEGS, Attitude, LegState, attitude, clamp, leg_state, leg_targets, legs_under_body,
+                                      mean_speed, roll_leg_difference, turn_lean, unwind, wrap)
+from wheelleg.controller.motion import Travel
+from wheelleg.controller.state import BusState
 
 
 @dataclass
@@ -70,6 +43,7 @@ class Command:
     air_leg_hold: bool = True  # in the air, hold the legs vertical (False: Tp 0, legs swing free)
     air_pitch_hold: bool = False  # in the air, level the body with the wheels' reaction (flight only)
     trim: bool = False  # standing or moving on the wheels: integrate the position error (``_trim``)
+    stance_hold: StanceHold | None = None  # a jump in place: the hips over their start (``_lqr_hold``), the lean in the air
 
 
 @dataclass(frozen=True)
@@ -90,6 +64,8 @@ class ChassisReport:
     x_m: float  # wheel travel since reset
     x_ref_m: float
     x_integral_m_s: float  # the position error's integral, the LQR's trim state
+    balance_theta_rad: float  # leg angle of the balance point (lqr.balance_lean)
+    hold_torque_nm: float  # hip torque per leg holding the body there (estimate.BalancePointObserver)
     speed_m_s: float  # mean axle speed along the ground (the IMU's figure while the wheels slip)
     slipping: bool  # the wheels' speed and the IMU's part (estimate.SlipObserver)
     speed_ref_m_s: float
@@ -110,79 +86,12 @@ class Output:
     legs: dict = field(default_factory=dict)  # leg name -> LegState this tick
 
 
-_LEG_WHEEL = {w.leg: w for w in C.WHEELS}
 _TRAVEL = tuple(lqr.GAIN_NAMES.index(name) for name in ("x", "dx", "ix"))  # LQR states of the travel
-
-
-def leg_state(bus: BusState, leg: str, att: Attitude) -> LegState:
-    """Virtual-leg state of ``leg`` from its joint feedback and the attitude."""
-    front, rear = C.LEG_JOINTS[leg]
-    fa, fe = bus.joints[front.motor_id], bus.joints[rear.motor_id]
-    phi1, phi4 = fivebar.phi_from_shaft(front, fa.position), fivebar.phi_from_shaft(rear, fe.position)
-    dphi1, dphi4 = front.sign * fa.speed, rear.sign * fe.speed
-    kin = fivebar.forward_kinematics(phi1, phi4)
-    dL0, dphi0 = fivebar.leg_velocity(kin, dphi1, dphi4)
-    body_rate = -att.wy  # nose-up pitch rate
-    theta = math.pi / 2 - kin.phi0 + att.pitch  # phi = -pitch
-    dtheta = -dphi0 - body_rate
-    # The wheel motor's stator sits on link BC, so its encoder reads the wheel
-    # relative to that link: add the link's own rotation (wy - dphi2).
-    eps = 1e-4
-    phi2_ahead = fivebar.forward_kinematics(phi1 + eps * dphi1, phi4 + eps * dphi4).phi2
-    dphi2 = _wrap(phi2_ahead - kin.phi2) / eps
-    wheel = _LEG_WHEEL[leg]
-    spin = wheel.forward_sign * bus.wheels[wheel.esc_id].speed + att.wy - dphi2
-    return LegState(kin, kin.L0, dL0, theta, dtheta, spin * C.WHEEL_RADIUS)
-
-
-def _mean_speed(legs: dict) -> float:
-    """Mean axle speed (m/s) the two wheels report."""
-    return 0.5 * (legs["left"].wheel_speed + legs["right"].wheel_speed)
-
-
-def _legs_under_body(legs: dict) -> float:
-    """Mean forward speed (m/s) of the axles relative to the hips, from the legs'
-    motion: the axle sits L0 sin(theta) behind the hip."""
-    return -0.5 * sum(s.dL0 * math.sin(s.theta) + s.L0 * math.cos(s.theta) * s.dtheta for s in legs.values())
-
-
-def _wrap(angle: float) -> float:
-    return (angle + math.pi) % (2 * math.pi) - math.pi
-
-
-def turn_lean(speed: float, yaw_rate: float) -> float:
-    """Roll (rad) that leans into a turn: -atan(v w / g), left side down turning left.
-
-    The body's weight and the centripetal force v w then add up along the
-    legs, as a cyclist leans (docs/control.md, leaning into turns).
-    """
-    lean = math.atan(speed * yaw_rate / C.GRAVITY)
-    return -_clamp(lean, P.TURN_LEAN_LIMIT)
-
-
-def roll_leg_difference(roll_set_point: float, level_offset: float) -> float:
-    """Left minus right leg length (m): the feed-forward that tilts the body by
-    ``roll_set_point`` (rad) on flat ground, plus the levelling integral's
-    ``level_offset`` (m, the ground's own tilt), together within +-ROLL_LEVEL_LIMIT."""
-    feed_forward = 2.0 * C.HALF_TRACK * math.tan(roll_set_point)
-    return _clamp(feed_forward + level_offset, P.ROLL_LEVEL_LIMIT)
-
-
-def leg_targets(length: float, difference: float) -> dict:
-    """Leg length targets (m) by leg: mean ``length``, left minus right ``difference``.
-
-    When one leg would leave [LEG_LENGTH_MIN, LEG_LENGTH_MAX] both shift
-    together, so the difference (the body's level) is kept over the height.
-    """
-    length = min(max(length, P.LEG_LENGTH_MIN), P.LEG_LENGTH_MAX)
-    half = 0.5 * min(abs(difference), P.LEG_LENGTH_MAX - P.LEG_LENGTH_MIN)
-    mean = min(max(length, P.LEG_LENGTH_MIN + half), P.LEG_LENGTH_MAX - half)
-    sign = 1.0 if difference >= 0 else -1.0
-    return {"left": mean + sign * half, "right": mean - sign * half}
-
-
-def _clamp(value: float, limit: float) -> float:
-    return max(-limit, min(limit, value))
+# s: a speed error e (m/s) asks of the wheel what a trim of e times this does (K_dx / K_ix
+# of the wheel's row: 0.54 s at the nominal length, 0.54-0.55 over the whole leg range), so
+# the trim takes up a steady speed error by growing this much per m/s of it (``_trim``)
+_WHEEL_GAINS = dict(zip(lqr.GAIN_NAMES, lqr.gain_matrix(P.LEG_LENGTH_NOMINAL)[0]))
+SPEED_TO_TRIM_S = _WHEEL_GAINS["dx"] / _WHEEL_GAINS["ix"]
 
 
 class ChassisController:
@@ -191,8 +100,13 @@ class ChassisController:
     def __init__(self, dt: float = P.CONTROL_PERIOD):
         self.dt = dt
         self.x = 0.0  # m, wheel travel since reset
+        self.in_air = False  # the last tick was an air step
+        self.takeoff_speed = 0.0  # m/s, ground speed of the last tick on the ground
+        self.takeoff_error = 0.0  # m, x - x_ref as the wheels left the ground
         self.x_ref = 0.0  # m
         self.speed_ref = 0.0  # m/s, slewed
+        self.accel_ref = 0.0  # m/s^2, the speed set point's own (motion.speed_set_point)
+        self.travel = Travel.STANDING  # what the speed set point does (motion.travel_phase)
         self.yaw_ref = 0.0  # rad
         self.leg_ref = {leg: P.LEG_LENGTH_NOMINAL for leg in LEGS}
         self.roll_offset = 0.0  # m, integral levelling: left minus right leg length
@@ -203,6 +117,10 @@ class ChassisController:
         self.u_prev = {leg: (0.0, 0.0) for leg in LEGS}  # (T, Tp) N m sent last period (the LQR's delay states)
         self.gyro = estimate.GyroBiasObserver(dt, P.GYRO_BIAS_OMEGA, P.GYRO_BIAS_LIMIT)
         self.slip = estimate.SlipObserver(dt, P.SLIP_GAIN, P.SLIP_ON, P.SLIP_GRIP_WINDOW, P.SLIP_GRIP_TOL)
+        self.balance_point = estimate.BalancePointObserver(dt, P.BALANCE_POINT_TAU_LEARN, P.BALANCE_POINT_LEARN_S,
+                                                           P.BALANCE_POINT_TAU, P.BALANCE_POINT_STILL,
+                                                           P.BALANCE_POINT_SETTLE_S)
+        self.balance_theta = 0.0  # rad, the legs' lean at the balance point (lqr.balance_lean), this tick
 
     def observe(self, bus: BusState) -> None:
         """Every tick, enabled or not: follow the gyro's bias against the IMU's orientation
@@ -213,7 +131,7 @@ class ChassisController:
         att = self.attitude(bus)
         legs = {leg: leg_state(bus, leg, att) for leg in LEGS}
         self.slip.update(estimate.forward_accel(bus.imu.quat, bus.imu.accel),
-                         _mean_speed(legs) - _legs_under_body(legs))
+                         mean_speed(legs) - legs_under_body(legs))
 
     def attitude(self, bus: BusState) -> Attitude:
         """The body's attitude with the gyro's estimated bias taken out."""
@@ -224,29 +142,40 @@ class ChassisController:
         att = self.attitude(bus)
         self.x = self.x_ref = self.x_integral = self.trim_hold_s = 0.0
         self.u_prev = {leg: (0.0, 0.0) for leg in LEGS}
-        self.speed_ref = 0.0
+        self.speed_ref = self.accel_ref = 0.0
+        self.travel = Travel.STANDING
         self.lean = 0.0
         self.yaw_ref = att.yaw
         for leg in LEGS:
             self.leg_integral[leg] = 0.0
             self.leg_ref[leg] = leg_state(bus, leg, att).L0
         # levelling starts from the legs as they stand (uneven ground: already apart)
-        self.roll_offset = _clamp(self.leg_ref["left"] - self.leg_ref["right"], P.ROLL_LEVEL_LIMIT)
+        self.roll_offset = clamp(self.leg_ref["left"] - self.leg_ref["right"], P.ROLL_LEVEL_LIMIT)
 
     def step(self, bus: BusState, cmd: Command) -> Output:
         att = self.attitude(bus)
         legs = {leg: leg_state(bus, leg, att) for leg in LEGS}
         speed = self._ground_speed(legs)
-        self.x += speed * self.dt
         if cmd.airborne:
+            if not self.in_air:
+                self.in_air, self.takeoff_error = True, self.x - self.x_ref
+            # the wheels spin free (levelling the body) and say nothing of the ground: the
+            # body keeps the speed it left the ground with (a short flight, no drag)
+            self.x += self.takeoff_speed * self.dt
             return self._air_step(legs, att, speed, cmd)
+        self.in_air, self.takeoff_speed = False, speed
+        self.x += speed * self.dt
+        mean_length = 0.5 * (legs["left"].L0 + legs["right"].L0)
+        self.balance_theta = lqr.balance_lean(self.balance_point.hold_torque, mean_length, P.BALANCE_LEAN_LIMIT,
+                                              self.weight_ratio())
         self._track_references(cmd, att)
-        self._trim(speed, cmd)
+        standing = self._trim(speed, cmd, mean_length)
         out = Output(legs=legs)
         wheel_t, tp = {}, {}
         for leg in LEGS:
-            wheel_t[leg], tp[leg] = self._lqr(legs[leg], leg, speed, att, cmd)
-            self.u_prev[leg] = (_clamp(wheel_t[leg], P.WHEEL_TORQUE_LIMIT), tp[leg])
+            wheel_t[leg], tp[leg] = self._lqr(legs[leg], leg, speed, att, cmd, mean_length)
+            self.u_prev[leg] = (clamp(wheel_t[leg], P.WHEEL_TORQUE_LIMIT), tp[leg])
+        self.balance_point.update(0.5 * (tp["left"] + tp["right"]), speed, standing)
         split = self._split(legs)
         tp["left"] += split
         tp["right"] -= split
@@ -258,8 +187,8 @@ class ChassisController:
             push = self._leg_force(legs[leg], leg) if cmd.leg_force is None else cmd.leg_force
             force = push + sign * roll_f
             self._hips(out, leg, legs[leg], force, tp[leg])
-            wheel = _LEG_WHEEL[leg]
-            out.wheel_torque[wheel.esc_id] = wheel.forward_sign * _clamp(wheel_t[leg], P.WHEEL_TORQUE_LIMIT)
+            wheel = LEG_WHEEL[leg]
+            out.wheel_torque[wheel.esc_id] = wheel.forward_sign * clamp(wheel_t[leg], P.WHEEL_TORQUE_LIMIT)
         self._limit_hips(out, cmd.hip_torque_limit)
         out.report = self._report(legs, att, speed, wheel_t, tp)
         return out
@@ -268,14 +197,15 @@ class ChassisController:
         """Mean axle speed along the ground (m/s): the wheels' own while they grip,
         the IMU's (plus the legs' motion) while they slip (``observe`` this tick)."""
         if self.slip.slipping:
-            return self.slip.speed_m_s + _legs_under_body(legs)
-        return _mean_speed(legs)
+            return self.slip.speed_m_s + legs_under_body(legs)
+        return mean_speed(legs)
 
     def _air_step(self, legs: dict, att: Attitude, speed: float, cmd: Command) -> Output:
         """In the air (docs/control.md, in the air): the wheels' torque only levels the body
         (``cmd.air_pitch_hold``, else 0), a leg-angle PD holds each leg vertical
-        (theta -> 0), a leg PD without gravity feed-forward holds ``cmd.leg_length``
-        (or ``cmd.leg_force`` pushes); no roll, no yaw. The position and heading
+        (theta -> 0; with a jump's ``cmd.stance_hold``, at the lean it stood with), a leg PD
+        without gravity feed-forward holds ``cmd.leg_length`` (or ``cmd.leg_force`` pushes);
+        no roll, no yaw. The position and heading
         references follow the robot, so nothing winds up."""
         self.x_ref, self.yaw_ref = self.x, att.yaw
         out = Output(legs=legs)
@@ -285,14 +215,17 @@ class ChassisController:
             s = legs[leg]
             self.leg_ref[leg] = min(max(cmd.leg_length, P.LEG_LENGTH_MIN), P.LEG_LENGTH_MAX)
             wheel_t[leg] = levelling
-            tp[leg] = -(P.AIR_THETA_KP * s.theta + P.AIR_THETA_KD * s.dtheta) if cmd.air_leg_hold else 0.0
+            hold = cmd.stance_hold
+            theta_ref, dtheta_ref = (0.0, 0.0) if hold is None else hold.leg_angle(leg, s.L0, s.dL0)
+            tp[leg] = -(P.AIR_THETA_KP * (s.theta - theta_ref) + P.AIR_THETA_KD * (s.dtheta - dtheta_ref)) \
+                if cmd.air_leg_hold else 0.0
             # the wheel's reaction acts on its leg: the hip passes it on to the body
             tp[leg] += wheel_t[leg]
             self.u_prev[leg] = (0.0, tp[leg])
-            force = cmd.leg_force if cmd.leg_force is not None else _clamp(
+            force = cmd.leg_force if cmd.leg_force is not None else clamp(
                 P.LEG_KP * (self.leg_ref[leg] - s.L0) - P.LEG_KD * s.dL0, P.AIR_LEG_FORCE_LIMIT)
             self._hips(out, leg, s, force, tp[leg])
-            wheel = _LEG_WHEEL[leg]
+            wheel = LEG_WHEEL[leg]
             out.wheel_torque[wheel.esc_id] = wheel.forward_sign * wheel_t[leg]
         self._limit_hips(out, cmd.hip_torque_limit)
         out.report = self._report(legs, att, speed, wheel_t, tp)
@@ -304,116 +237,180 @@ class ChassisController:
 
         A wheel torque T (forward rolling positive) turns the body nose up by T:
         T = kp (pitch - pitch_ref) + kd pitch_rate, nose down positive."""
-        return _clamp(P.AIR_PITCH_KP * (att.pitch - cmd.pitch) + P.AIR_PITCH_KD * att.wy, P.WHEEL_TORQUE_LIMIT)
+        return clamp(P.AIR_PITCH_KP * (att.pitch - cmd.pitch) + P.AIR_PITCH_KD * att.wy, P.WHEEL_TORQUE_LIMIT)
 
     def follow_position(self) -> None:
         """The position reference jumps to where the robot is (no pull back this tick)."""
         self.x_ref = self.x
 
-    def touchdown(self, bus: BusState) -> None:
-        """Landing: the position reference resets to where the robot is and each leg's
-        set point starts from the length it landed with (it then slews back)."""
+    def touchdown(self, bus: BusState, keep_spot: bool = False) -> None:
+        """Landing: each leg's set point starts from the length it landed with (it then
+        slews back); the position reference resets to where the robot is, or with
+        ``keep_spot`` (a flight nobody asked for: a push or a bump threw the wheels off
+        the ground) keeps the position error it had at take-off, so a robot pushed off
+        its spot still walks back to it. Reset, a 5 N s side push's 60 ms hop in the
+        tolerance box made it forget a spot 0.46 m away (`push` ended 0.62 m off)."""
         att = self.attitude(bus)
-        self.x_ref, self.yaw_ref = self.x, att.yaw
+        self.x_ref = self.x - (self.takeoff_error if keep_spot else 0.0)
+        self.yaw_ref = att.yaw
         for leg in LEGS:
             self.leg_ref[leg] = leg_state(bus, leg, att).L0
             self.leg_integral[leg] = 0.0
 
     # -- pieces ----------------------------------------------------------------
     def _track_references(self, cmd: Command, att: Attitude) -> None:
-        target = _clamp(cmd.speed, P.SPEED_LIMIT)
-        step = P.ACCEL_LIMIT * self.dt
-        self.speed_ref += _clamp(target - self.speed_ref, step)
+        target = clamp(cmd.speed, P.SPEED_LIMIT)
+        self.speed_ref, self.accel_ref = motion.speed_set_point(self.speed_ref, self.accel_ref, target, self.dt)
+        self.travel = motion.travel_phase(self.speed_ref, self.accel_ref)
         self.x_ref += self.speed_ref * self.dt
-        if self.speed_ref != 0.0:
-            # moving: speed alone is tracked (a position lead would overshoot the speed
-            # and wind up against a wall); the spot to hold is where it stops
+        if self.travel in (Travel.SPEEDING_UP, Travel.CRUISING):
+            # speed alone is tracked: the robot's lag behind a growing set point, made up
+            # along a position reference, would overshoot the speed (and a wall would
+            # wind it up); a disturbance is taken up by the trim instead (_trim)
             self.x_ref = self.x
-        elif self.trim_hold_s > 0.0:
-            # just stopped: the braking overshoots the spot where the set point reached 0
-            # (0.5 m from 2 m/s). The LQR sees the error clamped (_lqr), so dragging the spot
-            # to within the clamp changes no braking torque; it only spares the walk back
-            # at the clamp's speed (0.3 m/s), which left `sprint` still moving 3.5 s later
-            self.x_ref = self.x - _clamp(self.x - self.x_ref, P.POSITION_ERROR_LIMIT)
+        elif self.travel is Travel.BRAKING or self.trim_hold_s > 0.0:
+            # braking, or just stopped: the position is tracked along the braking curve, so
+            # the LQR's position term brakes too and the spot is where the curve stops. The
+            # robot may still overshoot it; the LQR sees the error clamped (_lqr), so dragging
+            # the spot to within the clamp changes no braking torque; it only spares the walk
+            # back at the clamp's speed (0.3 m/s), which left `sprint` still moving 3.5 s later
+            self.x_ref = self.x - clamp(self.x - self.x_ref, P.POSITION_ERROR_LIMIT)
         # standing, it stays put: pushed away, the robot comes back to its spot, with the
         # error the LQR sees clamped (_lqr), so at a bounded speed
-        self.yaw_ref = _wrap(self.yaw_ref + _clamp(cmd.yaw_rate, P.YAW_RATE_LIMIT) * self.dt)
-        target_lean = turn_lean(self.speed_ref, _clamp(cmd.yaw_rate, P.YAW_RATE_LIMIT))
+        self.yaw_ref = wrap(self.yaw_ref + clamp(cmd.yaw_rate, P.YAW_RATE_LIMIT) * self.dt)
+        target_lean = turn_lean(self.speed_ref, clamp(cmd.yaw_rate, P.YAW_RATE_LIMIT))
         self.lean += (target_lean - self.lean) * min(1.0, self.dt / P.TURN_LEAN_TAU)
         diff = roll_leg_difference(self.roll_set_point(cmd), self.roll_offset)
         targets = leg_targets(cmd.leg_length, diff)
         for leg in LEGS:
-            self.leg_ref[leg] += _clamp(targets[leg] - self.leg_ref[leg], P.LEG_LENGTH_RATE * self.dt)
+            self.leg_ref[leg] += clamp(targets[leg] - self.leg_ref[leg], P.LEG_LENGTH_RATE * self.dt)
 
-    def _trim(self, speed: float, cmd: Command) -> None:
-        """Integrate the position error into ``x_integral`` (the LQR's ix state).
+    def weight_ratio(self) -> float:
+        """The weight the legs carry over the one believed (LEG_GRAVITY_FF): the leg
+        integral holds the difference standing. It scales the hold torque's lean, and
+        with it a hip torque constant off cancels (the hips under-deliver force and
+        torque alike, so both the integral and the hold torque grow by the same factor)."""
+        extra = 0.5 * (self.leg_integral["left"] + self.leg_integral["right"])
+        return max(0.5, 1.0 + extra / P.LEG_GRAVITY_FF)
+
+    def position_error(self, leg_length: float) -> float:
+        """Wheel travel (m) past its set point: the spot is the body's, so with the legs
+        leaning at the balance point (``balance_theta``) the wheels stand that lean's
+        L0 sin(theta) away from it (ahead of the body when the CoM is forward)."""
+        return self.x - self.x_ref + leg_length * math.sin(self.balance_theta)
+
+    def _trim(self, speed: float, cmd: Command, leg_length: float) -> bool:
+        """Integrate the position error (standing) or the speed error (cruising) into
+        ``x_integral`` (the LQR's ix state); True when it integrated standing still and
+        settled (the balance point learns then too).
 
         A constant disturbance (the CoM off the axle, an IMU mounted tilted, a
         drive's torque constant) is held by this integral instead of a standing
-        position error; the trim found standing holds moving. It integrates only
-        standing still and settled, inside the LQR's position clamp:
-        - moving (speed set point not 0) it is frozen: the speed error integrated
-          there, 0.5 s x 0.5 s^-1, made `drive` miss its speed by 0.23 m/s;
-        - for TRIM_SETTLE_S after a stop it stays frozen: the overshoot past the
-          stop and the walk back are the braking's, not a disturbance's (integrated
-          they left 0.04 m s, and `drive` then missed its reverse speed by 0.07 m/s);
-        - outside the clamp (pushed away) the robot walks back on the clamp and the
-          integral keeps what it had (integrating there wound it up to 0.3 m s);
+        position error or a cruising speed error; the trim found standing holds
+        moving and the other way round. It integrates only settled:
+        - standing, the position error inside the LQR's clamp. Outside it (pushed
+          away) the robot walks back on the clamp and the integral only unwinds
+          (``unwind``): integrating there wound it up to 0.3 m s, and frozen, a trim
+          wound up by a steady push that ended with the robot past the clamp held
+          the clamped error's pull for good: the robot crept away at 2-3 cm/s (two
+          tolerance `push` draws ended 0.5 and 0.6 m off their spot);
+        - cruising, the speed error times SPEED_TO_TRIM_S / CRUISE_TRIM_TAU (the
+          trim that asks what the speed error asks, taken over in that time), while
+          the robot is within CRUISE_TRIM_WINDOW of the set point;
+        - on the set point's curve it is frozen, and for CRUISE_SETTLE_S after
+          speeding up and TRIM_SETTLE_S after braking: the lag behind the curve, the
+          overshoot past the stop and the walk back are the robot's, not a
+          disturbance's (the speed-up lag integrated, 0.5 s x 0.5 s^-1, made `drive`
+          miss its speed by 0.23 m/s; a stop's overshoot left 0.04 m s, 0.07 m/s);
         - with ``cmd.trim`` off (in the air, jumping, standing up).
         Bounded by POSITION_INTEGRAL_LIMIT (anti-windup).
         """
-        if self.speed_ref != 0.0:
-            self.trim_hold_s = P.TRIM_SETTLE_S
-            return
+        if self.travel in (Travel.SPEEDING_UP, Travel.BRAKING):
+            self.trim_hold_s = P.CRUISE_SETTLE_S if self.travel is Travel.SPEEDING_UP else P.TRIM_SETTLE_S
+            return False
         self.trim_hold_s = max(0.0, self.trim_hold_s - self.dt)
-        error = self.x - self.x_ref
-        if not cmd.trim or self.trim_hold_s > 0.0 or abs(error) >= P.POSITION_ERROR_LIMIT:
-            return
-        self.x_integral = _clamp(self.x_integral + error * self.dt, P.POSITION_INTEGRAL_LIMIT)
+        if not cmd.trim or self.trim_hold_s > 0.0:
+            return False
+        if self.travel is Travel.CRUISING:
+            error = speed - self.speed_ref
+            if abs(error) < P.CRUISE_TRIM_WINDOW * abs(self.speed_ref):
+                step = SPEED_TO_TRIM_S / P.CRUISE_TRIM_TAU * error * self.dt
+                self.x_integral = clamp(self.x_integral + step, P.POSITION_INTEGRAL_LIMIT)
+            return False
+        error = self.position_error(leg_length)
+        if abs(error) >= P.POSITION_ERROR_LIMIT:
+            self.x_integral = unwind(self.x_integral, clamp(error, P.POSITION_ERROR_LIMIT) * self.dt)
+            return False
+        self.x_integral = clamp(self.x_integral + error * self.dt, P.POSITION_INTEGRAL_LIMIT)
+        return True
 
     def roll_set_point(self, cmd: Command) -> float:
         """Roll set point (rad, > 0 left side up): the command plus the lean into a turn."""
         return cmd.roll + self.lean
 
-    def _lqr(self, leg: LegState, name: str, speed: float, att: Attitude, cmd: Command) -> tuple[float, float]:
-        """u = -K (s - s_ref): wheel torque T and virtual hip torque Tp (N m) of leg ``name``."""
+    def _lqr(self, leg: LegState, name: str, speed: float, att: Attitude, cmd: Command,
+             mean_length: float) -> tuple[float, float]:
+        """u = u_ref - K (s - s_ref): wheel torque T and virtual hip torque Tp (N m) of leg
+        ``name``, about the balance point (theta_ref ``balance_theta``, Tp_ref its hold torque)."""
+        if cmd.stance_hold is not None:
+            return self._lqr_hold(leg, name, att, cmd)
         k = lqr.gain_matrix(leg.L0)
         phi, dphi = -att.pitch, -att.wy  # nose-up body angle and rate
-        err = (leg.theta, leg.dtheta, _clamp(self.x - self.x_ref, P.POSITION_ERROR_LIMIT), speed - self.speed_ref,
-               phi - (-cmd.pitch), dphi, self.x_integral, *self.u_prev[name])
+        hold = self.balance_point.hold_torque
+        t_prev, tp_prev = self.u_prev[name]
+        err = (leg.theta - self.balance_theta - P.LEAN_PER_ACCEL * self.accel_ref, leg.dtheta,
+               clamp(self.position_error(mean_length), P.POSITION_ERROR_LIMIT), speed - self.speed_ref,
+               phi - (-cmd.pitch), dphi, self.x_integral, t_prev, tp_prev - hold)
         # the wheel's share for where the robot is and goes (position, speed and their
         # integral) is limited apart: a hard push asks for far more than the wheel has, and
         # saturating the whole sum would give away the torque that keeps the legs upright
         travel = -sum(k[0][i] * err[i] for i in _TRAVEL)
         t = -sum(g * e for i, (g, e) in enumerate(zip(k[0], err)) if i not in _TRAVEL)
-        t += _clamp(travel, P.SLIP_TRAVEL_TORQUE_LIMIT if self.slip.slipping else P.TRAVEL_TORQUE_LIMIT)
+        t += clamp(travel, P.SLIP_TRAVEL_TORQUE_LIMIT if self.slip.slipping else P.TRAVEL_TORQUE_LIMIT)
+        tp = hold - sum(g * e for g, e in zip(k[1], err))
+        return t, tp
+
+    def _lqr_hold(self, leg: LegState, name: str, att: Attitude, cmd: Command) -> tuple[float, float]:
+        """The LQR while a jump pushes (jump.StanceHold): its references are the leg angle that
+        keeps the hip over its start point and the body's start pitch; no travel terms (the
+        trim's integral held the CoM over the axle standing, the hold keeps it there). The
+        push along a leaning leg needs Tp = -F L0 tan(theta) to stay vertical, through the CoM
+        (the standing trim's Tp, scaled with the push). CoM 3 cm off: 0.028 N m s at
+        take-off, 0.09 with the standing references (in-flight pitch 10 deg, 38 deg)."""
+        k = lqr.gain_matrix(leg.L0)
+        theta_ref, dtheta_ref = cmd.stance_hold.leg_angle(name, leg.L0, leg.dL0)
+        err = (leg.theta - theta_ref, leg.dtheta - dtheta_ref, 0.0, 0.0, cmd.stance_hold.pitch_rad - att.pitch,
+               -att.wy, 0.0, *self.u_prev[name])
+        t = -sum(g * e for g, e in zip(k[0], err))
         tp = -sum(g * e for g, e in zip(k[1], err))
+        if cmd.leg_force is not None:
+            tp -= cmd.leg_force * leg.L0 * math.tan(leg.theta)
         return t, tp
 
     def _split(self, legs: dict) -> float:
         """Tp added to the left leg (and taken from the right) to keep them together."""
         diff = legs["left"].theta - legs["right"].theta
         ddiff = legs["left"].dtheta - legs["right"].dtheta
-        return _clamp(-(P.SPLIT_KP * diff + P.SPLIT_KD * ddiff), P.SPLIT_LIMIT)
+        return clamp(-(P.SPLIT_KP * diff + P.SPLIT_KD * ddiff), P.SPLIT_LIMIT)
 
     def _yaw(self, att: Attitude, cmd: Command) -> float:
-        rate_ref = P.YAW_KP * _wrap(self.yaw_ref - att.yaw) + cmd.yaw_rate
-        return _clamp(P.YAW_RATE_KP * (rate_ref - att.wz), P.YAW_TORQUE_LIMIT)
+        rate_ref = P.YAW_KP * wrap(self.yaw_ref - att.yaw) + cmd.yaw_rate
+        return clamp(P.YAW_RATE_KP * (rate_ref - att.wz), P.YAW_TORQUE_LIMIT)
 
     def _roll(self, att: Attitude, cmd: Command) -> float:
         """Force added to the left leg (taken from the right): level the body."""
         err = self.roll_set_point(cmd) - att.roll  # roll > 0: left side up
         # terrain self-levelling: integrate the roll error into a leg-length difference
         self.roll_offset += P.ROLL_LEVEL_KI * err * self.dt
-        self.roll_offset = _clamp(self.roll_offset, P.ROLL_LEVEL_LIMIT)
-        return _clamp(P.ROLL_KP * err - P.ROLL_KD * att.wx, P.ROLL_FORCE_LIMIT)
+        self.roll_offset = clamp(self.roll_offset, P.ROLL_LEVEL_LIMIT)
+        return clamp(P.ROLL_KP * err - P.ROLL_KD * att.wx, P.ROLL_FORCE_LIMIT)
 
     def _leg_force(self, leg: LegState, name: str) -> float:
         err = self.leg_ref[name] - leg.L0
-        self.leg_integral[name] = _clamp(self.leg_integral[name] + P.LEG_KI * err * self.dt,
+        self.leg_integral[name] = clamp(self.leg_integral[name] + P.LEG_KI * err * self.dt,
                                          P.LEG_INTEGRAL_LIMIT)
         pid = P.LEG_KP * err - P.LEG_KD * leg.dL0 + self.leg_integral[name]
-        return _clamp(pid, P.LEG_FORCE_LIMIT) + P.LEG_GRAVITY_FF * math.cos(leg.theta)
+        return clamp(pid, P.LEG_FORCE_LIMIT) + P.LEG_GRAVITY_FF * math.cos(leg.theta)
 
     def _hips(self, out: Output, leg: str, state: LegState, force: float, tp: float) -> None:
         t1, t4 = fivebar.joint_torques(state.kin, force, tp)
@@ -432,7 +429,9 @@ class ChassisController:
 
     def _report(self, legs: dict, att: Attitude, speed: float, wheel_t: dict, tp: dict) -> ChassisReport:
         return ChassisReport(
-            x_m=self.x, x_ref_m=self.x_ref, x_integral_m_s=self.x_integral, speed_m_s=speed, slipping=self.slip.slipping, speed_ref_m_s=self.speed_ref,
+            x_m=self.x, x_ref_m=self.x_ref, x_integral_m_s=self.x_integral, balance_theta_rad=self.balance_theta,
+            hold_torque_nm=self.balance_point.hold_torque, speed_m_s=speed, slipping=self.slip.slipping,
+            speed_ref_m_s=self.speed_ref,
             pitch_rad=att.pitch, roll_rad=att.roll, yaw_rad=att.yaw, yaw_ref_rad=self.yaw_ref,
             legs={leg: LegReport(legs[leg].L0, self.leg_ref[leg], legs[leg].theta, wheel_t[leg], tp[leg])
                   for leg in LEGS})

@@ -18,6 +18,7 @@ L0_MIN = lqr_gains.L0_MIN  # m, the fit's range; gain_matrix clamps to it
 L0_MAX = lqr_gains.L0_MAX
 DT = lqr_gains.DT  # s, the control period the gains were designed for
 _COEFFS = lqr_gains.COEFFS
+_ARM = lqr_gains.ARM
 GAIN_NAMES = ("theta", "dtheta", "x", "dx", "phi", "dphi", "ix", "T_prev", "Tp_prev")
 
 
@@ -31,3 +32,15 @@ def gain_matrix(L0: float) -> tuple[tuple[float, ...], tuple[float, ...]]:
     length = min(max(L0, L0_MIN), L0_MAX)
     return tuple(tuple(((c3 * length + c2) * length + c1) * length + c0 for c3, c2, c1, c0 in row)
                  for row in _COEFFS)
+
+
+def balance_lean(hold_torque: float, L0: float, limit: float, weight_ratio: float = 1.0) -> float:
+    """Leg angle theta (rad, wheel behind the hip positive) that puts the whole CoM over
+    the axle when the hip holds the body with ``hold_torque`` (N m per leg), at leg
+    length L0 (m, clamped to the fit): sin(theta) = -Tp / (ARM(L0) weight_ratio) (the
+    design's ``static_arm`` scaled by the weight the legs carry over the believed one:
+    the body's term is ~90 % of the arm), bounded by +-``limit`` (rad)."""
+    length = min(max(L0, L0_MIN), L0_MAX)
+    c3, c2, c1, c0 = _ARM
+    arm = (((c3 * length + c2) * length + c1) * length + c0) * weight_ratio
+    return max(-limit, min(limit, -math.asin(max(-1.0, min(1.0, hold_torque / arm)))))

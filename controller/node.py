@@ -20,7 +20,8 @@ from wheelleg.controller import posture
 from wheelleg.controller import support
 from wheelleg.controller.can_node import CanNode
 from wheelleg.controller import params as P
-from wheelleg.controller.chassis import Attitude, ChassisController, Command
+from wheelleg.controller.chassis import ChassisController, Command
+from wheelleg.controller.legs import Attitude
 from wheelleg.controller.jump import JumpSequencer, Phase
 from wheelleg.controller.recovery import Phase as RecoveryPhase
 from wheelleg.controller.recovery import RecoverySequencer
@@ -101,7 +102,7 @@ class Controller:
         if self.mode == Mode.JUMP and previous != Mode.JUMP:
             self.jump.start(forward=self._jump_forward)
         elif previous == Mode.AIRBORNE and self.mode == Mode.BALANCE:
-            self.chassis.touchdown(self.bus)
+            self.chassis.touchdown(self.bus, keep_spot=True)
         if self.mode == Mode.STAND_UP and previous != Mode.STAND_UP and self._lying():
             self.recovery.start()
         elif self.mode != Mode.STAND_UP:
@@ -254,13 +255,15 @@ class Controller:
         steady = not self._jump_forward or (last is not None and (
             abs(last.chassis.speed_m_s - P.JUMP_FORWARD_SPEED) < P.JUMP_RUN_UP_SPEED_TOL
             and all(abs(theta) < P.JUMP_RUN_UP_THETA_TOL for theta in last.leg_angles_rad())))
-        jc = self.jump.step(lengths, touching, steady)
+        angles = last.leg_angles_rad() if last is not None else (0.0, 0.0)
+        pitch = last.chassis.pitch_rad if last is not None else 0.0
+        jc = self.jump.step(lengths, touching, steady, angles, pitch)
         if self.jump.entered == Phase.LAND:
             self.chassis.touchdown(self.bus)
         ahead = self._jump_forward and jc.phase in (Phase.SQUAT, Phase.THRUST, Phase.RETRACT, Phase.FLIGHT)
         cmd.speed, cmd.yaw_rate = (P.JUMP_FORWARD_SPEED if ahead else 0.0), 0.0
         cmd.airborne, cmd.leg_force, cmd.hip_torque_limit = jc.airborne, jc.leg_force, jc.hip_torque_limit
-        cmd.air_pitch_hold = jc.airborne
+        cmd.air_pitch_hold, cmd.stance_hold = jc.airborne, jc.stance_hold
         if jc.leg_length is not None:
             cmd.leg_length = jc.leg_length
 
@@ -272,6 +275,8 @@ class Controller:
             self.fn[leg] = self.support[leg].update(support.leg_measurement(self.bus.joints, leg, state), accel_z)
         self.contact.update(self.fn["left"], self.fn["right"],
                             support.estimate_trusted(state.theta for state in legs.values()))
+        if self.mode in (Mode.BALANCE, Mode.MOVE):  # on its wheels: what the legs carry sizes a jump
+            self.jump.observe_stance(self.fn["left"], self.fn["right"])
 
     def _disabled(self, result: TickResult, now_s: float) -> None:
         """Motors off: a stop frame to every joint each tick.

@@ -17,7 +17,13 @@ LQR_Q = (1.0, 5.0, 100.0, 20.0, 1000.0, 1.0)  # theta, theta_dot, x, x_dot, phi,
 # disturbance (CoM off the axis, IMU tilt) is trimmed out. Tuned with the CoM 3 cm
 # off: 1000 leaves no creep (10.8 cm in the first second, then back); 20000 keeps that
 # under 4.1 cm but its stiffer position/speed gains saturate the wheel in `push` (FALLEN).
-LQR_Q_INTEGRAL = 1000.0
+# With the balance point taking the CoM, what is left for the integral is an IMU mounted
+# tilted (the hold torque's lean is the gravity frame's, the legs' angle is measured in the
+# IMU's: they differ by the tilt). Tolerance-box balance samples with the IMU 1.6-2.9 deg
+# off, max drift (`wheelleg campaign balance --preset tolerance --seed 3`, reruns):
+# 1000: 5.4/3.9/4.1/3.8 cm; 3000: 4.3/3.2/3.4/3.1; 5000: 3.8/2.9 but nominal `fall`
+# toppled again in its recovery; 10000: 3.3/2.6/2.7/2.5 but `jump-step` landed short.
+LQR_Q_INTEGRAL = 3000.0
 # theta_dot 10 -> 5: with the integral in the design the leg's rate weight slowed the
 # lean back that brakes a stop ( `drive` travelled 0.502 m past its stop command, limit
 # 0.5; 0.474 m with 5, 0.454 m with 3; a linear model of the stop gives 0.563/0.536/0.518)
@@ -66,7 +72,29 @@ YAW_TORQUE_LIMIT = 2.0  # N m
 
 # --- motion commands --------------------------------------------------------------
 SPEED_LIMIT = 2.0  # m/s
-ACCEL_LIMIT = 4.0  # m/s^2, slew of the speed set point (Reborn)
+# The speed set point is an S-curve the robot can follow (motion.speed_set_point), the
+# legs are asked to lean for its acceleration (LEAN_PER_ACCEL) and, braking, the position
+# is tracked along it. Before, it slewed at 4 m/s^2 (Reborn) with no lean asked: the LQR
+# leaned the legs on its travel share alone, which saturates (TRAVEL_TORQUE_LIMIT /
+# K_theta = 0.26 rad, ~1.8 m/s^2, where the thighs also near their stops), and `drive`
+# took 0.474 m to stop from 1 m/s, 0.5-1 m with the CoM 2-3 cm off.
+# m/s^2: asks a lean of 0.35 rad (0.2 g: grip down to friction 0.5 has 2.5x margin); past
+# the thighs' stops (0.33 rad from the body at 0.17 m) the body pitches 5-10 deg with them
+ACCEL_LIMIT = 2.0
+# m/s^3: the lean reaches ACCEL_LIMIT's in 0.1 s, near the leg pendulum's own time,
+# sqrt(L0 / g) = 0.13 s; a step asked the wheel's full 5.5 N m to swing the legs (linear model)
+SPEED_JERK = 20.0
+# m/s^3, easing off as the speed arrives: the lean comes back over 0.4 s, three leg
+# pendulum times, so the legs come upright without swinging past it. At 20 m/s^3 they
+# overshot upright by 0.2 rad and surged the speed; a forward jump's run-up then
+# launched mid-swing and `jump-step` landed 21 cm short of the step's edge (10 m/s^3:
+# 9 cm short; 5 m/s^3: 23 cm past it, 17 cm with the old 4 m/s^2 slew). A stop from
+# 1 m/s takes 0.01 m longer.
+SPEED_EASE_JERK = 5.0
+# rad per m/s^2: leg angle theta of the model accelerating steadily with the body level
+# (controller/design/lqr.py acceleration_equilibrium: 0.1765 at L0 = 0.17 m, 0.206 at 0.12,
+# 0.151 at 0.26; the LQR's position and speed terms take up the rest at other lengths)
+LEAN_PER_ACCEL = 0.1765
 POSITION_ERROR_LIMIT = 0.15  # m, position error fed to the LQR is clamped (Skythinker)
 # m s, bound of the position error's integral (the LQR's ix state, anti-windup): holds
 # a CoM ~5 cm off the axle (3 cm needs ~0.6 m s with the designed gains)
@@ -74,6 +102,18 @@ POSITION_INTEGRAL_LIMIT = 1.0
 # s after the speed set point returns to 0 before the position integral moves again:
 # the stop's overshoot and the walk back (~1.5 s from 1 m/s in `drive`) are left out
 TRIM_SETTLE_S = 2.0
+# Cruising (the set point steady, not 0) the trim takes up a steady speed error, the same
+# constant disturbance it holds standing (chassis._trim; a CoM 3 cm off left `drive`
+# 0.1-0.5 m/s off its speed with the trim frozen while moving):
+# s after the set point's curve before it starts: the robot settles on the speed ~0.5 s
+# after the curve (`drive`, 1 m/s); the lag and the overshoot are no disturbance
+CRUISE_SETTLE_S = 0.75
+# s, time constant of that take-over, slower than the balance's own ~0.2 s (0.3 s with the
+# settling at 0.25 s integrated the overshoot after the curve: 0.25 m/s speed error)
+CRUISE_TRIM_TAU = 0.5
+# a speed error over this fraction of the set point is no trim's: held back (a wall) or
+# pushed along, the robot is not where a disturbance would leave it
+CRUISE_TRIM_WINDOW = 0.5
 YAW_RATE_LIMIT = 4.0  # rad/s
 # N m per wheel, largest LQR wheel torque for the travel (position, speed, their integral),
 # limited before the balance terms are added: a 5 N s push asks for far more there, and
@@ -99,6 +139,23 @@ SLIP_GRIP_TOL = 0.05  # m/s ... did, within this
 # N m, while slipping the wheel's share for position and speed (the LQR's travel) is held
 # to this: the floor cannot take more, and asking more only spins the wheel further
 SLIP_TRAVEL_TORQUE_LIMIT = 1.0
+
+# Balance point (estimate.BalancePointObserver, lqr.balance_lean). Measured with
+# `wheelleg run balance --plant com_x_m=0.03`: max body drift 8.5 cm on the position
+# integral alone; learning at 0.2 s 4.3 cm, 0.1 s 3.4, 0.05 s 2.7; a lag of 0.1 s
+# kept for good let the torque of the tolerance box's worst push (CoM 3 cm behind,
+# 1.3 x mass) into the estimate and `push` ran 7 m away; 0.3 s after start-up keeps it 0.02 m from
+# its spot. 3 cm of CoM offset needs ~0.15 rad of lean at 0.17 m.
+BALANCE_POINT_TAU_LEARN = 0.05  # s, lag of the hold torque while learning after start-up
+BALANCE_POINT_LEARN_S = 0.6  # s of standing still learnt at that pace
+BALANCE_POINT_TAU = 0.3  # s, lag afterwards
+# m/s: nothing learnt faster than this nor for SETTLE_S after. A 5 N s sudden push in the
+# learning window (tolerance sample: CoM 2.4 cm back, mass x0.83) took the hold torque from
+# -0.27 to -0.11 N m and `push` ended 1.15 m from its spot; gated, 0.32 m. Start-up with
+# the CoM 3 cm off moves at ~0.3 m/s and keeps learning.
+BALANCE_POINT_STILL = 0.5
+BALANCE_POINT_SETTLE_S = 0.5  # s
+BALANCE_LEAN_LIMIT = 0.35  # rad, largest lean believed (a CoM ~7 cm off the hip)
 
 # --- safety -------------------------------------------------------------------------
 FALL_PITCH = 0.6  # rad, beyond it the robot has fallen (rm_controllers)
@@ -139,19 +196,36 @@ AIR_LEG_FORCE_LIMIT = 40.0  # N, leg PD clamp in the air (no gravity feed-forwar
 # The wheels as reaction wheels in flight: a spin picked up at take-off (a jump with the CoM
 # off the hips: lifting the wheels pulls below and behind it) would land the robot on its
 # tail. Whole robot ~0.035 kg m^2 about its pitch axis at ~15 rad/s: kp = I w^2, kd = 2 I w,
-# split over two wheels. Each wheel's ~0.0024 kg m^2 (rotor reflected) takes up 0.14 N m s
-# (4 rad/s of body spin) in ~30 rad/s of its own speed, well inside the M3508's ~50 rad/s.
+# split over two wheels. What they can take up is small: a wheel's own 0.00023 kg m^2 plus
+# its rotor's J_rotor G ~0.0001 (the reflected J_rotor G^2 = 0.0022 only slows its spin-up)
+# holds ~0.015 N m s at the M3508's ~50 rad/s no-load speed: both wheels together take up
+# less than 1 rad/s of the whole robot's spin (docs/control.md, in the air).
 AIR_PITCH_KP = 4.0  # N m/rad per wheel
 AIR_PITCH_KD = 0.5  # N m s/rad per wheel
 
 # --- jump (controller/jump.py; public jumps mapped to this robot) ---------------------------
 JUMP_SQUAT_LENGTH = 0.12  # m, lowest leg length of the K(L0) fit: the longest stroke
+JUMP_SQUAT_DONE_LENGTH = 0.13  # m, the squat is deep enough below this (the thrust is sized from here)
 JUMP_SQUAT_MIN_S = 0.15  # s, settle in the squat before pushing
 JUMP_SQUAT_TIMEOUT = 1.5  # s, push anyway if the squat (and a forward run-up) is not reached
-JUMP_THRUST_FORCE = 100.0  # N per leg on top of gravity, Hermite decay over the stroke
 JUMP_THRUST_END_LENGTH = 0.25  # m, thrust ends near full stretch (K fit ends at 0.26)
 JUMP_THRUST_TIMEOUT = 0.25  # s
 JUMP_HIP_TORQUE_LIMIT = 12.0  # N m, the CyberGear's peak, only while thrusting/retracting
+# The thrust is sized for the weight measured standing (controller/jump.py, plan_thrust):
+# m, the body's rise once the wheels are off. With the nominal robot's measured 15.0 N per
+# leg its work from JUMP_SQUAT_DONE_LENGTH is 6.0 J per leg, the open-loop thrust's (a 100 N
+# Hermite on 17 N) 5.7 J and a little more: the nominal jump as high as before. A deeper
+# squat (a forward jump's run-up waits in it, ~0.11 m) pushes longer: the work grows
+JUMP_RISE = 0.172
+# s, low-pass of the standing support force: balancing sways it (0.14 N std nominal, 1.3 N with
+# the body x1.4 and hips x0.85, over 0.4-0.8 s of `jump`); settled 4 tau before `jump` presses at 0.8 s
+JUMP_WEIGHT_TAU = 0.2
+JUMP_CARRIED_RANGE = (0.5, 2.5)  # x LEG_GRAVITY_FF: a weight read outside this is held to it
+JUMP_THRUST_TORQUE_SHARE = 0.85  # of JUMP_HIP_TORQUE_LIMIT for the push; the rest for balance (Tp) and roll
+JUMP_AMPLITUDE_MAX = 1000.0  # N, bisection bound: far above every push_limit (125-182 N over the stroke)
+# |sin(theta)| the thrust's leg-angle hold asks at most (jump.hold_leg_angle): 0.5 is 30 deg,
+# far past the ~0.15 rad a 3 cm CoM offset leans the legs at the squat
+JUMP_HOLD_SINE_LIMIT = 0.5
 # retract with the in-air leg PD towards a short target (its damping stops the legs
 # before the mechanical stop: an open-loop pull slammed them into it at 0.105 m)
 JUMP_RETRACT_TARGET = 0.13  # m
@@ -173,6 +247,8 @@ FALL_ROLL_AIR = 1.2  # rad
 RECOVERY_TUCK_LENGTH = 0.12  # m, legs pulled short (lowest of the K fit): hips down to the wheels
 RECOVERY_TUCK_MIN_S = 0.3  # s, the first ticks after enabling still see the fall's leg data
 RECOVERY_TUCK_TIMEOUT = 1.0  # s
-RECOVERY_PITCH_RATE = 0.5  # rad/s, the pitch set point ramps from lying (~0.8 rad) to level in ~1.6 s
+# rad/s, the pitch set point's fastest ramp from lying (~0.8 rad) to level (~1.6 s); a body that
+# rises faster takes the set point with it (recovery.next_pitch_ref): `fall` is level ~0.5 s after TILT_UP begins
+RECOVERY_PITCH_RATE = 0.5
 RECOVERY_TILT_TIMEOUT = 4.0  # s
 RECOVERY_FALL_PITCH = 1.3  # rad, while recovering only a body past this has fallen again

@@ -11,7 +11,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from wheelleg.controller.chassis import LEGS, ChassisReport
+from wheelleg.controller.chassis import ChassisReport
+from wheelleg.controller.legs import LEGS
 from wheelleg.controller.jump import Phase
 
 
@@ -38,6 +39,8 @@ DEBUG_FIELDS = {
     "x": "wheel travel since the last reset (m)",
     "x_ref": "position reference (m)",
     "x_integral": "integral of the position error, the LQR's trim state (m s)",
+    "balance_theta": "leg angle of the balance point the LQR holds (estimate.BalancePointObserver) (rad)",
+    "hold_torque": "hip torque per leg that holds the body at the balance point (N m)",
     "speed": "axle speed along the ground, mean of both wheels; the IMU's figure while they slip (m/s)",
     "slipping": "1 while the wheels' speed and the IMU's part (estimate.SlipObserver), else 0",
     "speed_ref": "speed reference after the acceleration limit (m/s)",
@@ -58,7 +61,8 @@ DEBUG_FIELDS = {
 def debug_record(last: LastOutput) -> dict:
     """The trace's flat debug record (key -> number) of ``last``; read by no control path."""
     c = last.chassis
-    record = {"x": c.x_m, "x_ref": c.x_ref_m, "x_integral": c.x_integral_m_s, "speed": c.speed_m_s,
+    record = {"x": c.x_m, "x_ref": c.x_ref_m, "x_integral": c.x_integral_m_s,
+              "balance_theta": c.balance_theta_rad, "hold_torque": c.hold_torque_nm, "speed": c.speed_m_s,
               "slipping": float(c.slipping), "speed_ref": c.speed_ref_m_s,
               "pitch": c.pitch_rad, "roll": c.roll_rad, "yaw": c.yaw_rad, "yaw_ref": c.yaw_ref_rad}
     for leg in LEGS:

@@ -229,7 +229,8 @@ class Physics(World):
         (shaft angle 0), at the origin facing +x, settled at rest, time 0.
 
         As a person would put it down: on its wheels tilted slightly nose down
-        (so it always topples forward onto the front of its body) with the hips
+        (so it topples forward onto the front of its body; with the body's CoM
+        6-7 mm or more behind the nominal it goes back onto its tail) with the hips
         held on their stops by a position hold while it falls (the impact would
         otherwise fling the limp legs off their stops), then released to settle
         with zero torque. Its weight keeps the thighs on their stops. All of it

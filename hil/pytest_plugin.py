@@ -28,6 +28,7 @@ environment where the package is installed): the rig is imported on first use.
 from __future__ import annotations
 
 import argparse
+import hashlib
 import json
 import re
 from dataclasses import dataclass, field
@@ -147,6 +148,19 @@ class PlannedRun:
                           f"  rerun:   {rerun_command(meta)}"])
 
 
+DIR_NAME_MAX = 120  # characters of a run's directory name (file systems allow 255 bytes)
+
+
+def _dir_name(words: str) -> str:
+    """A directory name for a run: its words made path-safe; past DIR_NAME_MAX (a
+    campaign draw's dozen overrides) cut, with a digest of the whole to keep it unique."""
+    name = re.sub(r"[^A-Za-z0-9_.-]", "_", words)
+    if len(name) <= DIR_NAME_MAX:
+        return name
+    digest = hashlib.sha1(words.encode()).hexdigest()[:12]
+    return f"{name[:DIR_NAME_MAX - 13]}-{digest}"
+
+
 class _RunCache:
     def __init__(self, out_dir: Path, interface: str, channels: tuple[str, str]):
         self.out_dir, self.interface, self.channels = out_dir, interface, channels
@@ -169,7 +183,7 @@ class _RunCache:
         duration = None if duration is None else float(duration)
         name = scenarios.qualified_name(found)
         words = [f"{name}-seed{int(seed)}-{duration or 'full'}s", *(f"{k}={v!r}" for k, v in overrides)]
-        out_dir = self.out_dir / re.sub(r"[^A-Za-z0-9_.-]", "_", "-".join(words))
+        out_dir = self.out_dir / _dir_name("-".join(words))
         return PlannedRun(name, int(seed), duration, overrides, out_dir, *run_paths(out_dir, found.name))
 
     def get(self, planned: PlannedRun) -> RigRun:

@@ -4,7 +4,7 @@ import random
 
 import pytest
 
-from wheelleg.controller import estimate
+from wheelleg.controller import estimate, lqr
 from wheelleg.controller import params as P
 
 DT = P.CONTROL_PERIOD
@@ -97,3 +97,59 @@ def test_an_estimate_that_drifted_while_slipping_does_not_hold_the_flag():
         slipping = obs.update(0.0, 1.0)
     assert not slipping
     assert obs.speed_m_s == pytest.approx(1.0, abs=0.01)
+
+
+# -- balance point ------------------------------------------------------------------
+def test_balance_point_learns_fast_after_start_up_then_slowly():
+    obs = estimate.BalancePointObserver(0.002, tau_learn_s=0.05, learn_s=0.6, tau_s=0.3)
+    for _ in range(50):  # 0.1 s = 2 lags
+        obs.update(0.4, 0.0, standing=True)
+    assert 0.4 * 0.8 < obs.hold_torque < 0.4 * 0.9  # 1 - e^-2 = 0.86
+    for _ in range(250):  # to 0.6 s: learnt
+        obs.update(0.4, 0.0, standing=True)
+    held = obs.hold_torque
+    for _ in range(50):  # 0.1 s of another torque, at the slow lag
+        obs.update(-2.0, 0.0, standing=True)
+    assert held - obs.hold_torque == pytest.approx(2.4 * (1 - math.exp(-0.1 / 0.3)), rel=0.01)
+
+
+def test_balance_point_learns_nothing_moving_nor_just_after():
+    obs = estimate.BalancePointObserver(0.002, 0.05, 0.6, 0.3, still_m_s=0.5, settle_s=0.5)
+    obs.update(1.0, 0.0, standing=False)  # not standing (moving, in the air, beyond the clamp)
+    assert obs.hold_torque == 0.0
+    obs.update(1.0, 0.6, standing=True)  # a push has it rolling
+    for _ in range(248):  # 0.496 s after: still settling
+        obs.update(1.0, 0.1, standing=True)
+    assert obs.hold_torque == 0.0
+    for _ in range(2):
+        obs.update(1.0, 0.1, standing=True)
+    assert obs.hold_torque > 0.0
+
+
+def test_balance_lean_puts_the_com_over_the_axle():
+    """sin(theta) = -Tp / arm, the arm the design's static moment balance (fitted)."""
+    from wheelleg.controller.design import lqr as design
+
+    for L0 in (0.12, 0.17, 0.26):
+        arm = design.static_arm(L0)
+        theta = lqr.balance_lean(0.3, L0, limit=1.0)
+        assert math.sin(theta) == pytest.approx(-0.3 / arm, rel=1e-3)
+    assert lqr.balance_lean(0.0, 0.17, 0.35) == 0.0
+    assert lqr.balance_lean(5.0, 0.17, 0.35) == -0.35  # a hold torque past belief is bounded
+    assert lqr.balance_lean(-5.0, 0.17, 0.35) == 0.35
+
+
+def test_static_arm_is_the_moment_of_body_and_leg_about_the_axle():
+    """A 1.42 kg half body 3 cm off its hip needs 0.42 N m at the hip and ~0.16 rad of lean at 0.17 m."""
+    from wheelleg.controller.design import lqr as design
+
+    hold = design.BODY_MASS_SIDE * 9.81 * 0.03
+    assert 0.13 < -lqr.balance_lean(hold, 0.17, 1.0) < 0.19
+
+
+def test_a_heavier_body_needs_less_lean_for_the_same_hold_torque():
+    """The hold torque M g d grows with the true mass M: the lean it implies is divided by
+    the weight the legs carry over the believed one, so d (the CoM) comes out the same."""
+    nominal = lqr.balance_lean(0.4, 0.17, 1.0)
+    heavy = lqr.balance_lean(0.4 * 1.4, 0.17, 1.0, weight_ratio=1.4)
+    assert heavy == pytest.approx(nominal, rel=1e-9)

@@ -1,8 +1,15 @@
-"""The jump phase table (controller/jump.py) and the modes it adds."""
+"""The jump phase table (controller/jump.py), the thrust's sizing and the modes it adds."""
+import math
 from dataclasses import replace
 
+import pytest
+
+from wheelleg.controller import constants as C
+from wheelleg.controller import fivebar
 from wheelleg.controller import params as P
-from wheelleg.controller.jump import PHASES, JumpSequencer, JumpView, Phase, next_phase
+from wheelleg.controller.jump import (PHASES, JumpSequencer, JumpView, Phase, StanceWeight, Thrust, hold_leg_angle,
+                                      next_phase, plan_thrust, push_limit, stroke_work, takeoff_work,
+                                      thrust_amplitude, thrust_force)
 from wheelleg.controller.modes import Inputs, Mode, Switch, next_mode
 
 DT = P.CONTROL_PERIOD
@@ -47,7 +54,7 @@ def test_sequencer_runs_a_whole_jump_and_commands_each_phase():
             break
     assert seq.done and list(seen) == [Phase.SQUAT, Phase.THRUST, Phase.RETRACT, Phase.FLIGHT, Phase.LAND, Phase.DONE]
     assert not seen[Phase.SQUAT].airborne and seen[Phase.SQUAT].leg_length == P.JUMP_SQUAT_LENGTH
-    assert seen[Phase.THRUST].leg_force > P.JUMP_THRUST_FORCE  # full push at the bottom of the stroke
+    assert seen[Phase.THRUST].leg_force > 5 * P.LEG_GRAVITY_FF  # full push at the bottom of the stroke
     assert seen[Phase.THRUST].hip_torque_limit > P.HIP_TORQUE_LIMIT
     assert seen[Phase.RETRACT].airborne and seen[Phase.RETRACT].leg_length < seen[Phase.FLIGHT].leg_length
     assert seen[Phase.FLIGHT].airborne and seen[Phase.FLIGHT].leg_length == P.JUMP_LAND_LENGTH
@@ -89,3 +96,100 @@ def test_a_tumble_in_the_air_turns_torque_off_and_estop_wins_everywhere():
         assert next_mode(mode, replace(CALM, switch=Switch.ESTOP, fallen=True)) == Mode.ESTOP
     assert next_mode(Mode.FALLEN, CALM) == Mode.FALLEN  # stays down until the operator asks
     assert next_mode(Mode.FALLEN, replace(CALM, reenable=True)) == Mode.STAND_UP
+
+
+# -- the thrust sized for the measured weight (jump.plan_thrust and its parts) -----------------
+
+NOMINAL_CARRIED_N = 15.0  # N per leg the nominal robot's legs carry standing (measured in the rig)
+HEAVY_CARRIED_N = 28.0  # N: body x1.4 with hips x0.85 as strong as believed, in the hips' torque units
+
+
+def _upright_hip_torque(push_n: float, length_m: float) -> float:
+    """Largest |hip torque| (N m) of an upright leg of ``length_m`` pushing ``push_n``."""
+    kin = fivebar.forward_kinematics(*fivebar.inverse_kinematics(length_m, math.pi / 2))
+    return max(abs(t) for t in fivebar.joint_torques(kin, push_n, 0.0))
+
+
+STROKE = [P.JUMP_SQUAT_DONE_LENGTH + i * 0.002 for i in range(61)]  # m, 0.13 .. 0.25
+
+
+@pytest.mark.parametrize("carried_n", [9.0, NOMINAL_CARRIED_N, 22.0, HEAVY_CARRIED_N])
+def test_the_thrust_does_the_work_for_the_commanded_rise_whatever_the_weight(carried_n):
+    amplitude = thrust_amplitude(carried_n, P.JUMP_SQUAT_DONE_LENGTH)
+    work = stroke_work(Thrust(carried_n, amplitude), P.JUMP_SQUAT_DONE_LENGTH)
+    assert work == pytest.approx(takeoff_work(carried_n), rel=1e-4)
+    assert amplitude < P.JUMP_AMPLITUDE_MAX  # reached, not given up on
+
+
+def test_a_heavier_body_gets_more_work_and_a_harder_push_at_every_length():
+    light, heavy = plan_thrust(NOMINAL_CARRIED_N), plan_thrust(HEAVY_CARRIED_N)
+    assert takeoff_work(HEAVY_CARRIED_N) > 1.2 * takeoff_work(NOMINAL_CARRIED_N)
+    assert heavy.amplitude_n > light.amplitude_n
+    assert all(thrust_force(heavy, x) >= thrust_force(light, x) for x in STROKE)
+    assert thrust_force(heavy, 0.2) > thrust_force(light, 0.2) + 10.0
+
+
+def test_the_heavy_push_stays_within_the_hip_torque_limit_and_still_does_its_work():
+    heavy = plan_thrust(HEAVY_CARRIED_N)
+    allowed = P.JUMP_THRUST_TORQUE_SHARE * P.JUMP_HIP_TORQUE_LIMIT
+    assert all(_upright_hip_torque(thrust_force(heavy, x), x) <= allowed * 1.005 for x in STROKE)
+    # the limit binds at the bottom of the stroke: the work comes from pushing longer near it
+    bottom = P.JUMP_SQUAT_DONE_LENGTH
+    assert thrust_force(heavy, bottom) == pytest.approx(push_limit(bottom), rel=0.01)
+    assert stroke_work(heavy, P.JUMP_SQUAT_DONE_LENGTH) == pytest.approx(takeoff_work(HEAVY_CARRIED_N), rel=1e-4)
+
+
+def test_the_push_falls_to_the_carried_weight_at_the_end_of_the_stroke():
+    thrust = plan_thrust(HEAVY_CARRIED_N)
+    assert thrust_force(thrust, P.JUMP_THRUST_END_LENGTH + 0.01) == pytest.approx(HEAVY_CARRIED_N)
+
+
+def test_a_bad_weight_reading_sizes_no_wild_push():
+    lo, hi = (k * P.LEG_GRAVITY_FF for k in P.JUMP_CARRIED_RANGE)
+    assert plan_thrust(0.0).carried_n == lo
+    assert plan_thrust(1e6).carried_n == hi
+    assert plan_thrust(float("nan")) == plan_thrust(P.LEG_GRAVITY_FF)
+
+
+def test_the_stance_weight_is_the_mean_support_force_less_the_axles():
+    stance = StanceWeight(DT)
+    assert stance.carried_n == P.LEG_GRAVITY_FF  # nothing measured yet: the believed weight
+    for _ in range(round(2.0 / DT)):
+        stance.update(30.0, 32.0)
+        stance.update(float("nan"), 32.0)  # a bad estimate is left out
+    assert stance.carried_n == pytest.approx(31.0 - fivebar.MASS_AT_AXLE * C.GRAVITY, abs=1e-3)
+
+
+@pytest.mark.parametrize("offset_m", [0.02, -0.015, 0.0])
+def test_the_hold_keeps_the_hip_over_its_ground_point(offset_m):
+    rate = 2.0  # m/s of leg extension
+    for length in (0.13, 0.19, 0.25):
+        theta, dtheta = hold_leg_angle(offset_m, length, rate)
+        assert length * math.sin(theta) == pytest.approx(offset_m)
+        ahead, _ = hold_leg_angle(offset_m, length + rate * 1e-6, rate)
+        assert dtheta == pytest.approx((ahead - theta) / 1e-6, abs=1e-4)
+
+
+def _thrust_command(carried_fn_n: float, forward: bool = False):
+    """Run a sequencer that stood on legs reading ``carried_fn_n`` into THRUST; its first THRUST command."""
+    seq = JumpSequencer(DT)
+    for _ in range(round(1.0 / DT)):
+        seq.observe_stance(carried_fn_n, carried_fn_n)
+    seq.start(forward=forward)
+    lengths, angles = (0.125, 0.127), (0.1, 0.12)
+    for _ in range(round(1.0 / DT)):
+        cmd = seq.step(lengths, True, True, angles, 0.03)
+        if cmd.phase == Phase.THRUST:
+            return cmd
+    raise AssertionError("never reached THRUST")
+
+
+def test_the_sequencer_pushes_harder_after_standing_heavier_and_holds_the_lean_it_stood_with():
+    axle_weight = fivebar.MASS_AT_AXLE * C.GRAVITY
+    light = _thrust_command(NOMINAL_CARRIED_N + axle_weight)
+    heavy = _thrust_command(HEAVY_CARRIED_N + axle_weight)
+    assert heavy.leg_force > light.leg_force + 10.0
+    hold = heavy.stance_hold
+    assert hold.axle_offset_m == pytest.approx((0.125 * math.sin(0.1), 0.127 * math.sin(0.12)))
+    assert hold.pitch_rad == 0.03
+    assert _thrust_command(NOMINAL_CARRIED_N + axle_weight, forward=True).stance_hold is None

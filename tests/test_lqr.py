@@ -1,4 +1,5 @@
 """The LQR gain table: model, fit, stability, signs, and that the committed table is current."""
+import dataclasses
 import math
 
 import numpy as np
@@ -89,6 +90,22 @@ def test_leg_mass_properties_are_consistent():
     assert design.leg_mass_properties(0.26).L > design.leg_mass_properties(0.12).L
 
 
+@pytest.mark.parametrize("L0", [P.LEG_LENGTH_MIN, P.LEG_LENGTH_NOMINAL, P.LEG_LENGTH_MAX])
+def test_acceleration_equilibrium_accelerates_steadily_in_the_lagrangian_model(L0):
+    """Leaning theta with T and Tp of 1 m/s^2, the independent model gains 1 m/s^2 and
+    keeps every angle and rate (at any speed: the speed enters no force)."""
+    theta, t, tp = design.acceleration_equilibrium(L0)
+    a, b = lagrangian_model(L0)
+    rates = a @ np.array([theta, 0.0, 0.0, 0.7, 0.0, 0.0]) + b @ np.array([t, tp])
+    np.testing.assert_allclose(rates, [0.0, 0.0, 0.7, 1.0, 0.0, 0.0], atol=1e-9)
+    assert 0.1 < theta < 0.3  # rad per m/s^2: the wheel behind the hip, leaning into it
+
+
+def test_the_chassis_lean_per_acceleration_is_the_models_at_the_nominal_length():
+    lean = design.acceleration_equilibrium(P.LEG_LENGTH_NOMINAL)[0]
+    assert P.LEAN_PER_ACCEL == pytest.approx(lean, rel=1e-3)
+
+
 def test_open_loop_is_unstable():
     for L0 in (P.LEG_LENGTH_MIN, P.LEG_LENGTH_NOMINAL, P.LEG_LENGTH_MAX):
         a, b = design.continuous_model(L0)
@@ -145,10 +162,12 @@ def test_committed_table_is_what_the_script_produces(fresh_design):
 def test_table_check_catches_a_stale_table(fresh_design, tmp_path, monkeypatch, capsys):
     stale = fresh_design.coeffs.copy()
     stale[1, 4, 3] *= 1.001  # Tp's phi gain, constant term
-    bad = design.Design(fresh_design.dt, fresh_design.grid, fresh_design.K, stale, fresh_design.fit_error)
+    bad = dataclasses.replace(fresh_design, coeffs=stale)
     path = tmp_path / "lqr_gains.py"
     path.write_text(design.render(bad))
     assert design.table_matches(fresh_design, design.load_table(path)) != []
+    path.write_text(design.render(dataclasses.replace(fresh_design, arm_coeffs=fresh_design.arm_coeffs * 1.001)))
+    assert any(p.startswith("ARM") for p in design.table_matches(fresh_design, design.load_table(path)))
     monkeypatch.setattr(design, "GAINS_PATH", path)
     assert design.main(["--check"]) == 1
     assert "stale table" in capsys.readouterr().err

@@ -134,3 +134,15 @@ def test_loading_the_plugin_does_not_import_the_rig(name):
             "print(bad); sys.exit(1 if bad else 0)")
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert done.returncode == 0, done.stdout + done.stderr
+
+
+def test_a_run_with_a_dozen_overrides_gets_a_short_unique_directory():
+    """A campaign draw's twelve overrides made a 260-character name (OSError: file name
+    too long); cut names keep a digest of the whole, so two draws never share one."""
+    from wheelleg.hil.pytest_plugin import DIR_NAME_MAX, _dir_name
+    words = "push-seed1-fulls-" + "-".join(f"supply_voltage_{i}={0.123456789 * i!r}" for i in range(12))
+    other = words.replace("voltage_11", "voltage_12")
+    assert len(words) > 255
+    assert len(_dir_name(words)) <= DIR_NAME_MAX
+    assert _dir_name(words) != _dir_name(other)
+    assert _dir_name("balance-seed0-fulls") == "balance-seed0-fulls"

@@ -6,7 +6,7 @@ import pytest
 
 from wheelleg.controller import constants as C
 from wheelleg.controller import params as P
-from wheelleg.controller.chassis import leg_targets, roll_leg_difference, turn_lean
+from wheelleg.controller.legs import leg_targets, roll_leg_difference, turn_lean
 from wheelleg.hil.scenarios import ground
 
 GROUND = ("slope", "bump", "step-down", "turn-fast", "sprint")

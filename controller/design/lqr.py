@@ -107,6 +107,20 @@ def leg_mass_properties(L0: float) -> LegMass:
     return LegMass(L=L0 - lm, LM=lm, Ip=ip)
 
 
+def static_arm(L0: float) -> float:
+    """g (M L0 + m_p L) (N m per unit sin theta) of one side at leg length L0 (m).
+
+    Standing still (no acceleration, T = 0, phi = 0), the leg's moment balance (1.6)
+    about the wheel axle reads (Pf L + Pm LM) sin(theta) + Tp = 0 with Pm = M g and
+    Pf = (M + m_p) g, so the hip torque Tp that holds a body whose CoM sits off the hip
+    goes with the leg angle that puts the whole CoM over the axle:
+    sin(theta) = -Tp / static_arm(L0). The controller's balance point (controller/lqr.py
+    ``balance_lean``) is this relation, fitted.
+    """
+    leg = leg_mass_properties(L0)
+    return C.GRAVITY * ((BODY_MASS_SIDE + C.MASS_LEG) * leg.L + BODY_MASS_SIDE * leg.LM)
+
+
 # --- the symbolic model -----------------------------------------------------------
 @functools.lru_cache(maxsize=1)
 def _linearised_model():
@@ -157,6 +171,21 @@ def continuous_model(L0: float) -> tuple[np.ndarray, np.ndarray]:
         a[pos + 1] = acc_x[row]
         b[pos + 1] = acc_u[row]
     return a, b
+
+
+def acceleration_equilibrium(L0: float) -> np.ndarray:
+    """(theta rad, T N m, Tp N m) per m/s^2 of steady acceleration at leg length L0 (m), shape (3,).
+
+    Accelerating steadily at a with the body level (phi = 0, all rates constant), the
+    model's theta, x and phi rows of A s + B u read (0, a, 0); neither x nor its speed
+    enters them, so theta, T and Tp follow from one 3x3 solve, each linear in a. The
+    legs lean into the acceleration (theta > 0 speeding up: the wheel behind the hip);
+    controller/params.py LEAN_PER_ACCEL is theta here at the nominal leg length.
+    """
+    a, b = continuous_model(L0)
+    rows = [2 * i + 1 for i in range(3)]  # ddtheta, ddx, ddphi
+    unknowns = np.column_stack([a[rows, STATE_NAMES.index("theta")], b[rows]])
+    return np.linalg.solve(unknowns, np.array([0.0, 1.0, 0.0]))
 
 
 def discretise(a: np.ndarray, b: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
@@ -219,6 +248,7 @@ class Design:
     K: np.ndarray  # (n, 2, 9) exact gains at the grid
     coeffs: np.ndarray  # (2, 9, 4) cubic in L0, highest power first
     fit_error: float  # max|K_fit - K| / max|K| over FIT_SAMPLES leg lengths
+    arm_coeffs: np.ndarray  # (4,) ``static_arm`` as a cubic in L0, highest power first
 
 
 def design(dt: float = P.CONTROL_PERIOD, points: int = P.LQR_GRID_POINTS,
@@ -233,7 +263,8 @@ def design(dt: float = P.CONTROL_PERIOD, points: int = P.LQR_GRID_POINTS,
     samples = np.linspace(l0_min, l0_max, FIT_SAMPLES)
     exact = np.array([gains(L0, dt) for L0 in samples])
     err = float(np.max(np.abs(evaluate_fit(coeffs, samples) - exact)) / np.max(np.abs(exact)))
-    return Design(dt, grid, k, coeffs, err)
+    arm = np.polyfit(grid, [static_arm(L0) for L0 in grid], FIT_ORDER)
+    return Design(dt, grid, k, coeffs, err, arm)
 
 
 # --- the generated module -----------------------------------------------------------
@@ -261,6 +292,8 @@ def render(d: Design) -> str:
         "hip torque per leg (drives theta positive); ix the position error's integral",
         "(m s), T_prev/Tp_prev last period's command (N m). See controller/design/lqr.py.",
         "COEFFS[i][j] = (c3, c2, c1, c0): K[i][j] = ((c3 L0 + c2) L0 + c1) L0 + c0.",
+        "ARM = (c3, c2, c1, c0): g (M L0 + m_p L) in N m, the static moment arm of the",
+        "balance point (design.static_arm): sin(theta) = -Tp / ARM(L0) standing still.",
         '"""',
         "",
         f"DT = {d.dt!r}",
@@ -280,6 +313,8 @@ def render(d: Design) -> str:
             lines.append(f"        ({c}),  # {state}")
         lines.append("    ),")
     lines.append(")")
+    lines.append("")
+    lines.append(f"ARM = ({', '.join(repr(float(v)) for v in d.arm_coeffs)})")
     return "\n".join(lines) + "\n"
 
 
@@ -314,6 +349,9 @@ def table_matches(d: Design, table, rtol: float = TABLE_RTOL) -> list[str]:
     worst = float(np.max(np.abs(coeffs - d.coeffs) / scale))
     if worst > rtol:
         problems.append(f"COEFFS differ by {worst:.3e} (relative), more than {rtol:g}")
+    arm = np.array(getattr(table, "ARM", ()), dtype=float)
+    if arm.shape != d.arm_coeffs.shape or np.max(np.abs(arm - d.arm_coeffs)) > rtol * np.max(np.abs(d.arm_coeffs)):
+        problems.append(f"ARM {tuple(arm)} differs from the design's {tuple(d.arm_coeffs)}")
     return problems
 
 

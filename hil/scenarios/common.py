@@ -56,6 +56,23 @@ def pitch_below(limit_rad: float, after_s: float, until_s: float = np.inf) -> Ch
     return Check(f"|pitch| < {limit_rad / DEG:g} deg after {after_s:g} s", fn)
 
 
+def pitch_steady(wobble_rad: float, lean_rad: float, after_s: float) -> Check:
+    """After ``after_s``: |pitch - its median| < ``wobble_rad`` (the balance) and |median| <
+    ``lean_rad`` (upright). Apart because a body standing still leans as its IMU is
+    mounted: a 3 deg mounting tilt leaves it 3 deg off whatever the controller does
+    (nothing on the robot measures the mount), while a wobble is the controller's."""
+    def fn(run: RunData):
+        pitch = run.window("pitch", after_s, np.inf)
+        lean = float(np.median(pitch)) if len(pitch) else 0.0
+        wobble = max_abs(pitch - lean, f"pitch after {after_s:g} s")
+        ok = wobble < wobble_rad and abs(lean) < lean_rad
+        return ok, (f"pitch {lean / DEG:.2f} deg +- {wobble / DEG:.2f} after {after_s:g} s "
+                    f"(limits {lean_rad / DEG:g} and +-{wobble_rad / DEG:g})")
+
+    return Check(f"pitch steady within {wobble_rad / DEG:g} deg of a lean < {lean_rad / DEG:g} deg "
+                 f"after {after_s:g} s", fn)
+
+
 def drift_below(limit_m: float) -> Check:
     def fn(run: RunData):
         x, y = run.state["x"], run.state["y"]

@@ -1,0 +1,134 @@
+"""The virtual legs as the chassis sees them, and their set points: pure functions.
+
+The IMU's attitude, each leg's virtual-leg state from its two hip motors (five-bar
+forward kinematics, docs/control.md), the wheels' speed along the ground, and the leg
+length targets that level the body or lean it into a turn. Sign conventions are those
+of controller/constants.py: theta > 0 with the wheel behind the hip, pitch nose down
+positive.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from wheelleg.controller import constants as C
+from wheelleg.controller import fivebar
+from wheelleg.controller import params as P
+from wheelleg.controller.attitude import euler_zyx
+from wheelleg.controller.state import BusState, ImuReading
+
+LEGS = ("left", "right")
+
+
+@dataclass(frozen=True)
+class Attitude:
+    """Body attitude from the IMU: ZYX angles (rad), body rates (rad/s)."""
+
+    roll: float
+    pitch: float  # nose down positive
+    yaw: float
+    wx: float
+    wy: float
+    wz: float
+
+
+def attitude(imu: ImuReading, gyro_bias: tuple = (0.0, 0.0, 0.0)) -> Attitude:
+    """Euler angles of the IMU quaternion (ZYX) and its body rates less ``gyro_bias`` (rad/s, (3,))."""
+    return Attitude(*euler_zyx(imu.quat), *(g - b for g, b in zip(imu.gyro, gyro_bias)))
+
+
+@dataclass(frozen=True)
+class LegState:
+    """One leg's virtual-leg state, from its two hip motors and the IMU."""
+
+    kin: object  # fivebar.LegKinematics
+    L0: float  # m
+    dL0: float  # m/s
+    theta: float  # rad, from vertical, wheel behind hip positive
+    dtheta: float  # rad/s
+    wheel_speed: float  # m/s, axle speed along the ground, forward positive
+
+
+LEG_WHEEL = {w.leg: w for w in C.WHEELS}  # leg name -> its wheel drive (constants.Wheel)
+
+
+def leg_state(bus: BusState, leg: str, att: Attitude) -> LegState:
+    """Virtual-leg state of ``leg`` from its joint feedback and the attitude."""
+    front, rear = C.LEG_JOINTS[leg]
+    fa, fe = bus.joints[front.motor_id], bus.joints[rear.motor_id]
+    phi1, phi4 = fivebar.phi_from_shaft(front, fa.position), fivebar.phi_from_shaft(rear, fe.position)
+    dphi1, dphi4 = front.sign * fa.speed, rear.sign * fe.speed
+    kin = fivebar.forward_kinematics(phi1, phi4)
+    dL0, dphi0 = fivebar.leg_velocity(kin, dphi1, dphi4)
+    body_rate = -att.wy  # nose-up pitch rate
+    theta = math.pi / 2 - kin.phi0 + att.pitch  # phi = -pitch
+    dtheta = -dphi0 - body_rate
+    # The wheel motor's stator sits on link BC, so its encoder reads the wheel
+    # relative to that link: add the link's own rotation (wy - dphi2).
+    eps = 1e-4
+    phi2_ahead = fivebar.forward_kinematics(phi1 + eps * dphi1, phi4 + eps * dphi4).phi2
+    dphi2 = wrap(phi2_ahead - kin.phi2) / eps
+    wheel = LEG_WHEEL[leg]
+    spin = wheel.forward_sign * bus.wheels[wheel.esc_id].speed + att.wy - dphi2
+    return LegState(kin, kin.L0, dL0, theta, dtheta, spin * C.WHEEL_RADIUS)
+
+
+def mean_speed(legs: dict) -> float:
+    """Mean axle speed (m/s) the two wheels report."""
+    return 0.5 * (legs["left"].wheel_speed + legs["right"].wheel_speed)
+
+
+def legs_under_body(legs: dict) -> float:
+    """Mean forward speed (m/s) of the axles relative to the hips, from the legs'
+    motion: the axle sits L0 sin(theta) behind the hip."""
+    return -0.5 * sum(s.dL0 * math.sin(s.theta) + s.L0 * math.cos(s.theta) * s.dtheta for s in legs.values())
+
+
+def wrap(angle: float) -> float:
+    """``angle`` (rad) brought into [-pi, pi)."""
+    return (angle + math.pi) % (2 * math.pi) - math.pi
+
+
+def turn_lean(speed: float, yaw_rate: float) -> float:
+    """Roll (rad) that leans into a turn: -atan(v w / g), left side down turning left.
+
+    The body's weight and the centripetal force v w then add up along the
+    legs, as a cyclist leans (docs/control.md, leaning into turns).
+    """
+    lean = math.atan(speed * yaw_rate / C.GRAVITY)
+    return -clamp(lean, P.TURN_LEAN_LIMIT)
+
+
+def roll_leg_difference(roll_set_point: float, level_offset: float) -> float:
+    """Left minus right leg length (m): the feed-forward that tilts the body by
+    ``roll_set_point`` (rad) on flat ground, plus the levelling integral's
+    ``level_offset`` (m, the ground's own tilt), together within +-ROLL_LEVEL_LIMIT."""
+    feed_forward = 2.0 * C.HALF_TRACK * math.tan(roll_set_point)
+    return clamp(feed_forward + level_offset, P.ROLL_LEVEL_LIMIT)
+
+
+def leg_targets(length: float, difference: float) -> dict:
+    """Leg length targets (m) by leg: mean ``length``, left minus right ``difference``.
+
+    When one leg would leave [LEG_LENGTH_MIN, LEG_LENGTH_MAX] both shift
+    together, so the difference (the body's level) is kept over the height.
+    """
+    length = min(max(length, P.LEG_LENGTH_MIN), P.LEG_LENGTH_MAX)
+    half = 0.5 * min(abs(difference), P.LEG_LENGTH_MAX - P.LEG_LENGTH_MIN)
+    mean = min(max(length, P.LEG_LENGTH_MIN + half), P.LEG_LENGTH_MAX - half)
+    sign = 1.0 if difference >= 0 else -1.0
+    return {"left": mean + sign * half, "right": mean - sign * half}
+
+
+def clamp(value: float, limit: float) -> float:
+    """``value`` within +-``limit``."""
+    return max(-limit, min(limit, value))
+
+
+def unwind(integral: float, step: float) -> float:
+    """``integral`` moved by ``step`` only towards zero, never past it (anti-windup that
+    lets a stale integral go while it must not grow)."""
+    if integral * step >= 0.0:  # it would grow, or there is nothing to unwind
+        return integral
+    moved = integral + step
+    return moved if moved * integral > 0.0 else 0.0

@@ -1,0 +1,56 @@
+"""The speed set point the chassis tracks, and what it is doing (docs/control.md, motion commands).
+
+The operator's speed command is turned into an S-curve the robot can follow
+(``speed_set_point``): its acceleration is bounded by what the legs' lean can give and
+ramps at a bounded jerk, so the LQR can be asked for that lean (LEAN_PER_ACCEL) and,
+braking, to track the position along the curve. ``travel_phase`` names what the set
+point does in a period; the chassis's position reference and trim follow it.
+"""
+from __future__ import annotations
+
+import enum
+import math
+
+from wheelleg.controller import params as P
+
+
+class Travel(enum.Enum):
+    """What the speed set point does in one period, and how the chassis follows it."""
+
+    STANDING = "standing"  # 0: the spot is held (dragged along for TRIM_SETTLE_S after a stop)
+    SPEEDING_UP = "speeding up"  # |speed| growing: speed alone is tracked
+    CRUISING = "cruising"  # steady, not 0: speed tracked, the trim takes up a steady speed error
+    BRAKING = "braking"  # |speed| shrinking: the position is tracked along the curve
+
+
+def speed_set_point(speed: float, accel: float, target: float, dt: float) -> tuple[float, float]:
+    """The set point one period ``dt`` (s) on: (speed m/s, its acceleration m/s^2), towards
+    ``target`` (m/s) from ``speed`` and the ``accel`` it had.
+
+    The acceleration ramps at SPEED_JERK up to ACCEL_LIMIT and eases back to 0 at
+    SPEED_EASE_JERK as the speed arrives (no overshoot); a reversal is one curve through
+    0; a target changed midway is headed for from where the curve is.
+    """
+    gap = target - speed
+    direction = math.copysign(1.0, gap) if gap else 0.0
+    # the largest acceleration from which easing off at SPEED_EASE_JERK lands on the
+    # target: easing off from a gains a^2 / (2 jerk)
+    landing = math.sqrt(2.0 * P.SPEED_EASE_JERK * abs(gap))
+    if accel * direction >= landing:
+        accel = direction * landing  # easing off along that parabola, at SPEED_EASE_JERK
+    else:
+        aim = direction * min(P.ACCEL_LIMIT, landing)
+        accel += max(-P.SPEED_JERK * dt, min(P.SPEED_JERK * dt, aim - accel))
+    speed += accel * dt
+    if (target - speed) * direction <= 0.0:
+        return target, 0.0
+    return speed, accel
+
+
+def travel_phase(speed: float, accel: float) -> Travel:
+    """What a set point of ``speed`` (m/s) and ``accel`` (m/s^2) is doing."""
+    if accel * speed < 0.0:
+        return Travel.BRAKING
+    if accel != 0.0:
+        return Travel.SPEEDING_UP
+    return Travel.CRUISING if speed != 0.0 else Travel.STANDING
