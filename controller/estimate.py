@@ -159,10 +159,7 @@ class BalancePointObserver:
     falls and re-enables: the CoM does not move when the robot falls. A push at body
     height loads the hip as a CoM offset does: nothing is learnt while the robot moves
     faster than ``still_m_s`` (m/s) nor for ``settle_s`` after, so a sudden push leaks
-    in only the few ms before the robot picks up speed. That gate waits until the
-    start-up learning is done: levelling a body whose IMU is mounted tilted jerks the
-    wheels past 0.5 m/s for a few ms, and gated there the estimate froze for 0.5 s
-    while the robot rolled off (a tolerance `balance` draw: 4.8 cm of drift, now 3.3).
+    in only the few ms before the robot picks up speed.
     """
 
     def __init__(self, dt_s: float, tau_learn_s: float, learn_s: float, tau_s: float,
@@ -176,13 +173,12 @@ class BalancePointObserver:
     def update(self, leg_torque_nm: float, speed_m_s: float, standing: bool) -> float:
         """One period: the mean virtual hip torque asked (N m per leg), the ground speed
         (m/s) and whether the robot stands still and settled (its position integral runs)."""
-        learning = self.learnt_s < self.learn_s
-        if abs(speed_m_s) > self.still_m_s and not learning:
+        if abs(speed_m_s) > self.still_m_s:
             self._blocked_s = self.settle_s
         self._blocked_s = max(0.0, self._blocked_s - self.dt_s)
         if not standing or self._blocked_s > 0.0:
             return self.hold_torque
-        tau = self.tau_learn_s if learning else self.tau_s
+        tau = self.tau_learn_s if self.learnt_s < self.learn_s else self.tau_s
         self.learnt_s += self.dt_s
         self.hold_torque += (leg_torque_nm - self.hold_torque) * min(1.0, self.dt_s / tau)
         return self.hold_torque
