@@ -20,7 +20,9 @@ robot team's own tests to use ``rig_run``::
   naming the trace, the candump log and the commands to replay and inspect it.
   A run is registered with its test before it starts, so a test stopped during
   the run (pytest-timeout's signal method) still names the files the run
-  was writing. (pytest-timeout's thread method ends the process: no report.)
+  was writing, and its traceback is one pytest can print (Python 3.11 gives some
+  instructions no line number; a stop landing there crashed pytest's report).
+  (pytest-timeout's thread method ends the process: no report.)
 
 Importing this module must stay cheap (pytest loads it in every session of an
 environment where the package is installed): the rig is imported on first use.
@@ -31,6 +33,7 @@ import argparse
 import hashlib
 import json
 import re
+import types
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -229,6 +232,12 @@ def rig_run(request, rig_cache):
 
     def run(scenario: str, duration: float | None = None, seed: int = 0, plant: dict | None = None,
             robot: str | None = None) -> RigRun:
+        try:
+            return _planned_and_run(scenario, duration, seed, plant, robot)
+        except BaseException as exc:  # re-raised from here: this frame's entry is added again
+            raise exc.with_traceback(_with_line_numbers(exc.__traceback__.tb_next))
+
+    def _planned_and_run(scenario, duration, seed, plant, robot) -> RigRun:
         planned = rig_cache.plan(scenario, duration, seed, plant, robot)
         runs.append(planned)  # before the run: a test stopped during it still names the files
         result = rig_cache.get(planned)
@@ -237,6 +246,25 @@ def rig_run(request, rig_cache):
             runs.append(result)
         return result
     return run
+
+
+def _with_line_numbers(tb: types.TracebackType | None) -> types.TracebackType | None:
+    """The traceback with a line number in every entry.
+
+    Python 3.11 leaves an entry's line number None where a signal lands on an
+    instruction without one (the jump back at the end of a loop): pytest-timeout's
+    signal method raises there, and pytest's report then crashes (INTERNALERROR)
+    instead of showing the timed-out test. Such an entry gets its function's first line.
+    """
+    entries = []
+    while tb is not None:
+        entries.append(tb)
+        tb = tb.tb_next
+    rebuilt = None
+    for entry in reversed(entries):
+        line = entry.tb_lineno if entry.tb_lineno is not None else entry.tb_frame.f_code.co_firstlineno
+        rebuilt = types.TracebackType(rebuilt, entry.tb_frame, entry.tb_lasti, line)
+    return rebuilt
 
 
 @pytest.hookimpl(wrapper=True)

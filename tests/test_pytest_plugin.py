@@ -91,6 +91,48 @@ def test_a_test_timed_out_during_rig_run_names_the_trace(pytester):
     assert "did not finish" in section and "rerun:   wheelleg run balance --seed 3" in section
 
 
+# A stop that lands where Python 3.11 gives no line number: the jump back at the end of a
+# loop whose body ends in an `if`. The handler fails the test only there, as pytest-timeout's
+# signal method would if its alarm came at that instruction.
+LINELESS_STOP_TEST = '''
+import signal
+import pytest
+
+
+def spin():
+    rows = [(1, 0)] * 1000
+    while True:
+        for a, b in rows:
+            if a == 2 and b:
+                return a
+
+
+def stop(signum, frame):
+    if frame.f_lineno is None:
+        pytest.fail("Timeout at an instruction without a line number")
+
+
+def test_stopped_without_a_line_number(rig_run, rig_cache, monkeypatch):
+    monkeypatch.setattr(rig_cache, "get", lambda planned: spin())
+    rig_cache.plan("balance", 0.1, 0)  # the rig's imports before the alarms start
+    signal.signal(signal.SIGALRM, stop)
+    signal.setitimer(signal.ITIMER_REAL, 0.0001, 0.0001)
+    try:
+        rig_run("balance", duration=0.1)
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+'''
+
+
+def test_a_stop_without_a_line_number_is_reported_not_an_internal_error(pytester):
+    pytester.makepyfile(test_lineless=LINELESS_STOP_TEST)
+    result = pytester.runpytest_subprocess("-p", "no:cacheprovider", "-p", "no:xdist")
+    assert "INTERNALERROR" not in result.stdout.str() + result.stderr.str()
+    result.assert_outcomes(failed=1)
+    assert "Timeout at an instruction without a line number" in result.stdout.str()
+    assert "did not finish" in result.stdout.str()
+
+
 def test_socketcan_marker_and_transport_skip_with_a_reason(pytester):
     pytester.makepyfile(test_sc='''
 import pytest
