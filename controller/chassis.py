@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 from wheelleg.controller import constants as C
 from wheelleg.controller import estimate
@@ -44,6 +45,13 @@ class Command:
     air_pitch_hold: bool = False  # in the air, level the body with the wheels' reaction (flight only)
     trim: bool = False  # standing or moving on the wheels: integrate the position error (``_trim``)
     stance_hold: StanceHold | None = None  # a jump in place: the hips over their start (``_lqr_hold``), the lean in the air
+
+
+class Sensed(NamedTuple):
+    """What the chassis reads from the buses in one tick: the attitude and each leg's state."""
+
+    att: Attitude
+    legs: dict  # leg name -> LegState
 
 
 @dataclass(frozen=True)
@@ -122,16 +130,26 @@ class ChassisController:
                                                            P.BALANCE_POINT_SETTLE_S)
         self.balance_theta = 0.0  # rad, the legs' lean at the balance point (lqr.balance_lean), this tick
 
-    def observe(self, bus: BusState) -> None:
+    def observe(self, bus: BusState) -> Sensed | None:
         """Every tick, enabled or not: follow the gyro's bias against the IMU's orientation
-        and the wheels' grip against its acceleration (so neither is stale on enabling)."""
+        and the wheels' grip against its acceleration (so neither is stale on enabling).
+
+        Returns the attitude and legs it saw (None before the IMU was heard): ``step``
+        in the same tick, on the same ``bus``, takes them instead of working them out again.
+        """
         if not math.isfinite(bus.imu.received_s):
-            return
+            return None
         self.gyro.update(bus.imu.quat, bus.imu.gyro)
-        att = self.attitude(bus)
-        legs = {leg: leg_state(bus, leg, att) for leg in LEGS}
+        sensed = self.sense(bus)
+        legs = sensed.legs
         self.slip.update(estimate.forward_accel(bus.imu.quat, bus.imu.accel),
                          mean_speed(legs) - legs_under_body(legs))
+        return sensed
+
+    def sense(self, bus: BusState) -> Sensed:
+        """The body's attitude (gyro bias out) and both legs' states from ``bus`` now."""
+        att = self.attitude(bus)
+        return Sensed(att, {leg: leg_state(bus, leg, att) for leg in LEGS})
 
     def attitude(self, bus: BusState) -> Attitude:
         """The body's attitude with the gyro's estimated bias taken out."""
@@ -152,9 +170,10 @@ class ChassisController:
         # levelling starts from the legs as they stand (uneven ground: already apart)
         self.roll_offset = clamp(self.leg_ref["left"] - self.leg_ref["right"], P.ROLL_LEVEL_LIMIT)
 
-    def step(self, bus: BusState, cmd: Command) -> Output:
-        att = self.attitude(bus)
-        legs = {leg: leg_state(bus, leg, att) for leg in LEGS}
+    def step(self, bus: BusState, cmd: Command, sensed: Sensed | None = None) -> Output:
+        """This tick's torques; ``sensed``: what ``observe`` returned this tick for ``bus``
+        (None: sensed here), the gyro's bias and the bus unchanged since."""
+        att, legs = sensed if sensed is not None else self.sense(bus)
         speed = self._ground_speed(legs)
         if cmd.airborne:
             if not self.in_air:

@@ -91,7 +91,7 @@ class Controller:
         return seen
 
     def tick(self, tick: int, now_s: float) -> TickResult:
-        self.chassis.observe(self.bus)
+        sensed = self.chassis.observe(self.bus)  # the bus does not change within a tick
         faulted = self._faulted(now_s)
         report = detect.check(self.last_seen(), now_s, faulted)
         inputs = self._inputs(report.balance_ok, now_s)
@@ -110,7 +110,7 @@ class Controller:
         if self.mode in ENABLED and previous not in ENABLED:
             self._enable(result, now_s)
         elif self.mode in ENABLED:
-            self._run(result, now_s)
+            self._run(result, now_s, sensed)
         else:
             self._disabled(result, now_s)
         hb = messages.heartbeat(
@@ -196,9 +196,9 @@ class Controller:
         self.chassis.reset(self.bus)
         self.contact.reset()
 
-    def _run(self, result: TickResult, now_s: float) -> None:
+    def _run(self, result: TickResult, now_s: float, sensed=None) -> None:
         cmd = self._command()
-        out = self.chassis.step(self.bus, cmd)
+        out = self.chassis.step(self.bus, cmd, sensed)
         self._update_support(out.legs)
         for joint in C.JOINTS:
             result.frames[CAN2].append(messages.joint_torque(joint.motor_id, out.hip_torque[joint.motor_id], now_s))
