@@ -92,6 +92,8 @@ class Imu(EmulatedDevice):
         if len(self._quat) != 4 or len(self._gyro) != 3 or len(self._accel) != 3:
             raise ValueError("IMU truth needs a (4,) quaternion and (3,) rate and specific force")
 
+    listens = False  # its node skips it when a frame comes (``_handle`` for a direct caller)
+
     def _handle(self, msg: can.Message, now_s: float) -> list[can.Message]:
         return []  # the IMU listens to nobody
 

@@ -3,8 +3,9 @@
 In the rig the plant calls ``service(now_s)`` with simulated time; alone
 (``wheelleg emulate``) ``run_realtime`` serves the bus against the wall clock
 and integrates each device's shaft itself. A device is anything with
-``handle(msg, now_s)`` and ``periodic(now_s)`` (``EmulatedDevice`` or the
-remote); ``step_alone`` is used when present.
+``handle(msg, now_s)``, ``periodic(now_s)`` and ``listens`` (False: it is not
+handed received frames; ``EmulatedDevice`` or the remote); ``step_alone`` is
+used when present.
 """
 from __future__ import annotations
 
@@ -54,8 +55,9 @@ class DeviceNode:
     def dispatch(self, msg: can.Message, now_s: float) -> None:
         """Hand one received frame to every device and send their replies."""
         for device in self.devices:
-            for reply in device.handle(msg, now_s):
-                self._emit(reply, now_s)
+            if device.listens:
+                for reply in device.handle(msg, now_s):
+                    self._emit(reply, now_s)
 
     def send_periodic(self, now_s: float) -> None:
         """Send every device's periodic frames due by ``now_s``."""
