@@ -95,6 +95,7 @@ class Output:
 
 
 _TRAVEL = tuple(lqr.GAIN_NAMES.index(name) for name in ("x", "dx", "ix"))  # LQR states of the travel
+_BALANCE = tuple(i for i in range(len(lqr.GAIN_NAMES)) if i not in _TRAVEL)  # the others, in order
 # s: a speed error e (m/s) asks of the wheel what a trim of e times this does (K_dx / K_ix
 # of the wheel's row: 0.54 s at the nominal length, 0.54-0.55 over the whole leg range), so
 # the trim takes up a steady speed error by growing this much per m/s of it (``_trim``)
@@ -383,10 +384,11 @@ class ChassisController:
         # the wheel's share for where the robot is and goes (position, speed and their
         # integral) is limited apart: a hard push asks for far more than the wheel has, and
         # saturating the whole sum would give away the torque that keeps the legs upright
-        travel = -sum(k[0][i] * err[i] for i in _TRAVEL)
-        t = -sum(g * e for i, (g, e) in enumerate(zip(k[0], err)) if i not in _TRAVEL)
+        wheel_gains, hip_gains = k
+        travel = -sum([wheel_gains[i] * err[i] for i in _TRAVEL])
+        t = -sum([wheel_gains[i] * err[i] for i in _BALANCE])
         t += clamp(travel, P.SLIP_TRAVEL_TORQUE_LIMIT if self.slip.slipping else P.TRAVEL_TORQUE_LIMIT)
-        tp = hold - sum(g * e for g, e in zip(k[1], err))
+        tp = hold - sum([g * e for g, e in zip(hip_gains, err)])
         return t, tp
 
     def _lqr_hold(self, leg: LegState, name: str, att: Attitude, cmd: Command) -> tuple[float, float]:

@@ -121,8 +121,12 @@ def leg_targets(length: float, difference: float) -> dict:
 
 
 def clamp(value: float, limit: float) -> float:
-    """``value`` within +-``limit``."""
-    return max(-limit, min(limit, value))
+    """``value`` within +-``limit`` (NaN gives ``limit``).
+
+    ``max(-limit, min(limit, value))`` written out (about 25 calls a tick): the same
+    comparisons in the same order, so the same result for NaN and signed zeros."""
+    low = value if value < limit else limit  # min(limit, value)
+    return low if low > -limit else -limit  # max(-limit, low)
 
 
 def unwind(integral: float, step: float) -> float:
