@@ -25,6 +25,8 @@ _SYNC_ID = _DBS[CAN1].get_message_by_name("SYNC").frame_id
 _WHEEL_BY_FEEDBACK_ID = {0x200 + w.esc_id: w for w in C.WHEELS}
 IMU_PARTS = {"IMU_Orientation": "quat", "IMU_Gyro": "gyro", "IMU_Accel": "accel"}
 RPM_TO_OUTPUT_RAD_S = 2 * math.pi / 60 / C.M3508_GEAR
+# the layout id of a CyberGear frame's id: four feedback frames a tick, a few dozen ids a bus
+_canonical_id = functools.lru_cache(maxsize=1024)(cg.canonical_id)
 
 
 @dataclass
@@ -197,12 +199,12 @@ def take_cybergear(msg: can.Message, now_s: float, feedback: dict, host_id: int,
     if fb is None or rid.host != host_id:
         return  # not one of ours, or a request from another host
     if rid.ctype == cg.T_FEEDBACK:
-        sig = checked_decode(db, msg, cg.canonical_id(msg.arbitration_id))
+        sig = checked_decode(db, msg, _canonical_id(msg.arbitration_id))
         fb.position, fb.speed, fb.torque = sig["Pos"], sig["Vel"], sig["Torque"]
         fb.temperature, fb.mode, fb.faults = sig["Temp"], rid.mode, rid.faults
         fb.received_s = now_s
     elif rid.ctype == cg.T_FAULT_WARN:
-        sig = checked_decode(db, msg, cg.canonical_id(msg.arbitration_id))
+        sig = checked_decode(db, msg, _canonical_id(msg.arbitration_id))
         if any(v for k, v in sig.items() if k.startswith("Fault")):
             fb.faults = fb.faults | {"FaultWord"}
 

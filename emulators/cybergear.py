@@ -374,6 +374,11 @@ class CyberGear(EmulatedDevice):
             self._calibration_done_s = now_s + CALIBRATION_S
         return [self._feedback_frame(self.last_host, now_s)]
 
+    def periodic(self, now_s: float) -> list[can.Message]:
+        if self._calibration_done_s is None:  # nothing it sends unasked: asked 6 times a tick
+            return []
+        return super().periodic(now_s)
+
     def _periodic(self, now_s: float) -> list[can.Message]:
         """The one frame a CyberGear sends unasked: the type-5 calibration result, when it is done."""
         if self._calibration_done_s is None or now_s < self._calibration_done_s:
