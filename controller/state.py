@@ -21,7 +21,8 @@ from wheelleg.dbc import CAN1, CAN2, load_bus
 from wheelleg.dbc.codec import MessageCodec
 
 _DBS = {CAN1: load_bus(CAN1), CAN2: load_bus(CAN2)}
-_SYNC_ID = _DBS[CAN1].get_message_by_name("SYNC").frame_id
+_DB1 = _DBS[CAN1]
+_SYNC_ID = _DB1.get_message_by_name("SYNC").frame_id
 _WHEEL_BY_FEEDBACK_ID = {0x200 + w.esc_id: w for w in C.WHEELS}
 IMU_PARTS = {"IMU_Orientation": "quat", "IMU_Gyro": "gyro", "IMU_Accel": "accel"}
 RPM_TO_OUTPUT_RAD_S = 2 * math.pi / 60 / C.M3508_GEAR
@@ -115,7 +116,7 @@ class BusState:
     def _can1(self, msg: can.Message, now_s: float) -> None:
         wheel = _WHEEL_BY_FEEDBACK_ID.get(msg.arbitration_id)
         if wheel is not None:
-            sig = self._decode(CAN1, msg)
+            sig = checked_decode(_DB1, msg)  # ~4 a tick: no hop through _decode
             fb = self.wheels[wheel.esc_id]
             fb.rotor_angle, fb.current = sig["RotorAngle"], sig["TorqueCurrent"]
             fb.speed = sig["RotorSpeed"] * RPM_TO_OUTPUT_RAD_S
@@ -156,34 +157,39 @@ def checked_decode(db, msg: can.Message, frame_id: int | None = None) -> dict:
         length, decode, limits = _layout(db, msg.arbitration_id if frame_id is None else frame_id)
     except KeyError:
         raise BadFrame("unknown id") from None
-    if msg.dlc != length or len(msg.data) < length:
+    data = msg.data
+    if msg.dlc != length or len(data) < length:
         raise BadFrame("wrong DLC")
-    values = decode(bytes(msg.data[:length]))
-    for name, low, high in limits:
+    values = decode(bytes(data) if len(data) == length else bytes(data[:length]))
+    for name, low, high, bounded in limits:
         value = values.get(name)
-        if value is None:
-            continue
-        if not math.isfinite(value) or (low is not None and value < low) or (high is not None and value > high):
+        # within finite bounds excludes NaN and infinities too; else isfinite decides them
+        if value is not None and not (low <= value <= high and (bounded or math.isfinite(value))):
             raise BadFrame(f"{name} out of range")
     return values
 
 
 @functools.lru_cache(maxsize=1024)
 def _layout(db, frame_id: int) -> tuple:
-    """(length, decode, (signal, lowest, highest) per signal) of the message at ``frame_id`` in ``db``.
+    """(length, decode, (signal, lowest, highest, both finite) per signal) of the message at
+    ``frame_id`` in ``db``.
 
     ``decode`` is the compiled codec's (``wheelleg.dbc.codec``: cantools' values without choices,
     ~1 us a frame instead of ~10) where it compiles, else cantools'. The range takes 1e-9 of
-    slack beyond the DBC's minimum and maximum. KeyError for an id ``db`` does not know.
+    slack beyond the DBC's minimum and maximum; a side the DBC leaves open is infinite.
+    KeyError for an id ``db`` does not know.
     """
     message = db.get_message_by_frame_id(frame_id)
     try:
         decode = MessageCodec.of(message).decode
     except ValueError:  # a layout the codec does not compile
         decode = functools.partial(message.decode, decode_choices=False)
-    limits = tuple((s.name, None if s.minimum is None else s.minimum - 1e-9,
-                    None if s.maximum is None else s.maximum + 1e-9) for s in message.signals)
-    return message.length, decode, limits
+    limits = []
+    for s in message.signals:
+        low = -math.inf if s.minimum is None else s.minimum - 1e-9
+        high = math.inf if s.maximum is None else s.maximum + 1e-9
+        limits.append((s.name, low, high, math.isfinite(low) and math.isfinite(high)))
+    return message.length, decode, tuple(limits)
 
 
 def take_cybergear(msg: can.Message, now_s: float, feedback: dict, host_id: int, db) -> None:
