@@ -112,10 +112,12 @@ class Imu(EmulatedDevice):
         draw = self.rng.standard_normal(9).tolist()
         sigma = n.attitude_std_rad
         quat = _quat_mul(self._quat, _small_rotation(draw[0] * sigma, draw[1] * sigma, draw[2] * sigma))
-        norm = math.sqrt(sum(q * q for q in quat)) or 1.0
-        quat = tuple(q / norm for q in quat)
-        gyro = tuple(g + b + n.gyro_std_rad_s * d for g, b, d in zip(self._gyro, n.gyro_bias_rad_s, draw[3:6]))
-        accel = tuple(a + b + n.accel_std_m_s2 * d for a, b, d in zip(self._accel, n.accel_bias_m_s2, draw[6:9]))
+        # lists, not generators (a sample every tick); the same terms in the same order
+        norm = math.sqrt(sum([q * q for q in quat])) or 1.0
+        quat = tuple([q / norm for q in quat])
+        gyro_std, accel_std = n.gyro_std_rad_s, n.accel_std_m_s2
+        gyro = tuple([g + b + gyro_std * d for g, b, d in zip(self._gyro, n.gyro_bias_rad_s, draw[3:6])])
+        accel = tuple([a + b + accel_std * d for a, b, d in zip(self._accel, n.accel_bias_m_s2, draw[6:9])])
         if n.spike_probability > 0.0 and self.rng.random() < n.spike_probability:
             gyro = self._spiked(gyro, n.spike_rad_s)
         return quat, gyro, accel
