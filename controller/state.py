@@ -231,10 +231,10 @@ class ImuFrames:
         part = IMU_PARTS[name]
         if part == "quat":
             quat = (sig["QuatW"], sig["QuatX"], sig["QuatY"], sig["QuatZ"])
-            norm = math.sqrt(sum(q * q for q in quat))
+            norm = math.sqrt(sum([q * q for q in quat]))  # lists, not generators: every tick
             if abs(norm - 1.0) > 0.05:
                 raise BadFrame("quaternion not unit")
-            imu.quat = tuple(q / norm for q in quat)
+            imu.quat = tuple([q / norm for q in quat])
         elif part == "gyro":
             imu.gyro = (sig["RateX"], sig["RateY"], sig["RateZ"])
         else:
