@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 from wheelleg.controller import constants as C
 from wheelleg.controller import estimate
@@ -44,6 +45,13 @@ class Command:
     air_pitch_hold: bool = False  # in the air, level the body with the wheels' reaction (flight only)
     trim: bool = False  # standing or moving on the wheels: integrate the position error (``_trim``)
     stance_hold: StanceHold | None = None  # a jump in place: the hips over their start (``_lqr_hold``), the lean in the air
+
+
+class Sensed(NamedTuple):
+    """What the chassis reads from the buses in one tick: the attitude and each leg's state."""
+
+    att: Attitude
+    legs: dict  # leg name -> LegState
 
 
 @dataclass(frozen=True)
@@ -87,6 +95,7 @@ class Output:
 
 
 _TRAVEL = tuple(lqr.GAIN_NAMES.index(name) for name in ("x", "dx", "ix"))  # LQR states of the travel
+_BALANCE = tuple(i for i in range(len(lqr.GAIN_NAMES)) if i not in _TRAVEL)  # the others, in order
 # s: a speed error e (m/s) asks of the wheel what a trim of e times this does (K_dx / K_ix
 # of the wheel's row: 0.54 s at the nominal length, 0.54-0.55 over the whole leg range), so
 # the trim takes up a steady speed error by growing this much per m/s of it (``_trim``)
@@ -122,16 +131,26 @@ class ChassisController:
                                                            P.BALANCE_POINT_SETTLE_S)
         self.balance_theta = 0.0  # rad, the legs' lean at the balance point (lqr.balance_lean), this tick
 
-    def observe(self, bus: BusState) -> None:
+    def observe(self, bus: BusState) -> Sensed | None:
         """Every tick, enabled or not: follow the gyro's bias against the IMU's orientation
-        and the wheels' grip against its acceleration (so neither is stale on enabling)."""
+        and the wheels' grip against its acceleration (so neither is stale on enabling).
+
+        Returns the attitude and legs it saw (None before the IMU was heard): ``step``
+        in the same tick, on the same ``bus``, takes them instead of working them out again.
+        """
         if not math.isfinite(bus.imu.received_s):
-            return
+            return None
         self.gyro.update(bus.imu.quat, bus.imu.gyro)
-        att = self.attitude(bus)
-        legs = {leg: leg_state(bus, leg, att) for leg in LEGS}
+        sensed = self.sense(bus)
+        legs = sensed.legs
         self.slip.update(estimate.forward_accel(bus.imu.quat, bus.imu.accel),
                          mean_speed(legs) - legs_under_body(legs))
+        return sensed
+
+    def sense(self, bus: BusState) -> Sensed:
+        """The body's attitude (gyro bias out) and both legs' states from ``bus`` now."""
+        att = self.attitude(bus)
+        return Sensed(att, {leg: leg_state(bus, leg, att) for leg in LEGS})
 
     def attitude(self, bus: BusState) -> Attitude:
         """The body's attitude with the gyro's estimated bias taken out."""
@@ -152,9 +171,10 @@ class ChassisController:
         # levelling starts from the legs as they stand (uneven ground: already apart)
         self.roll_offset = clamp(self.leg_ref["left"] - self.leg_ref["right"], P.ROLL_LEVEL_LIMIT)
 
-    def step(self, bus: BusState, cmd: Command) -> Output:
-        att = self.attitude(bus)
-        legs = {leg: leg_state(bus, leg, att) for leg in LEGS}
+    def step(self, bus: BusState, cmd: Command, sensed: Sensed | None = None) -> Output:
+        """This tick's torques; ``sensed``: what ``observe`` returned this tick for ``bus``
+        (None: sensed here), the gyro's bias and the bus unchanged since."""
+        att, legs = sensed if sensed is not None else self.sense(bus)
         speed = self._ground_speed(legs)
         if cmd.airborne:
             if not self.in_air:
@@ -364,10 +384,11 @@ class ChassisController:
         # the wheel's share for where the robot is and goes (position, speed and their
         # integral) is limited apart: a hard push asks for far more than the wheel has, and
         # saturating the whole sum would give away the torque that keeps the legs upright
-        travel = -sum(k[0][i] * err[i] for i in _TRAVEL)
-        t = -sum(g * e for i, (g, e) in enumerate(zip(k[0], err)) if i not in _TRAVEL)
+        wheel_gains, hip_gains = k
+        travel = -sum([wheel_gains[i] * err[i] for i in _TRAVEL])
+        t = -sum([wheel_gains[i] * err[i] for i in _BALANCE])
         t += clamp(travel, P.SLIP_TRAVEL_TORQUE_LIMIT if self.slip.slipping else P.TRAVEL_TORQUE_LIMIT)
-        tp = hold - sum(g * e for g, e in zip(k[1], err))
+        tp = hold - sum([g * e for g, e in zip(hip_gains, err)])
         return t, tp
 
     def _lqr_hold(self, leg: LegState, name: str, att: Attitude, cmd: Command) -> tuple[float, float]:

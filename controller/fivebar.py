@@ -1,7 +1,7 @@
 """Five-bar leg kinematics and VMC (virtual model control), docs/control.md.
 
-Pure functions on floats (``math`` only): the chassis calls them twice per
-2 ms tick, once per leg.
+Pure functions on floats (``math`` only): the chassis works out each leg's pose
+once per 2 ms tick (``forward_kinematics``, its ``jacobian`` kept on the pose).
 
 Frame (controller/constants.py, "leg plane"): the design document's five-bar frame,
 origin at the front hip A, x_fb pointing BACKWARD towards the rear hip E at
@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 from wheelleg.controller import constants as C
 
@@ -72,6 +73,12 @@ class LegKinematics:
     C: tuple[float, float]
     D: tuple[float, float]
 
+    @cached_property
+    def jacobian(self) -> tuple[tuple[float, float], tuple[float, float]]:
+        """``jacobian(self)``, made once per pose: the chassis uses it three times a leg a tick
+        (leg velocity, joint torques, the measured leg force)."""
+        return _jacobian(self)
+
 
 def _wrap(angle: float) -> float:
     """angle mapped to (-pi, pi]."""
@@ -86,6 +93,17 @@ def forward_kinematics(phi1: float, phi4: float) -> LegKinematics:
     below the knees. Raises ValueError when the angles cannot close the loop
     (a wrong reading, not a pose the leg can take).
     """
+    xb, yb, xd, yd, phi2 = _knees_and_phi2(phi1, phi4)
+    xc, yc = xb + C.L2 * math.cos(phi2), yb + C.L2 * math.sin(phi2)
+    phi3 = math.atan2(yc - yd, xc - xd)
+    dx = xc - _HALF_L5
+    return LegKinematics(phi1, phi4, phi2, phi3, math.hypot(dx, yc), math.atan2(yc, dx),
+                         (xb, yb), (xc, yc), (xd, yd))
+
+
+def _knees_and_phi2(phi1: float, phi4: float) -> tuple[float, float, float, float, float]:
+    """(xb, yb, xd, yd, phi2): the knees B, D (m) and the angle of link BC (rad), the part of
+    ``forward_kinematics`` that ``shin_angle`` needs too (same operations, same bits)."""
     if not (math.isfinite(phi1) and math.isfinite(phi4)):
         raise ValueError(f"hip angles must be finite, got phi1={phi1}, phi4={phi4}")
     xb, yb = C.L1 * math.cos(phi1), C.L1 * math.sin(phi1)
@@ -98,14 +116,21 @@ def forward_kinematics(phi1: float, phi4: float) -> LegKinematics:
     if disc < -_CLOSURE_TOL * (a0 * a0 + b0 * b0) or bd_sq == 0.0:
         raise ValueError(f"phi1={phi1:.4f}, phi4={phi4:.4f} rad do not close the five-bar loop")
     phi2 = _wrap(2.0 * math.atan2(b0 + math.sqrt(max(disc, 0.0)), a0 + c0))
-    xc, yc = xb + C.L2 * math.cos(phi2), yb + C.L2 * math.sin(phi2)
-    phi3 = math.atan2(yc - yd, xc - xd)
-    dx = xc - _HALF_L5
-    return LegKinematics(phi1, phi4, phi2, phi3, math.hypot(dx, yc), math.atan2(yc, dx),
-                         (xb, yb), (xc, yc), (xd, yd))
+    return xb, yb, xd, yd, phi2
+
+
+def shin_angle(phi1: float, phi4: float) -> float:
+    """phi2 (rad), the angle of link BC, of ``forward_kinematics(phi1, phi4)`` without the rest
+    of the pose (the leg's numerical shin rate needs only it). Raises ValueError as it does."""
+    return _knees_and_phi2(phi1, phi4)[4]
 
 
 def jacobian(k: LegKinematics) -> tuple[tuple[float, float], tuple[float, float]]:
+    """J = d(L0, phi0)/d(phi1, phi4) at pose ``k`` (``_jacobian``, kept on the pose once made)."""
+    return k.jacobian
+
+
+def _jacobian(k: LegKinematics) -> tuple[tuple[float, float], tuple[float, float]]:
     """J = d(L0, phi0)/d(phi1, phi4), closed form, as ((j11, j12), (j21, j22)).
 
     Rows: L0 (m/rad), phi0 (rad/rad); columns: phi1, phi4. From the loop

@@ -30,8 +30,8 @@ def gain_matrix(L0: float) -> tuple[tuple[float, ...], tuple[float, ...]]:
     if not math.isfinite(L0):
         raise ValueError(f"leg length must be finite, got {L0}")
     length = min(max(L0, L0_MIN), L0_MAX)
-    return tuple(tuple(((c3 * length + c2) * length + c1) * length + c0 for c3, c2, c1, c0 in row)
-                 for row in _COEFFS)
+    return tuple([tuple([((c3 * length + c2) * length + c1) * length + c0 for c3, c2, c1, c0 in row])
+                  for row in _COEFFS])  # lists, not generators: called twice a tick
 
 
 def balance_lean(hold_torque: float, L0: float, limit: float, weight_ratio: float = 1.0) -> float:

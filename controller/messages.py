@@ -30,6 +30,7 @@ _MOTION_PAYLOAD = _MOTION_CODEC.encoder(dict.fromkeys(("PosRef", "VelRef", "Kp",
 _ESC_SLOTS = tuple(f"ESC{i}_Current" for i in range(1, 5))
 _ESC_PAYLOAD = MessageCodec.of(_ESC_CMD).encoder(dict.fromkeys(_ESC_SLOTS, "raw"))
 _ESC_SIGNALS = tuple(_ESC_CMD.get_signal_by_name(name) for name in _ESC_SLOTS)
+_ESC_CMD_ID, _HEARTBEAT_ID = _ESC_CMD.frame_id, _HEARTBEAT.frame_id  # read once: cantools properties
 _HEARTBEAT_PAYLOAD = MessageCodec.of(_HEARTBEAT).encoder(dict.fromkeys(
     ("Tick", "Mode", "WarningLevel", "OfflineCount", "OfflineMask", "MotorsEnabled", "OffGround", "Fallen",
      "FaultLatched", "BadFrames"), "raw"))
@@ -87,7 +88,7 @@ def wheel_currents(currents_a: dict[int, float], t_s: float = 0.0) -> can.Messag
             values[esc_id - 1] = esc_current(amps)
     # cantools' encode of each: round((value - offset) / scale) (NaN raises ValueError there as here)
     raws = [int(round((value - signal.offset) / signal.scale)) for value, signal in zip(values, _ESC_SIGNALS)]
-    return _frame(_ESC_CMD.frame_id, _ESC_PAYLOAD(*raws), False, t_s)
+    return _frame(_ESC_CMD_ID, _ESC_PAYLOAD(*raws), False, t_s)
 
 
 def heartbeat(tick: int, mode: int, warning_level: int, offline_mask: int, offline_count: int,
@@ -97,4 +98,4 @@ def heartbeat(tick: int, mode: int, warning_level: int, offline_mask: int, offli
     data = _HEARTBEAT_PAYLOAD(tick & 0xFFFFFFFF, mode, min(warning_level, 15), min(offline_count, 15),
                               offline_mask & 0xFF, int(motors_enabled), int(off_ground), int(fallen),
                               int(fault_latched), bad_frames & 0xF)
-    return _frame(_HEARTBEAT.frame_id, data, False, t_s)
+    return _frame(_HEARTBEAT_ID, data, False, t_s)

@@ -91,10 +91,10 @@ class Controller:
         return seen
 
     def tick(self, tick: int, now_s: float) -> TickResult:
-        self.chassis.observe(self.bus)
+        sensed = self.chassis.observe(self.bus)  # the bus does not change within a tick
         faulted = self._faulted(now_s)
         report = detect.check(self.last_seen(), now_s, faulted)
-        inputs = self._inputs(report.balance_ok, now_s)
+        inputs = self._inputs(report.balance_ok, now_s, sensed.att if sensed is not None else None)
         previous, self.mode = self.mode, next_mode(self.mode, inputs)
         if self.mode in ENABLED:
             self.reenable.consume()
@@ -110,7 +110,7 @@ class Controller:
         if self.mode in ENABLED and previous not in ENABLED:
             self._enable(result, now_s)
         elif self.mode in ENABLED:
-            self._run(result, now_s)
+            self._run(result, now_s, sensed)
         else:
             self._disabled(result, now_s)
         hb = messages.heartbeat(
@@ -141,7 +141,8 @@ class Controller:
         return messages.wheel_currents(currents_a, t_s=now_s)
 
     # -- mode inputs -----------------------------------------------------------
-    def _inputs(self, devices_ok: bool, now_s: float) -> Inputs:
+    def _inputs(self, devices_ok: bool, now_s: float, att: Attitude | None = None) -> Inputs:
+        """The mode machine's inputs; ``att``: the attitude ``observe`` saw this tick (None: read it)."""
         op = self.bus.operator
         reenable_edge = op.reenable and not self._last_buttons[0]
         jump_edge = op.jump and not self._last_buttons[1]
@@ -149,7 +150,8 @@ class Controller:
         self._last_buttons = (op.reenable, op.jump, op.jump_forward)
         if jump_edge or forward_edge:
             self._jump_forward = forward_edge
-        att = self.chassis.attitude(self.bus)
+        if att is None:
+            att = self.chassis.attitude(self.bus)
         in_air = self.mode in (Mode.JUMP, Mode.AIRBORNE)  # tumbling in the air: wider limits
         pitch_limit, roll_limit = (P.FALL_PITCH_AIR, P.FALL_ROLL_AIR) if in_air else (P.FALL_PITCH, P.FALL_ROLL)
         fallen = abs(att.pitch) > pitch_limit or abs(att.roll) > roll_limit
@@ -196,9 +198,9 @@ class Controller:
         self.chassis.reset(self.bus)
         self.contact.reset()
 
-    def _run(self, result: TickResult, now_s: float) -> None:
+    def _run(self, result: TickResult, now_s: float, sensed=None) -> None:
         cmd = self._command()
-        out = self.chassis.step(self.bus, cmd)
+        out = self.chassis.step(self.bus, cmd, sensed)
         self._update_support(out.legs)
         for joint in C.JOINTS:
             result.frames[CAN2].append(messages.joint_torque(joint.motor_id, out.hip_torque[joint.motor_id], now_s))

@@ -301,10 +301,12 @@ class CyberGear(EmulatedDevice):
 
     # -- frames in ---------------------------------------------------------------
     def _handle(self, msg: can.Message, now_s: float) -> list[can.Message]:
-        if not msg.is_extended_id or not is_data_frame(msg):
+        can_id = msg.arbitration_id
+        # most frames on the bus are for the other motors: the cheap tests first
+        if not msg.is_extended_id or cg.target(can_id) != self.motor_id or not is_data_frame(msg):
             return []
-        can_id, data = msg.arbitration_id, bytes(msg.data)
-        if cg.target(can_id) != self.motor_id or self._is_own_echo(can_id, data):
+        data = bytes(msg.data)
+        if self._is_own_echo(can_id, data):
             return []
         ctype = cg.comm_type(can_id)
         handler = self._handlers.get(ctype)
@@ -371,6 +373,11 @@ class CyberGear(EmulatedDevice):
             self.mode = MODE_CALI
             self._calibration_done_s = now_s + CALIBRATION_S
         return [self._feedback_frame(self.last_host, now_s)]
+
+    def periodic(self, now_s: float) -> list[can.Message]:
+        if self._calibration_done_s is None:  # nothing it sends unasked: asked 6 times a tick
+            return []
+        return super().periodic(now_s)
 
     def _periodic(self, now_s: float) -> list[can.Message]:
         """The one frame a CyberGear sends unasked: the type-5 calibration result, when it is done."""

@@ -98,7 +98,7 @@ class EmulatedDevice(abc.ABC):
             if self.internal_errors == 1:
                 log.exception("%s: internal error on frame %s", type(self).__name__, msg)
             return []
-        return self._emit(replies, now_s)
+        return self._emit(replies, now_s) if replies else replies  # mostly none: not addressed to it
 
     def _emit(self, frames: list[can.Message], now_s: float) -> list[can.Message]:
         """Apply the fault policy to frames about to be sent."""
@@ -109,6 +109,10 @@ class EmulatedDevice(abc.ABC):
         for f in frames:
             self._last_out[self._frame_key(f)] = f
         return frames
+
+    # False for a device that only talks (its ``_handle`` answers nothing and changes
+    # nothing): its node does not hand it the frames it receives.
+    listens = True
 
     def _frame_key(self, msg: can.Message):
         """What makes two frames "the same kind" for ``frozen`` (the id, by default)."""

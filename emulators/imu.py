@@ -92,6 +92,8 @@ class Imu(EmulatedDevice):
         if len(self._quat) != 4 or len(self._gyro) != 3 or len(self._accel) != 3:
             raise ValueError("IMU truth needs a (4,) quaternion and (3,) rate and specific force")
 
+    listens = False  # its node skips it when a frame comes (``_handle`` for a direct caller)
+
     def _handle(self, msg: can.Message, now_s: float) -> list[can.Message]:
         return []  # the IMU listens to nobody
 
@@ -110,10 +112,12 @@ class Imu(EmulatedDevice):
         draw = self.rng.standard_normal(9).tolist()
         sigma = n.attitude_std_rad
         quat = _quat_mul(self._quat, _small_rotation(draw[0] * sigma, draw[1] * sigma, draw[2] * sigma))
-        norm = math.sqrt(sum(q * q for q in quat)) or 1.0
-        quat = tuple(q / norm for q in quat)
-        gyro = tuple(g + b + n.gyro_std_rad_s * d for g, b, d in zip(self._gyro, n.gyro_bias_rad_s, draw[3:6]))
-        accel = tuple(a + b + n.accel_std_m_s2 * d for a, b, d in zip(self._accel, n.accel_bias_m_s2, draw[6:9]))
+        # lists, not generators (a sample every tick); the same terms in the same order
+        norm = math.sqrt(sum([q * q for q in quat])) or 1.0
+        quat = tuple([q / norm for q in quat])
+        gyro_std, accel_std = n.gyro_std_rad_s, n.accel_std_m_s2
+        gyro = tuple([g + b + gyro_std * d for g, b, d in zip(self._gyro, n.gyro_bias_rad_s, draw[3:6])])
+        accel = tuple([a + b + accel_std * d for a, b, d in zip(self._accel, n.accel_bias_m_s2, draw[6:9])])
         if n.spike_probability > 0.0 and self.rng.random() < n.spike_probability:
             gyro = self._spiked(gyro, n.spike_rad_s)
         return quat, gyro, accel

@@ -3,8 +3,9 @@
 In the rig the plant calls ``service(now_s)`` with simulated time; alone
 (``wheelleg emulate``) ``run_realtime`` serves the bus against the wall clock
 and integrates each device's shaft itself. A device is anything with
-``handle(msg, now_s)`` and ``periodic(now_s)`` (``EmulatedDevice`` or the
-remote); ``step_alone`` is used when present.
+``handle(msg, now_s)``, ``periodic(now_s)`` and ``listens`` (False: it is not
+handed received frames; ``EmulatedDevice`` or the remote); ``step_alone`` is
+used when present.
 """
 from __future__ import annotations
 
@@ -54,14 +55,26 @@ class DeviceNode:
     def dispatch(self, msg: can.Message, now_s: float) -> None:
         """Hand one received frame to every device and send their replies."""
         for device in self.devices:
-            for reply in device.handle(msg, now_s):
-                self._emit(reply, now_s)
+            if device.listens:
+                replies = device.handle(msg, now_s)
+                if replies:
+                    self._emit_all(replies, now_s)
 
     def send_periodic(self, now_s: float) -> None:
         """Send every device's periodic frames due by ``now_s``."""
         for device in self.devices:
-            for out in device.periodic(now_s):
-                self._emit(out, now_s)
+            frames = device.periodic(now_s)
+            if frames:
+                self._emit_all(frames, now_s)
+
+    def _emit_all(self, frames: list[can.Message], now_s: float) -> None:
+        """Send ``frames`` (made at ``now_s``), or hold them for the feedback delay."""
+        if self.feedback_delay_s > 0.0:
+            for msg in frames:
+                self._outbound.append((now_s + self.feedback_delay_s, msg))
+        else:
+            for msg in frames:
+                self._send(msg)
 
     def service(self, now_s: float) -> int:
         """Drain the bus, answer each frame, then send periodic frames; returns frames received.
@@ -86,12 +99,6 @@ class DeviceNode:
         self.frames_in += received
         self.send_periodic(now_s)
         return received
-
-    def _emit(self, msg: can.Message, now_s: float) -> None:
-        if self.feedback_delay_s > 0.0:
-            self._outbound.append((now_s + self.feedback_delay_s, msg))
-        else:
-            self._send(msg)
 
     def _send(self, msg: can.Message) -> None:
         try:

@@ -163,10 +163,13 @@ class Physics(World):
             dx, dy, dz = dx / norm, dy / norm, dz / norm
         radius, half_width = self._wheel_size
         clearance = math.inf
+        start = self._ray_start
         for side in (-half_width, half_width):
-            self._ray_start[:] = (cx + side * ux + radius * dx, cy + side * uy + radius * dy,
-                                  cz + side * uz + radius * dz + _RAY_START_ABOVE_M)
-            dist = mujoco.mj_ray(self.model, kin, self._ray_start, _DOWN, _GROUND_ONLY, 1, -1, None)
+            # element by element: a slice assignment from a tuple costs numpy ~0.5 us
+            start[0] = cx + side * ux + radius * dx
+            start[1] = cy + side * uy + radius * dy
+            start[2] = cz + side * uz + radius * dz + _RAY_START_ABOVE_M
+            dist = mujoco.mj_ray(self.model, kin, start, _DOWN, _GROUND_ONLY, 1, -1, None)
             if dist >= 0:
                 clearance = min(clearance, dist - _RAY_START_ABOVE_M)
         return clearance

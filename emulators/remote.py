@@ -41,6 +41,8 @@ class Remote(EmulatedDevice):
             raise ValueError(f"not {self._message.name} signals: {sorted(unknown)}")
         self.command.update(signals)
 
+    listens = False  # its node skips it when a frame comes (``_handle`` for a direct caller)
+
     def _handle(self, msg: can.Message, now_s: float) -> list[can.Message]:
         return []  # a remote listens to nobody
 

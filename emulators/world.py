@@ -119,6 +119,7 @@ class World:
         if force.shape != (3,) or point.shape != (3,) or not (np.all(np.isfinite(force)) and np.all(np.isfinite(point))):
             raise ValueError(f"force and point must be finite 3-vectors, got {force_world_n}, {point_body_m}")
         self._force_world, self._force_point_body = force.copy(), point.copy()
+        self._force_held = bool(force.any())
         if not force.any():
             self.data.xfrc_applied[self._body] = 0.0
 
@@ -136,7 +137,7 @@ class World:
         if n < 0:
             raise ValueError(f"n must be >= 0, got {n}")
         m, d = self.model, self.data
-        held = bool(self._force_world.any())
+        held = self._force_held  # set with the force: a numpy any() per step costs ~1 us
         for _ in range(n):
             if held:
                 self._update_body_force()
@@ -194,6 +195,7 @@ class World:
     def _reset_data(self) -> None:
         mujoco.mj_resetData(self.model, self.data)
         self._force_world[:] = 0.0
+        self._force_held = False
         for name, f in self._projectiles:
             self._place_projectile(name, f.position_m, f.velocity_mps)
 
