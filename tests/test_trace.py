@@ -266,10 +266,10 @@ def test_batched_and_frame_by_frame_decoding_write_the_same_messages(tmp_path, t
 def test_frames_in_batches_write_the_records_of_frame_by_frame(tmp_path):
     """A recorder hands its frames over a list at a time (``on_frames``): the same records per topic."""
     frames = _frames()
-    with TraceWriter(tmp_path / "batches.mcap", metadata=METADATA, dbs=DBS, chunk_size=2_000) as trace:
+    with TraceWriter(tmp_path / "batches.mcap", metadata=METADATA, dbs=DBS, decode=True, chunk_size=2_000) as trace:
         for start in range(0, len(frames), 64):
             trace.on_frames(frames[start:start + 64])
-    with TraceWriter(tmp_path / "one.mcap", metadata=METADATA, dbs=DBS, chunk_size=2_000) as trace:
+    with TraceWriter(tmp_path / "one.mcap", metadata=METADATA, dbs=DBS, decode=True, chunk_size=2_000) as trace:
         for f in frames:
             trace.on_frame(f)
     batches = _records_by_topic(tmp_path / "batches.mcap")

@@ -51,6 +51,7 @@ from mcap.records import Channel, Message, Metadata, Attachment, Schema
 from wheelleg.hil.record import schemas
 from wheelleg.hil.record.mcap_chunks import ChunkedMcapWriter, ChunkMessages, RecordScan, read_records
 from wheelleg.hil.record.decode import FrameDecoder
+from wheelleg.hil.record.derived import attached_dbs, decoded_columns
 from wheelleg.hil.record.frame import Frame
 
 try:  # optional: 10x faster float formatting than the json module
@@ -137,8 +138,9 @@ class TraceWriter:
 
     ``metadata``: record name -> {key: str value}, e.g. {"run": {"scenario": ...}}.
     ``attachments``: (name, data, media type), e.g. the DBC files and the MJCF.
-    ``dbs``: channel -> cantools Database used for ``/decoded/...``; ``decode=False``
-    records raw frames only (``TraceReader.decoded`` can still decode them later).
+    ``dbs``: channel -> cantools Database used for ``/decoded/...`` when ``decode`` is True;
+    by default (``decode=False``) only raw frames are recorded and readers derive the
+    signals (``TraceReader.decoded``, ``wheelleg export`` for Foxglove).
     ``flush_interval_s``: wall-clock bound on what a killed process loses
     (None: close chunks by size and bus time only, for byte-identical files).
     ``decode_batch``: frames of one message decoded together (1: each as it
@@ -147,7 +149,7 @@ class TraceWriter:
 
     def __init__(self, path, *, metadata: dict[str, dict[str, str]],
                  attachments: Sequence[tuple[str, bytes, str]] = (), dbs: dict | None = None,
-                 decode: bool = True, compression: str = "zstd", chunk_size: int = 512 * 1024,
+                 decode: bool = False, compression: str = "zstd", chunk_size: int = 512 * 1024,
                  chunk_span_s: float = 0.5, flush_interval_s: float | None = 1.0, decode_batch: int = 256,
                  sim_state_fields: dict[str, str] | None = None):
         """``sim_state_fields``: the /sim/state fields every record must have (name -> unit; default:
@@ -228,6 +230,22 @@ class TraceWriter:
             channel_id = self._topic_ids[topic] = mcap.register_channel(
                 topic, schemas.CAN_FRAME_MESSAGE_ENCODING if binary else "json", schema_id)
         return channel_id
+
+    def copy_channel(self, topic: str, schema: Schema | None, message_encoding: str) -> int:
+        """A channel with another trace's schema and encoding (``records`` are then ``copy``-ed as they are)."""
+        mcap = self._writer()
+        schema_id = 0
+        if schema is not None:
+            schema_id = self._schema_ids.get(schema.data)
+            if schema_id is None:
+                schema_id = self._schema_ids[schema.data] = mcap.register_schema(schema.name, schema.encoding,
+                                                                                 schema.data)
+        channel_id = self._topic_ids[topic] = mcap.register_channel(topic, message_encoding, schema_id)
+        return channel_id
+
+    def copy(self, channel_id: int, t_ns: int, record: bytes) -> None:
+        """One message of a ``copy_channel`` channel, its bytes as stored."""
+        self._writer().add_message(channel_id, t_ns, record)
 
     def _can_channel(self, channel: str) -> int:
         if not isinstance(channel, str) or not channel or "/" in channel or len(channel.split()) != 1:
@@ -429,8 +447,10 @@ def _checked_metadata(metadata: dict) -> dict[str, dict[str, str]]:
 class TraceReader:
     """Reads a trace back, also one whose writer was killed (``truncated`` is then True).
 
-    ``dbs`` (channel -> cantools Database) lets ``decoded`` decode raw frames
-    of a trace recorded with ``decode=False``.
+    ``decoded`` and ``topic("/decoded/...")`` give a ``/decoded/`` topic as recorded
+    (a trace written with ``decode=True``) or derive it from the raw frames
+    (``wheelleg.hil.record.derived``) with ``dbs`` (channel -> cantools Database),
+    else with the trace's own DBC attachments.
     """
 
     def __init__(self, path, dbs: dict | None = None):
@@ -442,12 +462,29 @@ class TraceReader:
         self._topics: dict[int, str] = {}
         self._encodings: dict[str, str] = {}  # topic -> message encoding ("cdr": binary /can/)
         self._messages: dict[str, list[tuple[int, bytes]]] = defaultdict(list)
-        self._decoder = FrameDecoder(dbs) if dbs else None
+        self._schemas: dict[int, Schema] = {}
+        self._schema_of: dict[str, int] = {}  # topic -> schema id
         self._load()
+        self.dbs = dict(dbs) if dbs else attached_dbs(self.attachments, self.metadata.get("run", {}))
+        self._decoder = FrameDecoder(self.dbs) if self.dbs else None
+
+    @property
+    def decodes(self) -> bool:
+        """True when raw frames can be decoded (given databases, or the trace's DBC attachments and channels)."""
+        return self._decoder is not None
 
     def decode_with(self, dbs: dict) -> None:
         """Decode raw frames with ``dbs`` (channel -> cantools Database) where ``/decoded/`` lacks them."""
-        self._decoder = FrameDecoder(dbs)
+        self.dbs = dict(dbs)
+        self._decoder = FrameDecoder(self.dbs)
+
+    def records(self, topic: str) -> list[tuple[int, bytes]]:
+        """``topic``'s messages as stored: (log time ns, record bytes), in file order."""
+        return list(self._messages.get(topic, ()))
+
+    def schema(self, topic: str) -> tuple[Schema | None, str]:
+        """The stored schema of ``topic`` (None: schemaless) and its message encoding."""
+        return self._schemas.get(self._schema_of.get(topic, 0)), self._encodings.get(topic, "")
 
     @property
     def truncated(self) -> bool:
@@ -470,20 +507,24 @@ class TraceReader:
             elif isinstance(record, Channel):
                 topics[record.id] = record.topic
                 self._encodings[record.topic] = record.message_encoding
+                self._schema_of[record.topic] = record.schema_id
+            elif isinstance(record, Schema):
+                self._schemas[record.id] = record
             elif isinstance(record, Metadata):
                 self.metadata[record.name] = dict(record.metadata)
             elif isinstance(record, Attachment):
                 self.attachments[record.name] = record.data
                 self.attachment_media_types[record.name] = record.media_type
-            elif not isinstance(record, Schema):
-                continue
 
     def topic(self, topic: str) -> list[tuple[int, dict]]:
         """Every message of ``topic`` as (log time ns, payload), in file order.
 
         A ``/can/`` topic's payloads are {"id", "extended", "dlc", "data" (hex), "error"}
-        whichever way the trace stored them.
+        whichever way the trace stored them; a ``/decoded/`` topic the trace does not
+        store is derived from the raw frames (the rows a live-decoded trace reads back as).
         """
+        if topic.startswith(DECODED_PREFIX) and topic not in self._messages:
+            return self._derived_rows(topic)
         if topic.startswith(CAN_PREFIX) and self._encodings.get(topic) == schemas.CAN_FRAME_MESSAGE_ENCODING:
             return [(f.t_ns, {"id": f.arbitration_id, "extended": f.is_extended, "dlc": f.dlc,
                               "data": f.data.hex(), "error": f.is_error})
@@ -524,13 +565,19 @@ class TraceReader:
             return _columns(self.topic(topic), time_key="t")
         if self._decoder is None:
             return {}
+        return decoded_columns(self._decoder, self.frames(channel), message)
+
+    def _derived_rows(self, topic: str) -> list[tuple[int, dict]]:
+        channel, _, message = topic[len(DECODED_PREFIX):].partition("/")
+        if self._decoder is None or not message:
+            return []
         rows = []
         for frame in self.frames(channel):
             hit = None if frame.is_error else self._decoder.decode(
                 channel, frame.arbitration_id, frame.is_extended, frame.data)
             if hit is not None and hit[0].name == message:
-                rows.append((frame.t_ns, hit[1]))
-        return _columns(rows, time_key="t")
+                rows.append((frame.t_ns, loads(dumps(hit[1]))))  # as a JSON topic reads back (NaN -> None)
+        return rows
 
     def events(self) -> list[dict]:
         """``/scenario/events`` payloads, each with 't' (s)."""
