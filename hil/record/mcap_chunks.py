@@ -224,11 +224,15 @@ class ChunkedMcapWriter:
             buf += data
         self._size += len(buf) - start
 
-    def flush_if_due(self, log_time: int) -> None:
+    def flush_if_due(self, log_time: int, held: bool = False) -> None:
         """Close the open chunk if ``add_message`` would have: full, spanning ``chunk_span_ns`` by
-        ``log_time`` (ns), or the wall-clock flush due (after a batch of ``add_messages``)."""
-        if self._runs and (self._size >= self._chunk_size or log_time - self._chunk_t0 >= self._chunk_span_ns
-                           or time.monotonic() >= self._flush_deadline):
+        ``log_time`` (ns), or the wall-clock flush due (after a batch of ``add_messages``).
+        ``held``: the caller holds messages back for this chunk (``before_close`` writes them), so
+        the wall-clock flush is due even while the chunk holds none yet."""
+        if not (self._runs or held):
+            return
+        if (self._size >= self._chunk_size or time.monotonic() >= self._flush_deadline
+                or (self._chunk_t0 is not None and log_time - self._chunk_t0 >= self._chunk_span_ns)):
             self.flush()
 
     def _open_run(self, channel_id: int, log_time: int) -> tuple[bytearray, list[int]]:

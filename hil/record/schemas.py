@@ -5,8 +5,8 @@ JSON number and carries its unit in ``description``. Values that are not
 finite (NaN, inf) are written as ``null``: JSON has no NaN.
 
 Topics (the trace contract, docs/design.md):
-- ``/can/<channel>``: one binary message per frame (``CAN_FRAME_MSG``; older traces:
-  JSON, ``CAN_FRAME_JSON``).
+- ``/can/<channel>``: one binary message per bus and control period holding its frames
+  (``CAN_FRAMES_MSG``; older traces: one per frame, ``CAN_FRAME_MSG``, or JSON, ``CAN_FRAME_JSON``).
 - ``/decoded/<channel>/<Message>``: the DBC signals of one frame
   (``decoded_schema``), plus the CyberGear fields that live in the 29-bit id.
 - ``/sim/state``: simulation ground truth each control period (``sim_state_schema``).
@@ -39,6 +39,20 @@ uint8[] data  # payload
 """
 CAN_FRAME_HEAD = struct.Struct("<4sIBBBxI")  # CDR header, id, extended, dlc, error, pad, len(data)
 CDR_LE = b"\x00\x01\x00\x00"
+
+# /can/<channel> since the batched records: one message per bus and control period
+# (log time = its first frame's), the frames as parallel arrays (hil/record/can_batch.py
+# packs and reads them). Traces with CAN_FRAME_NAME (one message per frame) read as before.
+CAN_FRAMES_NAME = "wheelleg/msg/CanFrames"
+CAN_FRAMES_MSG = """\
+# The CAN frames of one bus in one control period, in bus-time order; log time = the first one's.
+uint32[] dt_ns  # each frame's bus time (end of its transmission) after the log time, ns
+uint32[] id  # arbitration id (11 or 29 bit); error class bits for an error frame
+uint8[] flags  # bit 0 extended (29-bit id), 1 error frame, 2 remote frame, 3 CAN FD; bits 4-6 the FD flags
+uint8[] dlc  # data length code (a remote frame's requested length)
+uint8[] length  # payload bytes of each frame
+uint8[] data  # the payloads, one after another (frame i's: length[i] bytes after the previous ones)
+"""
 
 # /can/<channel> of traces recorded before the binary records (JSON, read back by TraceReader).
 CAN_FRAME_JSON: dict = {

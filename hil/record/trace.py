@@ -3,11 +3,14 @@
 Channels (Foxglove lists and plots them all; see ``wheelleg.hil.record.schemas``
 for the field lists and units):
 
-- ``/can/<channel>``      one binary message per frame (ROS 2 msg schema, CDR):
-                          id, extended, dlc, error, data (uint8[]);
-                          log time = publish time = bus time (ns).
-- ``/decoded/<channel>/<Message>``  the frame's DBC signals as numbers (CyberGear:
-                          plus the fields of the 29-bit id), same log time.
+- ``/can/<channel>``      one binary message per bus and ``can_period_s`` of bus time
+                          (the rig: its control period) holding its frames as arrays
+                          (ROS 2 msg schema, CDR: ``can_batch``); log time = publish
+                          time = its first frame's bus time (ns). Older traces: one
+                          message per frame (``schemas.CAN_FRAME_MSG``), still read.
+- ``/decoded/<channel>/<Message>``  only with ``decode=True`` (else readers derive it):
+                          the frame's DBC signals as numbers (CyberGear: plus the
+                          fields of the 29-bit id), the frame's log time.
 - ``/sim/state``          ground truth each control period (t in s, SI units).
 - ``/scenario/events``    {"kind": ..., ...}.
 - any other topic         generic JSON (``TraceWriter.message``).
@@ -48,7 +51,7 @@ from typing import Iterator, Sequence
 import numpy as np
 from mcap.records import Channel, Message, Metadata, Attachment, Schema
 
-from wheelleg.hil.record import schemas
+from wheelleg.hil.record import can_batch, schemas
 from wheelleg.hil.record.mcap_chunks import ChunkedMcapWriter, ChunkMessages, RecordScan, read_records
 from wheelleg.hil.record.decode import FrameDecoder
 from wheelleg.hil.record.derived import attached_dbs, decoded_columns
@@ -145,13 +148,15 @@ class TraceWriter:
     (None: close chunks by size and bus time only, for byte-identical files).
     ``decode_batch``: frames of one message decoded together (1: each as it
     comes, for a real-time loop that must not stall on a batch).
+    ``can_period_s``: each bus's frames of one such window of bus time are one ``/can/``
+    message (the rig: its control period).
     """
 
     def __init__(self, path, *, metadata: dict[str, dict[str, str]],
                  attachments: Sequence[tuple[str, bytes, str]] = (), dbs: dict | None = None,
                  decode: bool = False, compression: str = "zstd", chunk_size: int = 512 * 1024,
                  chunk_span_s: float = 0.5, flush_interval_s: float | None = 1.0, decode_batch: int = 256,
-                 sim_state_fields: dict[str, str] | None = None):
+                 sim_state_fields: dict[str, str] | None = None, can_period_s: float = 0.002):
         """``sim_state_fields``: the /sim/state fields every record must have (name -> unit; default:
         the wheel-legged robot's, ``schemas.SIM_STATE_FIELDS``)."""
         self.path = Path(path)
@@ -161,8 +166,13 @@ class TraceWriter:
         self._decoder = FrameDecoder(dbs) if (dbs and decode) else None
         self._options = dict(compression=compression, chunk_size=chunk_size,
                              chunk_span_ns=round(chunk_span_s * 1e9), flush_interval_s=flush_interval_s,
-                             before_close=self._write_decoded)
+                             before_close=self._before_close)
         self._decode_batch = max(1, int(decode_batch))
+        self._can_window_ns = round(can_period_s * 1e9)
+        if not 0 < self._can_window_ns <= can_batch.MAX_SPAN_NS:
+            raise ValueError(f"can_period_s must be > 0 and <= {can_batch.MAX_SPAN_NS / 1e9:.2f} s, got {can_period_s!r}")
+        # channel -> (window, first time, its frames not yet written)
+        self._held: dict[str, tuple[int, int, list[Frame]]] = {}
         self._pending: dict[object, _Pending] = {}  # DecodePlan -> its frames not yet decoded
         self._file = None
         self._mcap: ChunkedMcapWriter | None = None
@@ -250,8 +260,8 @@ class TraceWriter:
     def _can_channel(self, channel: str) -> int:
         if not isinstance(channel, str) or not channel or "/" in channel or len(channel.split()) != 1:
             raise ValueError(f"bad CAN channel name {channel!r}")
-        channel_id = self._can_ids[channel] = self._channel(CAN_PREFIX + channel, schemas.CAN_FRAME_NAME,
-                                                            schemas.CAN_FRAME_MSG)
+        channel_id = self._can_ids[channel] = self._channel(CAN_PREFIX + channel, schemas.CAN_FRAMES_NAME,
+                                                            schemas.CAN_FRAMES_MSG)
         return channel_id
 
     def _decoded_channel(self, channel: str, plan) -> int:
@@ -264,63 +274,53 @@ class TraceWriter:
 
     # -- records -------------------------------------------------------------------
     def frame(self, frame: Frame) -> None:
-        """One CAN frame at its bus time; also decoded if a DBC of its channel knows it."""
-        channel, t_ns, arbitration_id = frame.channel, frame.t_ns, frame.arbitration_id
-        is_extended, data, is_error = frame.is_extended, frame.data, frame.is_error
-        channel_id = self._can_ids.get(channel)
-        if channel_id is None:
-            channel_id = self._can_channel(channel)
-        mcap = self._mcap
-        if mcap is None or self._finished:
-            mcap = self._writer()
-        if not 0 <= arbitration_id <= _MAX_ID:
-            raise ValueError(f"{channel}: arbitration id {arbitration_id!r} outside 0..0x1FFFFFFF")
-        try:
-            mcap.add_message(channel_id, t_ns, _CAN_HEAD.pack(_CDR_LE, arbitration_id, is_extended, frame.dlc,
-                                                              is_error, len(data)) + data)
-        except struct.error as exc:
-            raise ValueError(f"t_ns must be an int >= 0 (ns), got {t_ns!r}") from exc
-        if self._decoder is None or is_error:
-            return
-        plan = self._decoder.plan(channel, arbitration_id, is_extended)
-        if plan is not None:
-            self._decode(plan, channel, t_ns, arbitration_id, data)
+        """One CAN frame at its bus time; also decoded if ``decode`` and a DBC of its channel knows it."""
+        self.on_frames([frame])
 
     on_frame = frame  # one frame, as a recorder sink would get it
 
     def on_frames(self, frames: Sequence[Frame]) -> None:
-        """Frames in time order (a recorder sink, ``wheelleg.hil.bus.recorder.FrameSink``): as ``frame``
-        one by one, each channel's records appended together and the chunk closed after them if due."""
+        """Frames in time order (a recorder sink, ``wheelleg.hil.bus.recorder.FrameSink``).
+
+        Each bus's frames of one ``can_period_s`` window of bus time are held and
+        written as one ``/can/`` message when a frame of a later window comes or
+        the chunk closes (``can_batch``); the chunk is closed after them if due.
+        """
         mcap = self._mcap
         if mcap is None or self._finished:
             mcap = self._writer()
-        pack, cdr, decoder = _CAN_HEAD.pack, _CDR_LE, self._decoder
-        rows: dict[str, tuple[list, list]] = {}  # channel -> (times, records)
-        try:
-            for f in frames:
-                channel, arbitration_id, data = f.channel, f.arbitration_id, f.data
-                if not 0 <= arbitration_id <= _MAX_ID:
-                    raise ValueError(f"{channel}: arbitration id {arbitration_id!r} outside 0..0x1FFFFFFF")
-                times_records = rows.get(channel)
-                if times_records is None:
-                    if channel not in self._can_ids:
-                        self._can_channel(channel)
-                    times_records = rows[channel] = ([], [])
-                times_records[0].append(f.t_ns)
-                times_records[1].append(pack(cdr, arbitration_id, f.is_extended, f.dlc, f.is_error, len(data)) + data)
-                if decoder is not None and not f.is_error:
-                    plan = decoder.plan(channel, arbitration_id, f.is_extended)
-                    if plan is not None:
-                        self._decode(plan, channel, f.t_ns, arbitration_id, data)
-        finally:  # a bad frame raises after the frames before it are kept
-            for channel, (times, records) in rows.items():
-                try:
-                    mcap.add_messages(self._can_ids[channel], times, records)
-                except struct.error as exc:
-                    bad = next(t for t in times if not (isinstance(t, int) and t >= 0))
-                    raise ValueError(f"t_ns must be an int >= 0 (ns), got {bad!r}") from exc
+        window, held, decoder = self._can_window_ns, self._held, self._decoder
+        for f in frames:  # a bad frame raises after the frames before it are kept
+            channel, arbitration_id, t_ns = f.channel, f.arbitration_id, f.t_ns
+            if not 0 <= arbitration_id <= _MAX_ID:
+                raise ValueError(f"{channel}: arbitration id {arbitration_id!r} outside 0..0x1FFFFFFF")
+            if t_ns.__class__ is not int or t_ns < 0:
+                raise ValueError(f"t_ns must be an int >= 0 (ns), got {t_ns!r}")
+            key = t_ns // window
+            batch = held.get(channel)
+            if batch is None or batch[0] != key or t_ns < batch[1]:  # a later window (or a frame out of order)
+                if batch is not None:
+                    self._write_batch(channel, batch[2])
+                elif channel not in self._can_ids:
+                    self._can_channel(channel)
+                batch = held[channel] = (key, t_ns, [])
+            batch[2].append(f)
+            if decoder is not None and not f.is_error:
+                plan = decoder.plan(channel, arbitration_id, f.is_extended)
+                if plan is not None:
+                    self._decode(plan, channel, t_ns, arbitration_id, f.data)
         if frames:
-            mcap.flush_if_due(frames[-1].t_ns)
+            mcap.flush_if_due(frames[-1].t_ns, held=bool(held))
+
+    def _write_batch(self, channel: str, frames: list[Frame]) -> None:
+        self._mcap.add_messages(self._can_ids[channel], [frames[0].t_ns], [can_batch.pack(frames)])
+
+    def _before_close(self) -> None:
+        """Every held frame into the open chunk (called before a chunk closes): ``/can/``, ``/decoded/``."""
+        held, self._held = self._held, {}
+        for channel, (_, _, frames) in held.items():
+            self._write_batch(channel, frames)
+        self._write_decoded()
 
     def _decode(self, plan, channel: str, t_ns: int, arbitration_id: int, data: bytes) -> None:
         """The frame's ``/decoded/`` row: now (``decode_batch`` 1), or held for its message's batch."""
@@ -543,15 +543,26 @@ class TraceReader:
 
     def _channel_frames(self, channel: str, bus: str) -> Iterator[Frame]:
         topic = CAN_PREFIX + channel
+        records = self._messages.get(topic, ())
         if self._encodings.get(topic) != schemas.CAN_FRAME_MESSAGE_ENCODING:  # a JSON trace (older)
-            for t_ns, data in self._messages.get(topic, ()):
+            for t_ns, data in records:
                 r = loads(data)
                 yield Frame(t_ns, channel, r["id"], r["extended"], bytes.fromhex(r["data"]), r["dlc"], bus,
                             r["error"])
             return
-        head, unpack = _CAN_HEAD.size, _CAN_HEAD.unpack_from
-        for t_ns, data in self._messages.get(topic, ()):
-            _, can_id, extended, dlc, error, n = unpack(data)
+        schema = self._schemas.get(self._schema_of.get(topic, 0))
+        name = schema.name if schema is not None else ""
+        if name == schemas.CAN_FRAMES_NAME:  # one message per bus and period
+            unpack = can_batch.unpack
+            for t_ns, data in records:
+                yield from unpack(data, t_ns, channel, bus)
+            return
+        if name != schemas.CAN_FRAME_NAME:
+            raise ValueError(f"{self.path}: {topic} has schema {name!r}, which this reader does not know "
+                             f"(it reads {schemas.CAN_FRAMES_NAME} and {schemas.CAN_FRAME_NAME}): a newer trace?")
+        head, unpack_from = _CAN_HEAD.size, _CAN_HEAD.unpack_from  # one message per frame (older)
+        for t_ns, data in records:
+            _, can_id, extended, dlc, error, n = unpack_from(data)
             yield Frame(t_ns, channel, can_id, bool(extended), data[head:head + n], dlc, bus, bool(error))
 
     def sim_state(self) -> dict[str, np.ndarray]:
