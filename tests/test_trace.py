@@ -1,6 +1,7 @@
 """The MCAP trace: round trip, decoding, schemas, crash recovery (wheelleg.hil.record.trace)."""
 from __future__ import annotations
 
+import itertools
 import json
 import os
 import signal
@@ -169,7 +170,7 @@ def test_schemas_are_valid_and_every_message_validates(trace_path):
         validators = {}
         for schema, channel, message in reader.iter_messages():
             seen.add(channel.topic)
-            if channel.topic.startswith("/can/"):  # binary: tests/test_trace.py::test_can_records_*
+            if channel.topic.startswith(("/can/", "/sim/state")):  # binary: test_*_with_mcaps_ros2_decoder*
                 assert (schema.encoding, channel.message_encoding) == ("ros2msg", "cdr")
                 continue
             assert schema.encoding == "jsonschema" and channel.message_encoding == "json"
@@ -185,15 +186,15 @@ def test_schemas_are_valid_and_every_message_validates(trace_path):
 
 def test_can_records_decode_with_mcaps_ros2_decoder_to_the_frames_written(trace_path):
     """Foxglove and mcap-ros2-support read /can/ by its ros2msg schema: numbers, not text; one message
-    per bus and period, its frames as arrays (the payloads one after another, ``length`` bytes each)."""
+    per bus and 100 ms window, its frames as arrays (the payloads one after another, ``length`` bytes each)."""
     decoder = pytest.importorskip("mcap_ros2.decoder").DecoderFactory()
     with open(trace_path, "rb") as f:
         got, messages = [], 0
         for schema, channel, message in make_reader(f).iter_messages(topics=["/can/can1", "/can/can2"]):
             m = decoder.decoder_for(channel.message_encoding, schema)(message.data)
-            times = [message.log_time + dt for dt in m.dt_ns]  # offsets from the log time
-            assert schema.name == "wheelleg/msg/CanFrames" and m.dt_ns[0] == 0
-            assert all(t // 2_000_000 == times[0] // 2_000_000 for t in times)  # one 2 ms period
+            times = list(itertools.accumulate(m.gap_ns, initial=message.log_time))[1:]  # gaps after the previous
+            assert schema.name == "wheelleg/msg/CanFrames" and m.gap_ns[0] == 0
+            assert all(t // 100_000_000 == times[0] // 100_000_000 for t in times)  # one 100 ms window
             data, at = bytes(m.data), 0
             for t, can_id, flags, dlc, length in zip(times, m.id, m.flags, m.dlc, m.length):
                 got.append((t, channel.topic[5:], can_id, bool(flags & 1), data[at:at + length], dlc,
@@ -201,7 +202,51 @@ def test_can_records_decode_with_mcaps_ros2_decoder_to_the_frames_written(trace_
                 at += length
             messages += 1
     written = [(f.t_ns, f.channel, f.arbitration_id, f.is_extended, f.data, f.dlc, f.is_error) for f in _frames()]
-    assert sorted(got) == sorted(written) and len(got) > 10 * messages / 2 and messages > 3
+    assert sorted(got) == sorted(written) and len(got) > 10 and messages >= 2
+
+
+def test_float_records_decode_with_mcaps_ros2_decoder_to_the_values_written(tmp_path):
+    """/sim/state and /controller/debug are float64 ROS 2 messages: Foxglove plots each field by its
+    (lower-case) ROS name; TraceReader gives the rig's names back, 't' from the log time."""
+    decoder = pytest.importorskip("mcap_ros2.decoder").DecoderFactory()
+    fields = {"left_L0": "[m] leg", "Fn_left": "[N] support", "jump_phase": "phase", "FR_foot_z": "[m] foot"}
+    debug_schema = schemas.described_schema("wheelleg.ControllerDebug", fields)
+    path = tmp_path / "floats.mcap"
+    with TraceWriter(path, metadata={}) as trace:
+        for k in range(5):
+            trace.sim_state(1_000 + k * 2_000_000, _state(k))
+            trace.numbers("/controller/debug", 1_000 + k * 2_000_000,
+                          {"left_L0": 0.17 + k, "Fn_left": 20.5 - k, "jump_phase": k, "FR_foot_z": None}, debug_schema)
+    with open(path, "rb") as f:
+        got: dict[str, list] = {}
+        for schema, channel, message in make_reader(f).iter_messages():
+            m = decoder.decoder_for(channel.message_encoding, schema)(message.data)
+            got.setdefault(channel.topic, []).append((message.log_time, m))
+    assert [m.pitch for _, m in got["/sim/state"]] == [_state(k)["pitch"] for k in range(5)]
+    assert [m.pitch_motor_temp for _, m in got["/sim/state"]] == [30.0 + k for k in range(5)]
+    assert [(m.left_l0, m.fn_left, m.jump_phase) for _, m in got["/controller/debug"]] == [
+        (0.17 + k, 20.5 - k, k) for k in range(5)]
+    reader = TraceReader(path)
+    assert reader.topic("/controller/debug")[1] == (
+        2_001_000, {"left_L0": 1.17, "Fn_left": 19.5, "jump_phase": 1.0, "FR_foot_z": None})
+    t, row = reader.topic("/sim/state")[2]
+    assert row == {"t": t / 1e9, **_state(2)} and list(row)[:3] == ["t", "x", "y"]
+    debug = reader.columns("/controller/debug")
+    assert list(debug) == list(fields) and np.isnan(debug["FR_foot_z"]).all()
+    np.testing.assert_array_equal(reader.sim_state()["t"], [(1_000 + k * 2_000_000) / 1e9 for k in range(5)])
+
+
+def test_float_records_refuse_what_they_cannot_hold(tmp_path):
+    trace = TraceWriter(tmp_path / "bad.mcap", metadata={})
+    trace.sim_state(0, _state(0))
+    with pytest.raises(ValueError, match="wind"):  # a field the first record did not have
+        trace.sim_state(1, {**_state(1), "wind": 1.0})
+    schema = schemas.described_schema("wheelleg.D", {"a": "[m]"})
+    with pytest.raises(TypeError, match="'a'"):
+        trace.numbers("/d", 0, {"a": "high"}, schema)
+    with pytest.raises(ValueError, match="topic"):
+        trace.numbers("/sim/state", 0, {"a": 1.0}, schema)
+    trace.finish()
 
 
 def test_schema_rejects_a_wrong_record():
@@ -230,7 +275,7 @@ def test_mcap_library_reads_the_finished_file(trace_path):
     assert stats.message_count == sum(counts.values())
     by_topic = {summary.channels[cid].topic: n for cid, n in stats.channel_message_counts.items()}
     assert by_topic == counts
-    assert counts["/can/can1"] == len({f.t_ns // 2_000_000 for f in _frames() if f.channel == "can1"})
+    assert counts["/can/can1"] == len({f.t_ns // 100_000_000 for f in _frames() if f.channel == "can1"})
     assert attachments == {name: data for name, data, _ in ATTACHMENTS}
     assert metadata == METADATA
     with open(trace_path, "rb") as f:  # topic filtering uses the chunk's message indexes
@@ -255,7 +300,7 @@ def test_decode_false_records_raw_only_and_the_reader_decodes_later(tmp_path, tr
 
 def test_chunking_options_give_the_same_content(tmp_path, trace_path):
     path = tmp_path / "small.mcap"
-    _write(path, _frames(), compression="", chunk_size=2_000, flush_interval_s=None, can_period_s=0.0002)
+    _write(path, _frames(), compression="", chunk_size=2_000, flush_interval_s=None, can_window_s=0.0002)
     small, ref = TraceReader(path), TraceReader(trace_path)
     assert small.scan.chunks > 5 * ref.scan.chunks
     assert list(small.frames()) == list(ref.frames())

@@ -49,7 +49,7 @@ def export_decoded(trace: Path, out: Path) -> Exported:
         streams = [((f.t_ns, 0, None, f) for f in reader.frames())]
         for topic in reader.topics:
             if not topic.startswith((CAN_PREFIX, DECODED_PREFIX)):  # /decoded/ is written again from the frames
-                channel_id = writer.copy_channel(topic, *reader.schema(topic))
+                channel_id = writer.copy_channel(topic, *reader.schema(topic))  # as stored
                 streams.append(_tagged(reader.records(topic), channel_id))
         batch = []
         for t_ns, _, channel_id, item in heapq.merge(*streams, key=lambda r: r[:2]):

@@ -1,26 +1,31 @@
-"""``/can/<channel>`` records: the frames of one bus in one control period as one CDR message.
+"""``/can/<channel>`` records: the frames of one bus in one window of bus time as one CDR message.
 
 One MCAP message per frame cost 16 bytes of message index (the offsets
 Foxglove's indexed reader needs) and 31 of record head for a frame of ~8 bytes;
-one message per bus and period (the rig: 2 ms, ~10 frames) holds the same
-frames as parallel arrays (``schemas.CAN_FRAMES_MSG``, a ROS 2 message that
-Foxglove and mcap-ros2-support decode). ``pack`` writes one, ``unpack`` reads
-it back into the ``Frame`` records that were packed, bit for bit (time, id,
-flags, dlc, payload).
+one message per bus and window (the trace writer's ``can_window_s``, 100 ms,
+the windows of ``/bus/load``) holds the same frames as parallel arrays
+(``schemas.CAN_FRAMES_MSG``, a ROS 2 message that Foxglove and
+mcap-ros2-support decode). ``pack`` writes one, ``unpack`` reads it back into
+the ``Frame`` records that were packed, bit for bit (time, id, flags, dlc,
+payload).
 
-Times are offsets from the message's log time (its first frame's bus time):
-a period's frames sit at nearly the same offsets every period, so they
-compress to a fifth of absolute times (10 s of balance: 0.86 -> 0.53 MB of /can/).
+Times are gaps: each frame's bus time after the previous frame's (the first:
+after the message's log time, which is its time, so 0). The rig's frames come
+in the same rhythm every control period, so the gaps repeat and compress to a
+tenth of absolute times (10 s of balance, /can/ of both buses: 0.86 MB with
+absolute times in 2 ms messages, 0.53 with offsets from the log time, 0.49 with
+gaps in 100 ms messages).
 
 CDR (little endian, after the 4-byte encapsulation header; each sequence is
 a uint32 count, then its elements aligned to their size from the body's start):
-``dt_ns`` and ``id`` uint32[], then ``flags``, ``dlc``, ``length`` and ``data``
+``gap_ns`` and ``id`` uint32[], then ``flags``, ``dlc``, ``length`` and ``data``
 uint8[], each count aligned to 4.
 """
 from __future__ import annotations
 
 import struct
 from functools import lru_cache
+from itertools import accumulate
 
 from wheelleg.hil.record.frame import Frame
 from wheelleg.hil.record.schemas import CDR_LE
@@ -30,12 +35,12 @@ _FD_SHIFT = 4
 _COUNT = struct.Struct("<I")
 
 
-MAX_SPAN_NS = (1 << 32) - 1  # the latest frame of a message after its first (uint32 offsets)
+MAX_GAP_NS = (1 << 32) - 1  # a frame after the one before it in its message (uint32 gaps)
 
 
 @lru_cache(maxsize=256)
 def _head(n: int) -> struct.Struct:
-    """Encapsulation header, dt_ns (count, n uint32) and id (count, n uint32) of ``n`` frames."""
+    """Encapsulation header, gap_ns (count, n uint32) and id (count, n uint32) of ``n`` frames."""
     return struct.Struct(f"<4sI{n}II{n}I")
 
 
@@ -44,17 +49,17 @@ def _pad4(size: int) -> bytes:
 
 
 def pack(frames: list[Frame]) -> bytes:
-    """One ``/can/`` record of ``frames`` (one bus; none before the first, none ``MAX_SPAN_NS`` after it);
-    the message's log time is ``frames[0].t_ns``. ValueError for a time or id out of range."""
+    """One ``/can/`` record of ``frames`` (one bus, in time order, each at most ``MAX_GAP_NS`` after the one
+    before); the message's log time is ``frames[0].t_ns``. ValueError for a time or id out of range."""
     n = len(frames)
-    t0 = frames[0].t_ns
-    offsets = [f.t_ns - t0 for f in frames]
+    times = [f.t_ns for f in frames]
+    gaps = [0] + [b - a for a, b in zip(times, times[1:])]
     ids = [f.arbitration_id for f in frames]
     try:
-        head = _head(n).pack(CDR_LE, n, *offsets, n, *ids)
+        head = _head(n).pack(CDR_LE, n, *gaps, n, *ids)
     except struct.error as exc:
-        raise ValueError(f"frame times {[f.t_ns for f in frames]} must lie within {MAX_SPAN_NS} ns after the "
-                         f"first, ids {ids} within 0..0x1FFFFFFF") from exc
+        raise ValueError(f"frame times {times} must not go back and each lie within {MAX_GAP_NS} ns of the one "
+                         f"before, ids {ids} within 0..0x1FFFFFFF") from exc
     flags = bytes([f.is_extended | f.is_error << 1 | f.is_remote << 2 | f.is_fd << 3 | f.fd_flags << _FD_SHIFT
                    for f in frames])
     dlcs = bytes([f.dlc for f in frames])
@@ -78,7 +83,7 @@ def unpack(record: bytes, log_time_ns: int, channel: str, bus: str = "") -> list
         raise ValueError(f"/can/{channel}: not a little-endian CDR record")
     (n,) = _COUNT.unpack_from(record, 4)
     values = _head(n).unpack_from(record)
-    times, ids = [log_time_ns + dt for dt in values[2:2 + n]], values[3 + n:]
+    times, ids = list(accumulate(values[2:2 + n], initial=log_time_ns))[1:], values[3 + n:]
     at = 4 + 8 + 8 * n + 4  # the flags: past the head and their count (file offsets: the body + 4)
     flags = record[at:at + n]
     columns = []

@@ -3,8 +3,8 @@
 Channels (Foxglove lists and plots them all; see ``wheelleg.hil.record.schemas``
 for the field lists and units):
 
-- ``/can/<channel>``      one binary message per bus and ``can_period_s`` of bus time
-                          (the rig: its control period) holding its frames as arrays
+- ``/can/<channel>``      one binary message per bus and ``can_window_s`` of bus time
+                          (100 ms) holding its frames as arrays
                           (ROS 2 msg schema, CDR: ``can_batch``); log time = publish
                           time = its first frame's bus time (ns). Older traces: one
                           message per frame (``schemas.CAN_FRAME_MSG``), still read.
@@ -51,7 +51,7 @@ from typing import Iterator, Sequence
 import numpy as np
 from mcap.records import Channel, Message, Metadata, Attachment, Schema
 
-from wheelleg.hil.record import can_batch, schemas
+from wheelleg.hil.record import can_batch, float_records, schemas
 from wheelleg.hil.record.mcap_chunks import ChunkedMcapWriter, ChunkMessages, RecordScan, read_records
 from wheelleg.hil.record.decode import FrameDecoder
 from wheelleg.hil.record.derived import attached_dbs, decoded_columns
@@ -67,6 +67,7 @@ SIM_STATE_TOPIC, EVENTS_TOPIC = "/sim/state", "/scenario/events"
 _RESERVED = (CAN_PREFIX, DECODED_PREFIX, SIM_STATE_TOPIC, EVENTS_TOPIC)
 _CAN_HEAD, _CDR_LE = schemas.CAN_FRAME_HEAD, schemas.CDR_LE
 _MAX_ID = 0x1FFFFFFF  # 29-bit identifier
+_HELD_BYTES = 23  # a held classic frame's share of its /can/ record (gap, id, flags, dlc, length, 8 data)
 
 
 # -- JSON --------------------------------------------------------------------------
@@ -148,15 +149,15 @@ class TraceWriter:
     (None: close chunks by size and bus time only, for byte-identical files).
     ``decode_batch``: frames of one message decoded together (1: each as it
     comes, for a real-time loop that must not stall on a batch).
-    ``can_period_s``: each bus's frames of one such window of bus time are one ``/can/``
-    message (the rig: its control period).
+    ``can_window_s``: each bus's frames of one such window of bus time are one ``/can/``
+    message (100 ms: the windows of ``/bus/load``; docs/measurements.md has the sizes).
     """
 
     def __init__(self, path, *, metadata: dict[str, dict[str, str]],
                  attachments: Sequence[tuple[str, bytes, str]] = (), dbs: dict | None = None,
                  decode: bool = False, compression: str = "zstd", chunk_size: int = 512 * 1024,
                  chunk_span_s: float = 0.5, flush_interval_s: float | None = 1.0, decode_batch: int = 256,
-                 sim_state_fields: dict[str, str] | None = None, can_period_s: float = 0.002):
+                 sim_state_fields: dict[str, str] | None = None, can_window_s: float = 0.1):
         """``sim_state_fields``: the /sim/state fields every record must have (name -> unit; default:
         the wheel-legged robot's, ``schemas.SIM_STATE_FIELDS``)."""
         self.path = Path(path)
@@ -168,11 +169,11 @@ class TraceWriter:
                              chunk_span_ns=round(chunk_span_s * 1e9), flush_interval_s=flush_interval_s,
                              before_close=self._before_close)
         self._decode_batch = max(1, int(decode_batch))
-        self._can_window_ns = round(can_period_s * 1e9)
-        if not 0 < self._can_window_ns <= can_batch.MAX_SPAN_NS:
-            raise ValueError(f"can_period_s must be > 0 and <= {can_batch.MAX_SPAN_NS / 1e9:.2f} s, got {can_period_s!r}")
-        # channel -> (window, first time, its frames not yet written)
-        self._held: dict[str, tuple[int, int, list[Frame]]] = {}
+        self._can_window_ns = round(can_window_s * 1e9)
+        if not 0 < self._can_window_ns <= can_batch.MAX_GAP_NS:
+            raise ValueError(f"can_window_s must be > 0 and <= {can_batch.MAX_GAP_NS / 1e9:.2f} s, got {can_window_s!r}")
+        self._held: dict[str, tuple[int, list[Frame]]] = {}  # channel -> (window, its frames not yet written)
+        self._held_count = 0  # frames held since the chunk opened (an upper bound: some may be written)
         self._pending: dict[object, _Pending] = {}  # DecodePlan -> its frames not yet decoded
         self._file = None
         self._mcap: ChunkedMcapWriter | None = None
@@ -181,6 +182,8 @@ class TraceWriter:
         self._topic_ids: dict[str, int] = {}  # any topic -> MCAP channel id
         self._decoded_ids: dict[object, int] = {}  # DecodePlan (one per channel and message) -> id
         self._schema_ids: dict[bytes, int] = {}
+        self._layouts: dict[str, float_records.FloatLayout] = {}  # float64-record topic -> its fields
+        self._field_sets: dict[str, frozenset] = {}
 
     # -- lifecycle ---------------------------------------------------------
     def start(self) -> "TraceWriter":
@@ -241,8 +244,10 @@ class TraceWriter:
                 topic, schemas.CAN_FRAME_MESSAGE_ENCODING if binary else "json", schema_id)
         return channel_id
 
-    def copy_channel(self, topic: str, schema: Schema | None, message_encoding: str) -> int:
-        """A channel with another trace's schema and encoding (``records`` are then ``copy``-ed as they are)."""
+    def copy_channel(self, topic: str, schema: Schema | None, message_encoding: str,
+                     metadata: dict[str, str] | None = None) -> int:
+        """A channel with another trace's schema, encoding and channel metadata (its records are then
+        ``copy``-ed as they are)."""
         mcap = self._writer()
         schema_id = 0
         if schema is not None:
@@ -250,7 +255,7 @@ class TraceWriter:
             if schema_id is None:
                 schema_id = self._schema_ids[schema.data] = mcap.register_schema(schema.name, schema.encoding,
                                                                                  schema.data)
-        channel_id = self._topic_ids[topic] = mcap.register_channel(topic, message_encoding, schema_id)
+        channel_id = self._topic_ids[topic] = mcap.register_channel(topic, message_encoding, schema_id, metadata)
         return channel_id
 
     def copy(self, channel_id: int, t_ns: int, record: bytes) -> None:
@@ -282,7 +287,7 @@ class TraceWriter:
     def on_frames(self, frames: Sequence[Frame]) -> None:
         """Frames in time order (a recorder sink, ``wheelleg.hil.bus.recorder.FrameSink``).
 
-        Each bus's frames of one ``can_period_s`` window of bus time are held and
+        Each bus's frames of one ``can_window_s`` window of bus time are held and
         written as one ``/can/`` message when a frame of a later window comes or
         the chunk closes (``can_batch``); the chunk is closed after them if due.
         """
@@ -298,27 +303,28 @@ class TraceWriter:
                 raise ValueError(f"t_ns must be an int >= 0 (ns), got {t_ns!r}")
             key = t_ns // window
             batch = held.get(channel)
-            if batch is None or batch[0] != key or t_ns < batch[1]:  # a later window (or a frame out of order)
+            if batch is None or batch[0] != key or t_ns < batch[1][-1].t_ns:  # a later window, or out of order
                 if batch is not None:
-                    self._write_batch(channel, batch[2])
+                    self._write_batch(channel, batch[1])
                 elif channel not in self._can_ids:
                     self._can_channel(channel)
-                batch = held[channel] = (key, t_ns, [])
-            batch[2].append(f)
+                batch = held[channel] = (key, [])
+            batch[1].append(f)
             if decoder is not None and not f.is_error:
                 plan = decoder.plan(channel, arbitration_id, f.is_extended)
                 if plan is not None:
                     self._decode(plan, channel, t_ns, arbitration_id, f.data)
         if frames:
-            mcap.flush_if_due(frames[-1].t_ns, held=bool(held))
+            self._held_count += len(frames)
+            mcap.flush_if_due(frames[-1].t_ns, held_bytes=_HELD_BYTES * self._held_count if held else 0)
 
     def _write_batch(self, channel: str, frames: list[Frame]) -> None:
         self._mcap.add_messages(self._can_ids[channel], [frames[0].t_ns], [can_batch.pack(frames)])
 
     def _before_close(self) -> None:
         """Every held frame into the open chunk (called before a chunk closes): ``/can/``, ``/decoded/``."""
-        held, self._held = self._held, {}
-        for channel, (_, _, frames) in held.items():
+        held, self._held, self._held_count = self._held, {}, 0
+        for channel, (_, frames) in held.items():
             self._write_batch(channel, frames)
         self._write_decoded()
 
@@ -359,23 +365,60 @@ class TraceWriter:
         pending.clear()
 
     def sim_state(self, t_ns: int, state: dict[str, float]) -> None:
-        """Ground truth at ``t_ns``: the contract's fields (``sim_state_fields``) + extras.
+        """Ground truth at ``t_ns``: the contract's fields (``sim_state_fields``) + extras, float64 each.
 
-        ``t`` (s) is taken from ``t_ns``. Every value must be a real number.
+        ``t`` (s) is the log time (``t_ns``), not stored. The first record's fields are the
+        topic's (``float_records``); a later one may lack an extra (NaN), not add one.
+        Every value must be a real number.
         """
         missing = [k for k in self._sim_fields if k != "t" and k not in state]
         if missing:
             raise ValueError(f"sim_state is missing {missing}")
-        record = {"t": t_ns / 1e9}
-        for key, value in state.items():
-            if key != "t":
-                record[key] = _number(key, value)
-        channel_id = self._topic_ids.get(SIM_STATE_TOPIC)
-        if channel_id is None:
-            extra = [k for k in record if k not in self._sim_fields]
-            channel_id = self._channel(SIM_STATE_TOPIC, "wheelleg.SimState",
-                                       schemas.sim_state_schema(extra, self._sim_fields))
-        self._put(channel_id, t_ns, record)
+        layout = self._layouts.get(SIM_STATE_TOPIC)
+        if layout is None:
+            fields = tuple(k for k in state if k != "t")
+            extra = [k for k in fields if k not in self._sim_fields]
+            schema = schemas.sim_state_schema(extra, self._sim_fields)
+            layout = float_records.FloatLayout("wheelleg/msg/SimState", fields, "t",
+                                               tuple(schema["properties"][k].get("description", "") for k in fields))
+            self._float_channel(SIM_STATE_TOPIC, layout, schema["description"])
+        self._put_floats(SIM_STATE_TOPIC, layout, t_ns, state, "sim_state")
+
+    def numbers(self, topic: str, t_ns: int, values: dict, schema: dict) -> None:
+        """Named numbers on ``topic``, float64 each (``float_records``): ``schema`` is a JSON Schema of
+        numbers (``schemas.described_schema``) whose properties, in order, are the fields and their
+        descriptions; a value it does not name is refused, one it lacks is NaN, None is NaN."""
+        if not topic.startswith("/") or topic.startswith(_RESERVED):
+            raise ValueError(f"topic {topic!r} must start with '/' and not be one of {_RESERVED}")
+        layout = self._layouts.get(topic)
+        if layout is None:
+            props = schema["properties"]
+            name = "wheelleg/msg/" + schema["title"].rpartition(".")[2]
+            layout = float_records.FloatLayout(name, tuple(props), "",
+                                               tuple(p.get("description", "") for p in props.values()))
+            self._float_channel(topic, layout, schema.get("description", schema["title"]))
+        self._put_floats(topic, layout, t_ns, values, topic)
+
+    def _float_channel(self, topic: str, layout, title: str) -> None:
+        mcap = self._writer()
+        schema_id = mcap.register_schema(layout.schema_name, float_records.ENCODING,
+                                         layout.message_definition(title).encode())
+        self._topic_ids[topic] = mcap.register_channel(topic, float_records.MESSAGE_ENCODING, schema_id,
+                                                       layout.channel_metadata())
+        self._layouts[topic] = layout
+        self._field_sets[topic] = frozenset(layout.fields) | {layout.time_field} - {""}
+
+    def _put_floats(self, topic: str, layout, t_ns: int, values: dict, what: str) -> None:
+        unknown = values.keys() - self._field_sets[topic]
+        if unknown:
+            raise ValueError(f"{what}: {sorted(unknown)} not among the fields of its first record "
+                             f"{list(layout.fields)}")
+        if self._finished:
+            raise RuntimeError(f"{self.path}: trace already finished")
+        try:
+            self._mcap.add_message(self._topic_ids[topic], t_ns, layout.pack(values, what))
+        except struct.error as exc:
+            raise ValueError(f"t_ns must be an int >= 0 (ns), got {t_ns!r}") from exc
 
     def event(self, t_ns: int, kind: str, **fields) -> None:
         """A scenario event on ``/scenario/events``: {"kind": kind, **fields}."""
@@ -424,13 +467,6 @@ class _Pending:
         self.t_ns, self.can_ids, self.payloads = [], [], []
 
 
-def _number(key: str, value) -> float:
-    try:
-        return float(value)
-    except (TypeError, ValueError):
-        raise TypeError(f"sim_state[{key!r}] must be a number, got {value!r}") from None
-
-
 def _checked_metadata(metadata: dict) -> dict[str, dict[str, str]]:
     out = {}
     for name, record in metadata.items():
@@ -464,6 +500,7 @@ class TraceReader:
         self._messages: dict[str, list[tuple[int, bytes]]] = defaultdict(list)
         self._schemas: dict[int, Schema] = {}
         self._schema_of: dict[str, int] = {}  # topic -> schema id
+        self._channel_meta: dict[str, dict[str, str]] = {}  # topic -> its channel's metadata
         self._load()
         self.dbs = dict(dbs) if dbs else attached_dbs(self.attachments, self.metadata.get("run", {}))
         self._decoder = FrameDecoder(self.dbs) if self.dbs else None
@@ -482,9 +519,17 @@ class TraceReader:
         """``topic``'s messages as stored: (log time ns, record bytes), in file order."""
         return list(self._messages.get(topic, ()))
 
-    def schema(self, topic: str) -> tuple[Schema | None, str]:
-        """The stored schema of ``topic`` (None: schemaless) and its message encoding."""
-        return self._schemas.get(self._schema_of.get(topic, 0)), self._encodings.get(topic, "")
+    def schema(self, topic: str) -> tuple[Schema | None, str, dict[str, str]]:
+        """The stored schema of ``topic`` (None: schemaless), its message encoding and channel metadata."""
+        return (self._schemas.get(self._schema_of.get(topic, 0)), self._encodings.get(topic, ""),
+                self._channel_meta.get(topic, {}))
+
+    def _layout(self, topic: str):
+        """The float64-record layout of ``topic`` (``float_records``), None for a JSON (or other) topic."""
+        if self._encodings.get(topic) != float_records.MESSAGE_ENCODING:
+            return None
+        schema = self._schemas.get(self._schema_of.get(topic, 0))
+        return float_records.layout_of(schema.name if schema else "", self._channel_meta.get(topic, {}))
 
     @property
     def truncated(self) -> bool:
@@ -508,6 +553,7 @@ class TraceReader:
                 topics[record.id] = record.topic
                 self._encodings[record.topic] = record.message_encoding
                 self._schema_of[record.topic] = record.schema_id
+                self._channel_meta[record.topic] = dict(record.metadata)
             elif isinstance(record, Schema):
                 self._schemas[record.id] = record
             elif isinstance(record, Metadata):
@@ -525,6 +571,9 @@ class TraceReader:
         """
         if topic.startswith(DECODED_PREFIX) and topic not in self._messages:
             return self._derived_rows(topic)
+        layout = self._layout(topic)
+        if layout is not None:  # float64 records: the dicts their JSON records read back as
+            return layout.rows(self._messages.get(topic, []), topic)
         if topic.startswith(CAN_PREFIX) and self._encodings.get(topic) == schemas.CAN_FRAME_MESSAGE_ENCODING:
             return [(f.t_ns, {"id": f.arbitration_id, "extended": f.is_extended, "dlc": f.dlc,
                               "data": f.data.hex(), "error": f.is_error})
@@ -567,7 +616,15 @@ class TraceReader:
 
     def sim_state(self) -> dict[str, np.ndarray]:
         """``/sim/state`` as arrays keyed by field, each shape (n,); {} if absent."""
-        return _columns(self.topic(SIM_STATE_TOPIC))
+        return self.columns(SIM_STATE_TOPIC)
+
+    def columns(self, topic: str) -> dict[str, np.ndarray]:
+        """A topic of numbers (``/sim/state``, ``/controller/debug``, ...) as one float array per field,
+        shape (n,), whether stored as float64 records or JSON; missing, null, not finite -> NaN."""
+        layout = self._layout(topic)
+        if layout is not None:
+            return layout.columns(self._messages.get(topic, []), topic)
+        return _columns(self.topic(topic))
 
     def decoded(self, channel: str, message: str) -> dict[str, np.ndarray]:
         """'t' (s) and each signal of one DBC message, shape (n,); {} if none recorded."""

@@ -116,8 +116,7 @@ class Rig:
                                  dbs={self.names[role]: db for role, db in robot.databases().items()},
                                  decode=config.decode, sim_state_fields=robot.sim_state_fields,
                                  flush_interval_s=config.trace_flush_s,
-                                 decode_batch=1 if config.realtime else 256,  # a real-time loop must not stall
-                                 can_period_s=config.period_s)
+                                 decode_batch=1 if config.realtime else 256)  # a real-time loop must not stall
         self.log = CandumpWriter(self.log_path, epoch_ns=config.epoch_ns)
         self.recorder = Recorder([self.trace, self.log], self.clock, list(self.names.values()), load_to=self.trace,
                                  batch=1 if config.realtime else 1024)  # a real-time loop must not stall
@@ -195,7 +194,7 @@ class Rig:
             return
         result = self.controller.last_result
         if result is not None and result.debug:
-            self.trace.message("/controller/debug", self.clock.now_ns, result.debug, schema["title"], schema)
+            self.trace.numbers("/controller/debug", self.clock.now_ns, result.debug, schema)  # float64 each
 
     # -- scenario actions ------------------------------------------------------
     def apply_actions(self, t_s: float) -> None:
