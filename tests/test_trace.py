@@ -539,6 +539,11 @@ def test_a_trace_of_one_message_per_frame_still_reads_back(trace_path):
         for key in a:
             np.testing.assert_array_equal(a[key], b[key])
     assert [m.arbitration_id for m in can.LogReader(OLD_TRACE)] == [f.arbitration_id for f in old.frames()]
+    a, b = old.sim_state(), new.sim_state()  # JSON then, float64 records now: the same columns
+    assert list(a) == list(b) and len(a["t"]) == 23
+    for key in a:
+        np.testing.assert_array_equal(a[key], b[key])
+    assert old.topic("/sim/state") == new.topic("/sim/state")
 
 
 def test_a_can_schema_of_another_version_is_refused_with_the_reason(tmp_path):

@@ -92,8 +92,9 @@ def test_export_writes_the_decoded_topics_of_a_live_decoded_trace_record_for_rec
     assert exported == live  # every topic: /can/, /decoded/, /sim/state, events, debug
     assert done.frames == len(_many_frames()) and done.decoded == sum(
         len(v) for k, v in live.items() if k.startswith("/decoded/"))
-    assert TraceReader(out).metadata == RUN and TraceReader(out).attachments.keys() == TraceReader(
-        traces[0]).attachments.keys()
+    copy, source = TraceReader(out), TraceReader(traces[0])
+    assert copy.metadata == RUN and copy.attachments.keys() == source.attachments.keys()
+    assert copy.topic("/sim/state") == source.topic("/sim/state") and copy.sim_state().keys() == source.sim_state().keys()
 
 
 def test_export_command_and_its_refusals(traces, tmp_path, capsys):

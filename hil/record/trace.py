@@ -601,13 +601,13 @@ class TraceReader:
             return
         schema = self._schemas.get(self._schema_of.get(topic, 0))
         name = schema.name if schema is not None else ""
-        if name == schemas.CAN_FRAMES_NAME:  # one message per bus and period
+        if name == schemas.CAN_FRAMES_NAME and b"uint32[] gap_ns" in schema.data:  # one message per bus and window
             unpack = can_batch.unpack
             for t_ns, data in records:
                 yield from unpack(data, t_ns, channel, bus)
             return
         if name != schemas.CAN_FRAME_NAME:
-            raise ValueError(f"{self.path}: {topic} has schema {name!r}, which this reader does not know "
+            raise ValueError(f"{self.path}: {topic} has schema {name!r} in a layout this reader does not know "
                              f"(it reads {schemas.CAN_FRAMES_NAME} and {schemas.CAN_FRAME_NAME}): a newer trace?")
         head, unpack_from = _CAN_HEAD.size, _CAN_HEAD.unpack_from  # one message per frame (older)
         for t_ns, data in records:
