@@ -25,6 +25,8 @@ import json
 import struct
 from typing import Any
 
+CAN_PREFIX, DECODED_PREFIX = "/can/", "/decoded/"  # + channel; + channel/message
+SIM_STATE_TOPIC, EVENTS_TOPIC = "/sim/state", "/scenario/events"
 NUMBER_OR_NULL = ["number", "null"]
 
 # /can/<channel>: binary, ROS 2 message definition (schema encoding "ros2msg",

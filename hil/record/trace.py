@@ -20,6 +20,8 @@ Every channel but ``/can/`` is JSON with a JSON Schema.
 Metadata records (name -> {str: str}) and attachments (DBC files, MJCF) are
 written first, so even a trace whose writer was killed carries them.
 
+``TraceReader`` (``trace_reader.py``, importable from here too) reads them back.
+
 Usage::
 
     with TraceWriter(path, metadata={"run": {...}}, attachments=[...], dbs={"can1": db1}) as trace:
@@ -31,7 +33,7 @@ Usage::
 Cost (tools/bench_trace.py, this 2-core machine, with orjson): ~2 us per raw
 frame. ``/decoded/`` rows are made in batches: each message's frames wait
 (``decode_batch`` of them, or until their chunk closes) and are decoded in one
-numpy pass (``DecodePlan.decode_columns``, JSON by column: ``_json_rows``),
+numpy pass (``DecodePlan.decode_columns``, JSON by column: ``trace_json.json_rows``),
 ~2 us more per frame instead of ~5 one by one, the same bytes; within a chunk a
 topic's messages stay in time order, the chunk's topics are not interleaved by
 time (readers order by the message index).
@@ -40,100 +42,23 @@ per frame.
 """
 from __future__ import annotations
 
-import heapq
-import json
-import math
 import struct
-from collections import defaultdict
 from pathlib import Path
-from typing import Iterator, Sequence
+from typing import Sequence
 
-import numpy as np
-from mcap.records import Channel, Message, Metadata, Attachment, Schema
+from mcap.records import Schema
 
 from wheelleg.hil.record import can_batch, float_records, schemas
-from wheelleg.hil.record.mcap_chunks import ChunkedMcapWriter, ChunkMessages, RecordScan, read_records
 from wheelleg.hil.record.decode import FrameDecoder
-from wheelleg.hil.record.derived import attached_dbs, decoded_columns
 from wheelleg.hil.record.frame import Frame
+from wheelleg.hil.record.mcap_chunks import ChunkedMcapWriter
+from wheelleg.hil.record.schemas import CAN_PREFIX, DECODED_PREFIX, EVENTS_TOPIC, SIM_STATE_TOPIC
+from wheelleg.hil.record.trace_json import dumps, json_rows, loads, orjson  # noqa: F401 (loads, orjson: re-exported)
+from wheelleg.hil.record.trace_reader import TraceReader  # noqa: F401 (re-exported: the reader of these traces)
 
-try:  # optional: 10x faster float formatting than the json module
-    import orjson
-except ImportError:
-    orjson = None
-
-CAN_PREFIX, DECODED_PREFIX = "/can/", "/decoded/"
-SIM_STATE_TOPIC, EVENTS_TOPIC = "/sim/state", "/scenario/events"
 _RESERVED = (CAN_PREFIX, DECODED_PREFIX, SIM_STATE_TOPIC, EVENTS_TOPIC)
-_CAN_HEAD, _CDR_LE = schemas.CAN_FRAME_HEAD, schemas.CDR_LE
 _MAX_ID = 0x1FFFFFFF  # 29-bit identifier
 _HELD_BYTES = 23  # a held classic frame's share of its /can/ record (gap, id, flags, dlc, length, 8 data)
-
-
-# -- JSON --------------------------------------------------------------------------
-def _plain(value):
-    """numpy scalars/arrays -> Python; used by both encoders as their fallback."""
-    if isinstance(value, np.generic):
-        return value.item()
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    raise TypeError(f"{type(value).__name__} is not JSON serializable")
-
-
-def _finite(value):
-    """The json module has no NaN -> null; orjson does it by itself."""
-    if isinstance(value, float):
-        return value if math.isfinite(value) else None
-    if isinstance(value, dict):
-        return {k: _finite(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_finite(v) for v in value]
-    return value
-
-
-if orjson is not None:
-    _ORJSON_OPTIONS = orjson.OPT_SERIALIZE_NUMPY
-
-    def dumps(obj) -> bytes:
-        """Compact JSON bytes; NaN and inf become null."""
-        return orjson.dumps(obj, default=_plain, option=_ORJSON_OPTIONS)
-
-    loads = orjson.loads
-else:
-    _ENCODER = json.JSONEncoder(separators=(",", ":"), allow_nan=False, default=_plain)
-
-    def dumps(obj) -> bytes:
-        """Compact JSON bytes; NaN and inf become null."""
-        try:
-            return _ENCODER.encode(obj).encode()
-        except ValueError:
-            return _ENCODER.encode(_finite(obj)).encode()
-
-    loads = json.loads
-
-
-def _json_rows(names: list[str], columns: list[list], id_fields: list[dict] | None, n: int) -> list[bytes]:
-    """``dumps`` of each row {name: value, ..., **id fields} without a dict or an encoder call per row.
-
-    Each column is encoded once as a list of numbers and split at its commas
-    (a number holds none); the id fields, shared by the frames of one id, are
-    encoded once per id; a row is then one ``%`` into a template of its keys.
-    The bytes are those ``dumps`` gives the row's dict (a test compares them).
-    """
-    template = b",".join(dumps(name).replace(b"%", b"%%") + b":%s" for name in names)
-    texts = [dumps(column)[1:-1].split(b",") for column in columns]
-    if id_fields is not None:
-        encoded: dict[int, bytes] = {}  # id(fields dict) -> its members' text, after a comma if it needs one
-        for fields in id_fields:
-            if id(fields) not in encoded:
-                members = dumps(fields)[1:-1]
-                encoded[id(fields)] = b"," + members if members and names else members
-        template += b"%s"
-        texts.append([encoded[id(fields)] for fields in id_fields])
-    if not texts:
-        return [b"{}"] * n
-    template = b"{" + template + b"}"
-    return [template % values for values in zip(*texts)]
 
 
 # -- writing --------------------------------------------------------------------------
@@ -355,7 +280,7 @@ class TraceWriter:
         times = pending.t_ns
         batch = plan.decode_columns(pending.can_ids, pending.payloads)
         if batch is not None:
-            records = _json_rows(*batch, len(times))
+            records = json_rows(*batch, len(times))
         else:  # one by one; frames that do not decode (wrong length...) stay raw only
             rows = [plan.decode(i, d) for i, d in zip(pending.can_ids, pending.payloads)]
             times = [t for t, row in zip(times, rows) if row is not None]
@@ -477,209 +402,3 @@ def _checked_metadata(metadata: dict) -> dict[str, dict[str, str]]:
                 raise TypeError(f"metadata[{name!r}][{key!r}] must be str -> str, got {value!r}")
         out[str(name)] = dict(record)
     return out
-
-
-# -- reading ----------------------------------------------------------------------------
-class TraceReader:
-    """Reads a trace back, also one whose writer was killed (``truncated`` is then True).
-
-    ``decoded`` and ``topic("/decoded/...")`` give a ``/decoded/`` topic as recorded
-    (a trace written with ``decode=True``) or derive it from the raw frames
-    (``wheelleg.hil.record.derived``) with ``dbs`` (channel -> cantools Database),
-    else with the trace's own DBC attachments.
-    """
-
-    def __init__(self, path, dbs: dict | None = None):
-        self.path = Path(path)
-        self.scan = RecordScan()
-        self.metadata: dict[str, dict[str, str]] = {}
-        self.attachments: dict[str, bytes] = {}
-        self.attachment_media_types: dict[str, str] = {}
-        self._topics: dict[int, str] = {}
-        self._encodings: dict[str, str] = {}  # topic -> message encoding ("cdr": binary /can/)
-        self._messages: dict[str, list[tuple[int, bytes]]] = defaultdict(list)
-        self._schemas: dict[int, Schema] = {}
-        self._schema_of: dict[str, int] = {}  # topic -> schema id
-        self._channel_meta: dict[str, dict[str, str]] = {}  # topic -> its channel's metadata
-        self._load()
-        self.dbs = dict(dbs) if dbs else attached_dbs(self.attachments, self.metadata.get("run", {}))
-        self._decoder = FrameDecoder(self.dbs) if self.dbs else None
-
-    @property
-    def decodes(self) -> bool:
-        """True when raw frames can be decoded (given databases, or the trace's DBC attachments and channels)."""
-        return self._decoder is not None
-
-    def decode_with(self, dbs: dict) -> None:
-        """Decode raw frames with ``dbs`` (channel -> cantools Database) where ``/decoded/`` lacks them."""
-        self.dbs = dict(dbs)
-        self._decoder = FrameDecoder(self.dbs)
-
-    def records(self, topic: str) -> list[tuple[int, bytes]]:
-        """``topic``'s messages as stored: (log time ns, record bytes), in file order."""
-        return list(self._messages.get(topic, ()))
-
-    def schema(self, topic: str) -> tuple[Schema | None, str, dict[str, str]]:
-        """The stored schema of ``topic`` (None: schemaless), its message encoding and channel metadata."""
-        return (self._schemas.get(self._schema_of.get(topic, 0)), self._encodings.get(topic, ""),
-                self._channel_meta.get(topic, {}))
-
-    def _layout(self, topic: str):
-        """The float64-record layout of ``topic`` (``float_records``), None for a JSON (or other) topic."""
-        if self._encodings.get(topic) != float_records.MESSAGE_ENCODING:
-            return None
-        schema = self._schemas.get(self._schema_of.get(topic, 0))
-        return float_records.layout_of(schema.name if schema else "", self._channel_meta.get(topic, {}))
-
-    @property
-    def truncated(self) -> bool:
-        """True when the file ends before its footer (writer killed or file cut)."""
-        return not self.scan.complete
-
-    @property
-    def topics(self) -> dict[str, int]:
-        """Topic -> number of messages."""
-        return {topic: len(msgs) for topic, msgs in self._messages.items()}
-
-    def _load(self) -> None:
-        messages, topics = self._messages, self._topics
-        for record in read_records(self.path, self.scan, by_channel=True):
-            if type(record) is ChunkMessages:
-                for channel_id, rows in record.by_channel.items():
-                    messages[topics[channel_id]].extend(rows)
-            elif type(record) is Message:  # a message outside chunks
-                messages[topics[record.channel_id]].append((record.log_time, record.data))
-            elif isinstance(record, Channel):
-                topics[record.id] = record.topic
-                self._encodings[record.topic] = record.message_encoding
-                self._schema_of[record.topic] = record.schema_id
-                self._channel_meta[record.topic] = dict(record.metadata)
-            elif isinstance(record, Schema):
-                self._schemas[record.id] = record
-            elif isinstance(record, Metadata):
-                self.metadata[record.name] = dict(record.metadata)
-            elif isinstance(record, Attachment):
-                self.attachments[record.name] = record.data
-                self.attachment_media_types[record.name] = record.media_type
-
-    def topic(self, topic: str) -> list[tuple[int, dict]]:
-        """Every message of ``topic`` as (log time ns, payload), in file order.
-
-        A ``/can/`` topic's payloads are {"id", "extended", "dlc", "data" (hex), "error"}
-        whichever way the trace stored them; a ``/decoded/`` topic the trace does not
-        store is derived from the raw frames (the rows a live-decoded trace reads back as).
-        """
-        if topic.startswith(DECODED_PREFIX) and topic not in self._messages:
-            return self._derived_rows(topic)
-        layout = self._layout(topic)
-        if layout is not None:  # float64 records: the dicts their JSON records read back as
-            return layout.rows(self._messages.get(topic, []), topic)
-        if topic.startswith(CAN_PREFIX) and self._encodings.get(topic) == schemas.CAN_FRAME_MESSAGE_ENCODING:
-            return [(f.t_ns, {"id": f.arbitration_id, "extended": f.is_extended, "dlc": f.dlc,
-                              "data": f.data.hex(), "error": f.is_error})
-                    for f in self._channel_frames(topic[len(CAN_PREFIX):], "")]
-        return [(t, loads(data)) for t, data in self._messages.get(topic, ())]
-
-    def frames(self, channel: str | None = None, bus: str = "") -> Iterator[Frame]:
-        """Raw frames of one channel (or of all, merged by bus time); ``bus``: the role to give them."""
-        if channel is not None:
-            return self._channel_frames(channel, bus)
-        return heapq.merge(*(self._channel_frames(n, bus) for n in self.channels()), key=lambda f: f.t_ns)
-
-    def channels(self) -> list[str]:
-        """The CAN channels (interface names) of the trace, sorted."""
-        return sorted(t[len(CAN_PREFIX):] for t in self._messages if t.startswith(CAN_PREFIX))
-
-    def _channel_frames(self, channel: str, bus: str) -> Iterator[Frame]:
-        topic = CAN_PREFIX + channel
-        records = self._messages.get(topic, ())
-        if self._encodings.get(topic) != schemas.CAN_FRAME_MESSAGE_ENCODING:  # a JSON trace (older)
-            for t_ns, data in records:
-                r = loads(data)
-                yield Frame(t_ns, channel, r["id"], r["extended"], bytes.fromhex(r["data"]), r["dlc"], bus,
-                            r["error"])
-            return
-        schema = self._schemas.get(self._schema_of.get(topic, 0))
-        name = schema.name if schema is not None else ""
-        if name == schemas.CAN_FRAMES_NAME and b"uint32[] gap_ns" in schema.data:  # one message per bus and window
-            unpack = can_batch.unpack
-            for t_ns, data in records:
-                yield from unpack(data, t_ns, channel, bus)
-            return
-        if name != schemas.CAN_FRAME_NAME:
-            raise ValueError(f"{self.path}: {topic} has schema {name!r} in a layout this reader does not know "
-                             f"(it reads {schemas.CAN_FRAMES_NAME} and {schemas.CAN_FRAME_NAME}): a newer trace?")
-        head, unpack_from = _CAN_HEAD.size, _CAN_HEAD.unpack_from  # one message per frame (older)
-        for t_ns, data in records:
-            _, can_id, extended, dlc, error, n = unpack_from(data)
-            yield Frame(t_ns, channel, can_id, bool(extended), data[head:head + n], dlc, bus, bool(error))
-
-    def sim_state(self) -> dict[str, np.ndarray]:
-        """``/sim/state`` as arrays keyed by field, each shape (n,); {} if absent."""
-        return self.columns(SIM_STATE_TOPIC)
-
-    def columns(self, topic: str) -> dict[str, np.ndarray]:
-        """A topic of numbers (``/sim/state``, ``/controller/debug``, ...) as one float array per field,
-        shape (n,), whether stored as float64 records or JSON; missing, null, not finite -> NaN."""
-        layout = self._layout(topic)
-        if layout is not None:
-            return layout.columns(self._messages.get(topic, []), topic)
-        return _columns(self.topic(topic))
-
-    def decoded(self, channel: str, message: str) -> dict[str, np.ndarray]:
-        """'t' (s) and each signal of one DBC message, shape (n,); {} if none recorded."""
-        topic = f"{DECODED_PREFIX}{channel}/{message}"
-        if topic in self._messages:
-            return _columns(self.topic(topic), time_key="t")
-        if self._decoder is None:
-            return {}
-        return decoded_columns(self._decoder, self.frames(channel), message)
-
-    def _derived_rows(self, topic: str) -> list[tuple[int, dict]]:
-        channel, _, message = topic[len(DECODED_PREFIX):].partition("/")
-        if self._decoder is None or not message:
-            return []
-        rows = []
-        for frame in self.frames(channel):
-            hit = None if frame.is_error else self._decoder.decode(
-                channel, frame.arbitration_id, frame.is_extended, frame.data)
-            if hit is not None and hit[0].name == message:
-                rows.append((frame.t_ns, loads(dumps(hit[1]))))  # as a JSON topic reads back (NaN -> None)
-        return rows
-
-    def events(self) -> list[dict]:
-        """``/scenario/events`` payloads, each with 't' (s)."""
-        return [{"t": t / 1e9, **payload} for t, payload in self.topic(EVENTS_TOPIC)]
-
-
-def _columns(rows: list[tuple[int, dict]], time_key: str | None = None) -> dict[str, np.ndarray]:
-    """Rows of dicts -> one float array per key, shape (n,); missing and null -> NaN."""
-    if not rows:
-        return {}
-    keys: dict[str, None] = {}
-    if time_key:
-        keys[time_key] = None
-    for _, row in rows:
-        keys.update(dict.fromkeys(row))
-    out = {}
-    for key in keys:
-        if key == time_key:
-            out[key] = np.array([t for t, _ in rows], dtype=np.int64) / 1e9
-        else:
-            out[key] = _floats([row.get(key) for _, row in rows])
-    return out
-
-
-def _floats(values: list) -> np.ndarray:
-    """Numbers -> float array; None (missing, null) and strings -> NaN."""
-    try:
-        out = np.array(values, dtype=float)  # None -> NaN
-        if out.ndim == 1:
-            return out
-    except (TypeError, ValueError):  # a string among them
-        pass
-    return np.array([_float(v) for v in values], dtype=float)
-
-
-def _float(value) -> float:
-    return math.nan if value is None or isinstance(value, str) else float(value)
