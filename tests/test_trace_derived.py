@@ -110,3 +110,14 @@ def test_export_command_and_its_refusals(traces, tmp_path, capsys):
         trace.on_frames(_frames()[:3])
     assert main(["export", str(bare)]) == 2
     assert "names no CAN channels" in capsys.readouterr().err
+
+
+def test_the_size_report_counts_every_topic_and_its_index(traces):
+    from tools.bench_trace import size_report  # noqa: PLC0415 (a developer tool, run from the repository)
+
+    report = size_report(traces[0])
+    rows = {line.split()[0]: line.split()[1:] for line in report.splitlines()[2:]}
+    topics = TraceReader(traces[0]).topics
+    assert set(rows) == set(topics) and topics["/sim/state"] == len(_many_frames()[::10])
+    assert int(rows["/sim/state"][0]) == topics["/sim/state"]
+    assert float(rows["/sim/state"][3]) == pytest.approx(16 * topics["/sim/state"] / 1e6, abs=1e-3)  # the index
