@@ -11,11 +11,13 @@ for the field lists and units):
 - ``/decoded/<channel>/<Message>``  only with ``decode=True`` (else readers derive it):
                           the frame's DBC signals as numbers (CyberGear: plus the
                           fields of the 29-bit id), the frame's log time.
-- ``/sim/state``          ground truth each control period (t in s, SI units).
+- ``/sim/state``          ground truth each control period, one float64 per field
+                          (ROS 2 msg, CDR: ``float_records``; t = log time, SI units).
+- ``/controller/debug``   (or any topic of named numbers, ``TraceWriter.numbers``) float64 the same way.
 - ``/scenario/events``    {"kind": ..., ...}.
 - any other topic         generic JSON (``TraceWriter.message``).
 
-Every channel but ``/can/`` is JSON with a JSON Schema.
+``/scenario/events``, ``/bus/load`` and generic topics are JSON with a JSON Schema.
 
 Metadata records (name -> {str: str}) and attachments (DBC files, MJCF) are
 written first, so even a trace whose writer was killed carries them.
@@ -30,8 +32,8 @@ Usage::
     reader = TraceReader(path)
     reader.sim_state()["pitch"]   # (n,) rad
 
-Cost (tools/bench_trace.py, this 2-core machine, with orjson): ~2 us per raw
-frame. ``/decoded/`` rows are made in batches: each message's frames wait
+Cost (tools/bench_trace.py, this 2-core machine, with orjson): ~1 us per raw
+frame. With ``decode=True``, ``/decoded/`` rows are made in batches: each message's frames wait
 (``decode_batch`` of them, or until their chunk closes) and are decoded in one
 numpy pass (``DecodePlan.decode_columns``, JSON by column: ``trace_json.json_rows``),
 ~2 us more per frame instead of ~5 one by one, the same bytes; within a chunk a
