@@ -45,6 +45,7 @@ per frame.
 from __future__ import annotations
 
 import struct
+from numbers import Integral
 from pathlib import Path
 from typing import Sequence
 
@@ -226,7 +227,7 @@ class TraceWriter:
             channel, arbitration_id, t_ns = f.channel, f.arbitration_id, f.t_ns
             if not 0 <= arbitration_id <= _MAX_ID:
                 raise ValueError(f"{channel}: arbitration id {arbitration_id!r} outside 0..0x1FFFFFFF")
-            if t_ns.__class__ is not int or t_ns < 0:
+            if (t_ns.__class__ is not int and not isinstance(t_ns, Integral)) or t_ns < 0:
                 raise ValueError(f"t_ns must be an int >= 0 (ns), got {t_ns!r}")
             key = t_ns // window
             batch = held.get(channel)
