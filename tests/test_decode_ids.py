@@ -66,7 +66,7 @@ def test_type_0_request_and_reply_share_a_valid_trace_topic(tmp_path):
     frames = [Frame(1_000, "can2", cg.request_id(cg.T_DEVICE_ID, HOST, 0x7F), True, b"\x00", 1),
               Frame(2_000, "can2", cg.reply_id(cg.T_DEVICE_ID, 0x7F, cg.DEVICE_ID_TARGET), True, uid, 8)]
     path = tmp_path / "scan.mcap"
-    with TraceWriter(path, metadata={}, dbs=DBS) as trace:
+    with TraceWriter(path, metadata={}, dbs=DBS, decode=True) as trace:  # the topic recorded live
         for frame in frames:
             trace.frame(frame)
     decoded = TraceReader(path).decoded("can2", "CG_DeviceId")

@@ -66,23 +66,26 @@ def test_the_run_prints_its_start_up_and_the_factor_to_the_verdict(tmp_path, cap
 
 
 def test_controller_debug_has_a_described_schema_for_foxglove(tmp_path):
-    """/controller/debug is wheelleg.ControllerDebug, every field described with its unit,
+    """/controller/debug is wheelleg/msg/ControllerDebug (float64 each), every field described with its unit,
     and every message of a run validates against it (no key outside the table)."""
     import json
 
     import jsonschema
     from mcap.reader import make_reader
     from wheelleg.controller.telemetry import DEBUG_FIELDS
+    from wheelleg.hil import robots
     from wheelleg.hil.record.trace import TraceReader
 
     outcome, _ = run_scenario("stand-up", tmp_path, duration=0.6)
     reader = TraceReader(outcome.trace_path)
     with open(outcome.trace_path, "rb") as f:
         summary = make_reader(f).get_summary()
-    (schema_rec,) = [s for s in summary.schemas.values() if s.name == "wheelleg.ControllerDebug"]
-    schema = json.loads(schema_rec.data)
-    assert set(schema["properties"]) == set(DEBUG_FIELDS)
-    assert all("(" in p["description"] for p in schema["properties"].values())  # a unit in each
+    (schema_rec,) = [s for s in summary.schemas.values() if s.name == "wheelleg/msg/ControllerDebug"]
+    (channel,) = [c for c in summary.channels.values() if c.topic == "/controller/debug"]
+    assert json.loads(channel.metadata["wheelleg_fields"]) == list(DEBUG_FIELDS)  # the rig's names, in order
+    lines = [line for line in schema_rec.data.decode().splitlines() if line.startswith("float64 ")]
+    assert len(lines) == len(DEBUG_FIELDS) and all("(" in line.partition("#")[2] for line in lines)  # a unit in each
+    schema = robots.get("wheel-legged").debug_schema  # what a record reads back as, as when it was JSON
     messages = reader.topic("/controller/debug")
     assert len(messages) > 100
     for _, payload in messages:

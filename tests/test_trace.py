@@ -1,6 +1,7 @@
 """The MCAP trace: round trip, decoding, schemas, crash recovery (wheelleg.hil.record.trace)."""
 from __future__ import annotations
 
+import itertools
 import json
 import os
 import signal
@@ -169,7 +170,7 @@ def test_schemas_are_valid_and_every_message_validates(trace_path):
         validators = {}
         for schema, channel, message in reader.iter_messages():
             seen.add(channel.topic)
-            if channel.topic.startswith("/can/"):  # binary: tests/test_trace.py::test_can_records_*
+            if channel.topic.startswith(("/can/", "/sim/state")):  # binary: test_*_with_mcaps_ros2_decoder*
                 assert (schema.encoding, channel.message_encoding) == ("ros2msg", "cdr")
                 continue
             assert schema.encoding == "jsonschema" and channel.message_encoding == "json"
@@ -184,15 +185,68 @@ def test_schemas_are_valid_and_every_message_validates(trace_path):
 
 
 def test_can_records_decode_with_mcaps_ros2_decoder_to_the_frames_written(trace_path):
-    """Foxglove and mcap-ros2-support read /can/ by its ros2msg schema: numbers, not text."""
+    """Foxglove and mcap-ros2-support read /can/ by its ros2msg schema: numbers, not text; one message
+    per bus and 100 ms window, its frames as arrays (the payloads one after another, ``length`` bytes each)."""
     decoder = pytest.importorskip("mcap_ros2.decoder").DecoderFactory()
     with open(trace_path, "rb") as f:
-        got = []
+        got, messages = [], 0
         for schema, channel, message in make_reader(f).iter_messages(topics=["/can/can1", "/can/can2"]):
             m = decoder.decoder_for(channel.message_encoding, schema)(message.data)
-            got.append((message.log_time, channel.topic[5:], m.id, m.extended, bytes(m.data), m.dlc, m.error))
+            times = list(itertools.accumulate(m.gap_ns, initial=message.log_time))[1:]  # gaps after the previous
+            assert schema.name == "wheelleg/msg/CanFrames" and m.gap_ns[0] == 0
+            assert all(t // 100_000_000 == times[0] // 100_000_000 for t in times)  # one 100 ms window
+            data, at = bytes(m.data), 0
+            for t, can_id, flags, dlc, length in zip(times, m.id, m.flags, m.dlc, m.length):
+                got.append((t, channel.topic[5:], can_id, bool(flags & 1), data[at:at + length], dlc,
+                            bool(flags & 2)))
+                at += length
+            messages += 1
     written = [(f.t_ns, f.channel, f.arbitration_id, f.is_extended, f.data, f.dlc, f.is_error) for f in _frames()]
-    assert sorted(got) == sorted(written) and len(got) > 10
+    assert sorted(got) == sorted(written) and len(got) > 10 and messages >= 2
+
+
+def test_float_records_decode_with_mcaps_ros2_decoder_to_the_values_written(tmp_path):
+    """/sim/state and /controller/debug are float64 ROS 2 messages: Foxglove plots each field by its
+    (lower-case) ROS name; TraceReader gives the rig's names back, 't' from the log time."""
+    decoder = pytest.importorskip("mcap_ros2.decoder").DecoderFactory()
+    fields = {"left_L0": "[m] leg", "Fn_left": "[N] support", "jump_phase": "phase", "FR_foot_z": "[m] foot"}
+    debug_schema = schemas.described_schema("wheelleg.ControllerDebug", fields)
+    path = tmp_path / "floats.mcap"
+    with TraceWriter(path, metadata={}) as trace:
+        for k in range(5):
+            trace.sim_state(1_000 + k * 2_000_000, _state(k))
+            trace.numbers("/controller/debug", 1_000 + k * 2_000_000,
+                          {"left_L0": 0.17 + k, "Fn_left": 20.5 - k, "jump_phase": k, "FR_foot_z": None}, debug_schema)
+    with open(path, "rb") as f:
+        got: dict[str, list] = {}
+        for schema, channel, message in make_reader(f).iter_messages():
+            m = decoder.decoder_for(channel.message_encoding, schema)(message.data)
+            got.setdefault(channel.topic, []).append((message.log_time, m))
+    assert [m.pitch for _, m in got["/sim/state"]] == [_state(k)["pitch"] for k in range(5)]
+    assert [m.pitch_motor_temp for _, m in got["/sim/state"]] == [30.0 + k for k in range(5)]
+    assert [(m.left_l0, m.fn_left, m.jump_phase) for _, m in got["/controller/debug"]] == [
+        (0.17 + k, 20.5 - k, k) for k in range(5)]
+    reader = TraceReader(path)
+    assert reader.topic("/controller/debug")[1] == (
+        2_001_000, {"left_L0": 1.17, "Fn_left": 19.5, "jump_phase": 1.0, "FR_foot_z": None})
+    t, row = reader.topic("/sim/state")[2]
+    assert row == {"t": t / 1e9, **_state(2)} and list(row)[:3] == ["t", "x", "y"]
+    debug = reader.columns("/controller/debug")
+    assert list(debug) == list(fields) and np.isnan(debug["FR_foot_z"]).all()
+    np.testing.assert_array_equal(reader.sim_state()["t"], [(1_000 + k * 2_000_000) / 1e9 for k in range(5)])
+
+
+def test_float_records_refuse_what_they_cannot_hold(tmp_path):
+    trace = TraceWriter(tmp_path / "bad.mcap", metadata={})
+    trace.sim_state(0, _state(0))
+    with pytest.raises(ValueError, match="wind"):  # a field the first record did not have
+        trace.sim_state(1, {**_state(1), "wind": 1.0})
+    schema = schemas.described_schema("wheelleg.D", {"a": "[m]"})
+    with pytest.raises(TypeError, match="'a'"):
+        trace.numbers("/d", 0, {"a": "high"}, schema)
+    with pytest.raises(ValueError, match="topic"):
+        trace.numbers("/sim/state", 0, {"a": 1.0}, schema)
+    trace.finish()
 
 
 def test_schema_rejects_a_wrong_record():
@@ -221,7 +275,7 @@ def test_mcap_library_reads_the_finished_file(trace_path):
     assert stats.message_count == sum(counts.values())
     by_topic = {summary.channels[cid].topic: n for cid, n in stats.channel_message_counts.items()}
     assert by_topic == counts
-    assert counts["/can/can1"] == sum(1 for f in _frames() if f.channel == "can1")
+    assert counts["/can/can1"] == len({f.t_ns // 100_000_000 for f in _frames() if f.channel == "can1"})
     assert attachments == {name: data for name, data, _ in ATTACHMENTS}
     assert metadata == METADATA
     with open(trace_path, "rb") as f:  # topic filtering uses the chunk's message indexes
@@ -246,7 +300,7 @@ def test_decode_false_records_raw_only_and_the_reader_decodes_later(tmp_path, tr
 
 def test_chunking_options_give_the_same_content(tmp_path, trace_path):
     path = tmp_path / "small.mcap"
-    _write(path, _frames(), compression="", chunk_size=2_000, flush_interval_s=None)
+    _write(path, _frames(), compression="", chunk_size=2_000, flush_interval_s=None, can_window_s=0.0002)
     small, ref = TraceReader(path), TraceReader(trace_path)
     assert small.scan.chunks > 5 * ref.scan.chunks
     assert list(small.frames()) == list(ref.frames())
@@ -266,14 +320,17 @@ def test_batched_and_frame_by_frame_decoding_write_the_same_messages(tmp_path, t
 def test_frames_in_batches_write_the_records_of_frame_by_frame(tmp_path):
     """A recorder hands its frames over a list at a time (``on_frames``): the same records per topic."""
     frames = _frames()
-    with TraceWriter(tmp_path / "batches.mcap", metadata=METADATA, dbs=DBS, chunk_size=2_000) as trace:
+    with TraceWriter(tmp_path / "batches.mcap", metadata=METADATA, dbs=DBS, decode=True, chunk_size=500) as trace:
         for start in range(0, len(frames), 64):
             trace.on_frames(frames[start:start + 64])
-    with TraceWriter(tmp_path / "one.mcap", metadata=METADATA, dbs=DBS, chunk_size=2_000) as trace:
+    with TraceWriter(tmp_path / "one.mcap", metadata=METADATA, dbs=DBS, decode=True, chunk_size=500) as trace:
         for f in frames:
             trace.on_frame(f)
-    batches = _records_by_topic(tmp_path / "batches.mcap")
-    assert batches == _records_by_topic(tmp_path / "one.mcap") and len(batches["/can/can2"]) == 120
+    batches, one = _records_by_topic(tmp_path / "batches.mcap"), _records_by_topic(tmp_path / "one.mcap")
+    can = ("/can/can1", "/can/can2")  # a /can/ message is cut where a chunk closes: they differ by the chunks
+    assert {k: v for k, v in batches.items() if k not in can} == {k: v for k, v in one.items() if k not in can}
+    assert len(batches["/decoded/can2/CG_Feedback"]) == 20
+    assert list(TraceReader(tmp_path / "batches.mcap").frames()) == list(TraceReader(tmp_path / "one.mcap").frames())
     assert TraceReader(tmp_path / "batches.mcap").scan.chunks > 3
 
 
@@ -435,10 +492,9 @@ def test_a_corrupt_chunk_ends_the_read_there(tmp_path):
     _write(path, _frames(), compression="", chunk_size=1_500, flush_interval_s=None)
     blob = bytearray(path.read_bytes())
     reference = list(TraceReader(path).frames("can1"))
-    # a C620 feedback frame (id 0x201) on can1's binary /can/ channel, inside some chunk near the middle
-    marker = schemas.CDR_LE + (0x201).to_bytes(4, "little")
-    at = blob.index(marker, len(blob) // 2)
-    blob[at + 4] = 0x09  # still a valid record (id 0x209), but the chunk's CRC no longer matches
+    # a C620 feedback frame's id (0x201) in can1's binary /can/ records, inside some chunk near the middle
+    at = blob.index((0x201).to_bytes(4, "little"), len(blob) // 2)
+    blob[at] = 0x09  # still a valid record (id 0x209), but the chunk's CRC no longer matches
     path.write_bytes(bytes(blob))
     reader = TraceReader(path)
     assert reader.truncated and "CRC" in reader.scan.error
@@ -463,3 +519,40 @@ def test_stdlib_json_fallback_writes_the_same_values(tmp_path, trace_path):
     assert mine.topics == ref.topics
     for topic in mine.topics:
         assert mine.topic(topic) == ref.topic(topic), topic
+
+
+OLD_TRACE = REPO / "tests" / "old_traces" / "per-frame-can.mcap"
+
+
+def test_a_trace_of_one_message_per_frame_still_reads_back(trace_path):
+    """tests/old_traces/per-frame-can.mcap: ``_write(path, _frames())`` by the writer before the batched
+    /can/ records (main at bf859dd: one CDR message per frame, /decoded/ recorded live)."""
+    import can  # noqa: PLC0415
+
+    old, new = TraceReader(OLD_TRACE), TraceReader(trace_path)
+    assert old.topics["/can/can1"] == sum(1 for f in _frames() if f.channel == "can1")  # the old layout
+    assert list(old.frames()) == list(new.frames()) == sorted(_frames(), key=lambda f: f.t_ns)
+    assert old.topic("/can/can2") == new.topic("/can/can2")
+    for name in ("CG_Feedback", "CG_MotionCmd"):
+        a, b = old.decoded("can2", name), new.decoded("can2", name)
+        assert list(a) == list(b) and a
+        for key in a:
+            np.testing.assert_array_equal(a[key], b[key])
+    assert [m.arbitration_id for m in can.LogReader(OLD_TRACE)] == [f.arbitration_id for f in old.frames()]
+    a, b = old.sim_state(), new.sim_state()  # JSON then, float64 records now: the same columns
+    assert list(a) == list(b) and len(a["t"]) == 23
+    for key in a:
+        np.testing.assert_array_equal(a[key], b[key])
+    assert old.topic("/sim/state") == new.topic("/sim/state")
+
+
+def test_a_can_schema_of_another_version_is_refused_with_the_reason(tmp_path):
+    from mcap.records import Schema  # noqa: PLC0415
+
+    path = tmp_path / "future.mcap"
+    with TraceWriter(path, metadata={}) as trace:
+        future = Schema(id=0, name="wheelleg/msg/CanFramesV9", encoding="ros2msg", data=b"uint8[] blob\n")
+        trace.copy(trace.copy_channel("/can/can1", future, "cdr"), 1_000, schemas.CDR_LE + bytes(4))
+    reader = TraceReader(path)
+    with pytest.raises(ValueError, match="CanFramesV9.*does not know"):
+        list(reader.frames())

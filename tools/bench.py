@@ -1,6 +1,6 @@
 """Benchmark (not a test): how fast a lockstep run goes, against MuJoCo alone, and where the time goes.
 
-    python -m tools.bench [SCENARIO] [--duration S] [--no-decode] [--no-profile] [--no-check]
+    python -m tools.bench [SCENARIO] [--duration S] [--decoded] [--no-profile] [--no-check]
 
 Printed, all from one process in one go (the machine is shared: compare the
 ratios, which share the load, more than the absolute figures):
@@ -184,18 +184,18 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("scenario", nargs="?", default="balance")
     parser.add_argument("--duration", type=float, default=5.0, help="simulated seconds (default 5)")
-    parser.add_argument("--no-decode", action="store_true", help="record raw frames only (no /decoded/)")
+    parser.add_argument("--decoded", action="store_true", help="also record /decoded/ live (RigConfig.decode)")
     parser.add_argument("--no-profile", action="store_true", help="skip the cProfile run")
     parser.add_argument("--no-check", action="store_true", help="skip the candump reference check")
     args = parser.parse_args(argv)
     scenario = replace(scenarios.get(args.scenario), duration_s=args.duration)
     with tempfile.TemporaryDirectory() as tmp:
-        run = timed_run(scenario, not args.no_decode, Path(tmp) / "plain")
+        run = timed_run(scenario, args.decoded, Path(tmp) / "plain")
         report_speed(scenario, run, mujoco_only(scenario, run["sim_s"]))
         if not args.no_profile:
             profiler = cProfile.Profile()
             profiler.enable()
-            timed_run(scenario, not args.no_decode, Path(tmp) / "profiled")
+            timed_run(scenario, args.decoded, Path(tmp) / "profiled")
             profiler.disable()
             report_profile(profiler)
         failures = [] if args.no_check else check_references(Path(tmp))

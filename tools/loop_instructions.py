@@ -1,6 +1,6 @@
 """Machine instructions per lockstep control tick, counted by valgrind: a speed figure load cannot blur.
 
-    python -m tools.loop_instructions [SCENARIO] [--duration S] [--no-decode]
+    python -m tools.loop_instructions [SCENARIO] [--duration S] [--decoded]
 
 Timings on the shared 2-core machine swing by 30 % with the other jobs on it;
 an instruction count does not. This runs the scenario's lockstep loop inside
@@ -48,16 +48,16 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("scenario", nargs="?", default="balance")
     parser.add_argument("--duration", type=float, default=0.6, help="simulated seconds (default 0.6)")
-    parser.add_argument("--no-decode", action="store_true", help="record raw frames only (no /decoded/)")
+    parser.add_argument("--decoded", action="store_true", help="also record /decoded/ live (RigConfig.decode)")
     parser.add_argument("--inside", action="store_true", help=argparse.SUPPRESS)  # the run under valgrind
     args = parser.parse_args(argv)
     with tempfile.TemporaryDirectory() as tmp:
         if args.inside:
-            print(f"ticks {count_loop(args.scenario, args.duration, not args.no_decode, Path(tmp))}")
+            print(f"ticks {count_loop(args.scenario, args.duration, args.decoded, Path(tmp))}")
             return 0
         command = ["valgrind", "--tool=callgrind", "--instr-atstart=no", f"--callgrind-out-file={tmp}/cg.out",
                    sys.executable, "-m", "tools.loop_instructions", args.scenario, "--duration", str(args.duration),
-                   "--inside"] + (["--no-decode"] if args.no_decode else [])
+                   "--inside"] + (["--decoded"] if args.decoded else [])
         done = subprocess.run(command, capture_output=True, text=True, cwd=Path(__file__).resolve().parents[1])
     counted = re.search(r"Collected : (\d+)", done.stderr)
     ticks = re.search(r"ticks (\d+)", done.stdout)

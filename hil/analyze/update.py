@@ -111,8 +111,9 @@ def _write_mcap(result: ReplayResult, frames: list[Frame], out: Path) -> None:
     records.sort(key=lambda r: (r[0], r[1]))
     channels = result.source.channels
     dbs = {channels[role]: result.source.dbs[role] for role in ROLES}
+    robot = robots.get(result.source.robot)
     with TraceWriter(out, metadata=_metadata(result), attachments=_attachments(result), dbs=dbs,
-                     flush_interval_s=None, sim_state_fields=robots.get(result.source.robot).sim_state_fields) as trace:
+                     flush_interval_s=None, sim_state_fields=robot.sim_state_fields) as trace:
         for t_ns, _, kind, item in records:
             if kind == "frame":
                 trace.frame(item)
@@ -120,5 +121,7 @@ def _write_mcap(result: ReplayResult, frames: list[Frame], out: Path) -> None:
                 trace.sim_state(t_ns, {k: math.nan if v is None else v for k, v in item.items() if k != "t"})
             elif kind == EVENTS_TOPIC:
                 trace.event(t_ns, item.pop("kind", "event"), **item)
+            elif kind == DEBUG_TOPIC and robot.debug_schema is not None:  # as the rig records it
+                trace.numbers(kind, t_ns, item, robot.debug_schema)
             else:
                 trace.message(kind, t_ns, item, kind.strip("/").replace("/", "."))

@@ -64,8 +64,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--realtime", action="store_true",
                         help="plant at wall-clock pace, controller free-running on its own timer in its own "
                              "thread; prints the control loop's period statistics")
-    parser.add_argument("--no-decode", action="store_true",
-                        help="record raw frames only, no /decoded/ channels (less work per frame)")
+    parser.add_argument("--decoded", action="store_true",
+                        help="also record the /decoded/<channel>/<Message> topics live, for one file Foxglove "
+                             "plots signals from (default: raw frames only; `wheelleg export` adds them later)")
+    parser.add_argument("--no-decode", action="store_true", help=argparse.SUPPRESS)  # the default now
     parser.add_argument("--external-controller", action="store_true",
                         help="do not start the controller in-process: another process answers on the buses "
                              "(lockstep: `wheelleg controller --sync`; with --realtime: `wheelleg controller`)")
@@ -107,7 +109,7 @@ def execute(args: argparse.Namespace, started_s: float | None = None):
                          "udp_multicast, ...): python-can's virtual bus lives inside this process")
     config = RigConfig(interface=buses.interface, channels=buses.channels, bus_kwargs=buses.kwargs,
                        seed=args.seed, realtime=args.realtime, in_process_controller=not args.external_controller,
-                       decode=not getattr(args, "no_decode", False), plant=plant,
+                       decode=getattr(args, "decoded", False), plant=plant,
                        epoch_ns=getattr(args, "epoch", 0))
     progress = RunProgress(scenario.name, scenario.duration_s, enabled=not getattr(args, "quiet", True))
     try:

@@ -224,11 +224,15 @@ class ChunkedMcapWriter:
             buf += data
         self._size += len(buf) - start
 
-    def flush_if_due(self, log_time: int) -> None:
+    def flush_if_due(self, log_time: int, held_bytes: int = 0) -> None:
         """Close the open chunk if ``add_message`` would have: full, spanning ``chunk_span_ns`` by
-        ``log_time`` (ns), or the wall-clock flush due (after a batch of ``add_messages``)."""
-        if self._runs and (self._size >= self._chunk_size or log_time - self._chunk_t0 >= self._chunk_span_ns
-                           or time.monotonic() >= self._flush_deadline):
+        ``log_time`` (ns), or the wall-clock flush due (after a batch of ``add_messages``).
+        ``held_bytes``: what the caller holds back for this chunk (``before_close`` writes it), counted
+        in its size; the wall-clock flush is then due even while the chunk holds nothing yet."""
+        if not (self._runs or held_bytes):
+            return
+        if (self._size + held_bytes >= self._chunk_size or time.monotonic() >= self._flush_deadline
+                or (self._chunk_t0 is not None and log_time - self._chunk_t0 >= self._chunk_span_ns)):
             self.flush()
 
     def _open_run(self, channel_id: int, log_time: int) -> tuple[bytearray, list[int]]:

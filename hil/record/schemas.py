@@ -1,15 +1,20 @@
-"""Schemas of the trace's channels: ``/can/`` binary (ros2msg/CDR), the rest JSON Schema.
+"""Schemas of the trace's channels: ROS 2 message definitions (CDR) and JSON Schemas.
 
-Foxglove reads these to list and plot fields, so every numeric field is a
-JSON number and carries its unit in ``description``. Values that are not
-finite (NaN, inf) are written as ``null``: JSON has no NaN.
+Foxglove reads these to list and plot fields. In the JSON channels every numeric
+field is a JSON number and carries its unit in ``description``; values that are
+not finite (NaN, inf) are written as ``null``: JSON has no NaN.
 
 Topics (the trace contract, docs/design.md):
-- ``/can/<channel>``: one binary message per frame (``CAN_FRAME_MSG``; older traces:
-  JSON, ``CAN_FRAME_JSON``).
-- ``/decoded/<channel>/<Message>``: the DBC signals of one frame
-  (``decoded_schema``), plus the CyberGear fields that live in the 29-bit id.
-- ``/sim/state``: simulation ground truth each control period (``sim_state_schema``).
+- ``/can/<channel>``: one binary message per bus and 100 ms window of bus time holding its
+  frames (``CAN_FRAMES_MSG``; older traces: one per frame, ``CAN_FRAME_MSG``, or JSON,
+  ``CAN_FRAME_JSON``).
+- ``/decoded/<channel>/<Message>``: only in an export or with ``--decoded``: the DBC signals
+  of one frame (``decoded_schema``), plus the CyberGear fields that live in the 29-bit id.
+- ``/sim/state``: simulation ground truth each control period, one float64 per field
+  (``hil/record/float_records.py``; the fields, units and notes: ``sim_state_schema``; older
+  traces: JSON with that schema).
+- ``/controller/debug``: the controller's internals, float64 each (the robot's ``debug_schema``
+  names the fields; older traces: JSON).
 - ``/scenario/events``: ``{"kind": ..., ...}`` (``EVENT``).
 - ``/bus/load``: each bus's load per 100 ms window (``BUS_LOAD``).
 - anything else: a generic JSON channel (``inferred_schema`` or the caller's).
@@ -20,6 +25,8 @@ import json
 import struct
 from typing import Any
 
+CAN_PREFIX, DECODED_PREFIX = "/can/", "/decoded/"  # + channel; + channel/message
+SIM_STATE_TOPIC, EVENTS_TOPIC = "/sim/state", "/scenario/events"
 NUMBER_OR_NULL = ["number", "null"]
 
 # /can/<channel>: binary, ROS 2 message definition (schema encoding "ros2msg",
@@ -39,6 +46,20 @@ uint8[] data  # payload
 """
 CAN_FRAME_HEAD = struct.Struct("<4sIBBBxI")  # CDR header, id, extended, dlc, error, pad, len(data)
 CDR_LE = b"\x00\x01\x00\x00"
+
+# /can/<channel> since the batched records: one message per bus and window of bus time
+# (100 ms; log time = its first frame's), the frames as parallel arrays (hil/record/can_batch.py
+# packs and reads them). Traces with CAN_FRAME_NAME (one message per frame) read as before.
+CAN_FRAMES_NAME = "wheelleg/msg/CanFrames"
+CAN_FRAMES_MSG = """\
+# The CAN frames of one bus in one window of bus time, in bus-time order; log time = the first one's.
+uint32[] gap_ns  # each frame's bus time (end of its transmission) after the previous one's (the first: 0), ns
+uint32[] id  # arbitration id (11 or 29 bit); error class bits for an error frame
+uint8[] flags  # bit 0 extended (29-bit id), 1 error frame, 2 remote frame, 3 CAN FD; bits 4-6 the FD flags
+uint8[] dlc  # data length code (a remote frame's requested length)
+uint8[] length  # payload bytes of each frame
+uint8[] data  # the payloads, one after another (frame i's: length[i] bytes after the previous ones)
+"""
 
 # /can/<channel> of traces recorded before the binary records (JSON, read back by TraceReader).
 CAN_FRAME_JSON: dict = {

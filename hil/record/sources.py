@@ -292,7 +292,9 @@ def open_recording(path, channels: dict | None = None, *, strict: bool = True,
     recording.keep_unknown = not strict
     recording.robot = _robot_of(recording, robot)
     recording.channels = _resolve_channels(recording, channels, strict)
-    if recording.trace is not None:  # decode on reading what was recorded without /decoded/
+    recorded = {r: recording.run.get(r) for r in ROLES if recording.run.get(r)}
+    if recording.trace is not None and not (recording.trace.decodes and recorded == recording.channels):
+        # decode on reading with this rig's databases: the trace has no DBC of its own, or other channels
         dbs = recording.dbs
         recording.trace.decode_with({recording.channels[r]: dbs[r] for r in ROLES if r in recording.channels})
     return recording

@@ -3,19 +3,26 @@
 Channels (Foxglove lists and plots them all; see ``wheelleg.hil.record.schemas``
 for the field lists and units):
 
-- ``/can/<channel>``      one binary message per frame (ROS 2 msg schema, CDR):
-                          id, extended, dlc, error, data (uint8[]);
-                          log time = publish time = bus time (ns).
-- ``/decoded/<channel>/<Message>``  the frame's DBC signals as numbers (CyberGear:
-                          plus the fields of the 29-bit id), same log time.
-- ``/sim/state``          ground truth each control period (t in s, SI units).
+- ``/can/<channel>``      one binary message per bus and ``can_window_s`` of bus time
+                          (100 ms) holding its frames as arrays
+                          (ROS 2 msg schema, CDR: ``can_batch``); log time = publish
+                          time = its first frame's bus time (ns). Older traces: one
+                          message per frame (``schemas.CAN_FRAME_MSG``), still read.
+- ``/decoded/<channel>/<Message>``  only with ``decode=True`` (else readers derive it):
+                          the frame's DBC signals as numbers (CyberGear: plus the
+                          fields of the 29-bit id), the frame's log time.
+- ``/sim/state``          ground truth each control period, one float64 per field
+                          (ROS 2 msg, CDR: ``float_records``; t = log time, SI units).
+- ``/controller/debug``   (or any topic of named numbers, ``TraceWriter.numbers``) float64 the same way.
 - ``/scenario/events``    {"kind": ..., ...}.
 - any other topic         generic JSON (``TraceWriter.message``).
 
-Every channel but ``/can/`` is JSON with a JSON Schema.
+``/scenario/events``, ``/bus/load`` and generic topics are JSON with a JSON Schema.
 
 Metadata records (name -> {str: str}) and attachments (DBC files, MJCF) are
 written first, so even a trace whose writer was killed carries them.
+
+``TraceReader`` (``trace_reader.py``, importable from here too) reads them back.
 
 Usage::
 
@@ -25,10 +32,10 @@ Usage::
     reader = TraceReader(path)
     reader.sim_state()["pitch"]   # (n,) rad
 
-Cost (tools/bench_trace.py, this 2-core machine, with orjson): ~2 us per raw
-frame. ``/decoded/`` rows are made in batches: each message's frames wait
+Cost (tools/bench_trace.py, this 2-core machine, with orjson): ~1 us per raw
+frame. With ``decode=True``, ``/decoded/`` rows are made in batches: each message's frames wait
 (``decode_batch`` of them, or until their chunk closes) and are decoded in one
-numpy pass (``DecodePlan.decode_columns``, JSON by column: ``_json_rows``),
+numpy pass (``DecodePlan.decode_columns``, JSON by column: ``trace_json.json_rows``),
 ~2 us more per frame instead of ~5 one by one, the same bytes; within a chunk a
 topic's messages stay in time order, the chunk's topics are not interleaved by
 time (readers order by the message index).
@@ -37,98 +44,24 @@ per frame.
 """
 from __future__ import annotations
 
-import heapq
-import json
-import math
 import struct
-from collections import defaultdict
+from numbers import Integral
 from pathlib import Path
-from typing import Iterator, Sequence
+from typing import Sequence
 
-import numpy as np
-from mcap.records import Channel, Message, Metadata, Attachment, Schema
+from mcap.records import Schema
 
-from wheelleg.hil.record import schemas
-from wheelleg.hil.record.mcap_chunks import ChunkedMcapWriter, ChunkMessages, RecordScan, read_records
+from wheelleg.hil.record import can_batch, float_records, schemas
 from wheelleg.hil.record.decode import FrameDecoder
 from wheelleg.hil.record.frame import Frame
+from wheelleg.hil.record.mcap_chunks import ChunkedMcapWriter
+from wheelleg.hil.record.schemas import CAN_PREFIX, DECODED_PREFIX, EVENTS_TOPIC, SIM_STATE_TOPIC
+from wheelleg.hil.record.trace_json import dumps, json_rows, loads, orjson  # noqa: F401 (loads, orjson: re-exported)
+from wheelleg.hil.record.trace_reader import TraceReader  # noqa: F401 (re-exported: the reader of these traces)
 
-try:  # optional: 10x faster float formatting than the json module
-    import orjson
-except ImportError:
-    orjson = None
-
-CAN_PREFIX, DECODED_PREFIX = "/can/", "/decoded/"
-SIM_STATE_TOPIC, EVENTS_TOPIC = "/sim/state", "/scenario/events"
 _RESERVED = (CAN_PREFIX, DECODED_PREFIX, SIM_STATE_TOPIC, EVENTS_TOPIC)
-_CAN_HEAD, _CDR_LE = schemas.CAN_FRAME_HEAD, schemas.CDR_LE
 _MAX_ID = 0x1FFFFFFF  # 29-bit identifier
-
-
-# -- JSON --------------------------------------------------------------------------
-def _plain(value):
-    """numpy scalars/arrays -> Python; used by both encoders as their fallback."""
-    if isinstance(value, np.generic):
-        return value.item()
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    raise TypeError(f"{type(value).__name__} is not JSON serializable")
-
-
-def _finite(value):
-    """The json module has no NaN -> null; orjson does it by itself."""
-    if isinstance(value, float):
-        return value if math.isfinite(value) else None
-    if isinstance(value, dict):
-        return {k: _finite(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_finite(v) for v in value]
-    return value
-
-
-if orjson is not None:
-    _ORJSON_OPTIONS = orjson.OPT_SERIALIZE_NUMPY
-
-    def dumps(obj) -> bytes:
-        """Compact JSON bytes; NaN and inf become null."""
-        return orjson.dumps(obj, default=_plain, option=_ORJSON_OPTIONS)
-
-    loads = orjson.loads
-else:
-    _ENCODER = json.JSONEncoder(separators=(",", ":"), allow_nan=False, default=_plain)
-
-    def dumps(obj) -> bytes:
-        """Compact JSON bytes; NaN and inf become null."""
-        try:
-            return _ENCODER.encode(obj).encode()
-        except ValueError:
-            return _ENCODER.encode(_finite(obj)).encode()
-
-    loads = json.loads
-
-
-def _json_rows(names: list[str], columns: list[list], id_fields: list[dict] | None, n: int) -> list[bytes]:
-    """``dumps`` of each row {name: value, ..., **id fields} without a dict or an encoder call per row.
-
-    Each column is encoded once as a list of numbers and split at its commas
-    (a number holds none); the id fields, shared by the frames of one id, are
-    encoded once per id; a row is then one ``%`` into a template of its keys.
-    The bytes are those ``dumps`` gives the row's dict (a test compares them).
-    """
-    template = b",".join(dumps(name).replace(b"%", b"%%") + b":%s" for name in names)
-    texts = [dumps(column)[1:-1].split(b",") for column in columns]
-    if id_fields is not None:
-        encoded: dict[int, bytes] = {}  # id(fields dict) -> its members' text, after a comma if it needs one
-        for fields in id_fields:
-            if id(fields) not in encoded:
-                members = dumps(fields)[1:-1]
-                encoded[id(fields)] = b"," + members if members and names else members
-        template += b"%s"
-        texts.append([encoded[id(fields)] for fields in id_fields])
-    if not texts:
-        return [b"{}"] * n
-    template = b"{" + template + b"}"
-    return [template % values for values in zip(*texts)]
+_HELD_BYTES = 23  # a held classic frame's share of its /can/ record (gap, id, flags, dlc, length, 8 data)
 
 
 # -- writing --------------------------------------------------------------------------
@@ -137,19 +70,22 @@ class TraceWriter:
 
     ``metadata``: record name -> {key: str value}, e.g. {"run": {"scenario": ...}}.
     ``attachments``: (name, data, media type), e.g. the DBC files and the MJCF.
-    ``dbs``: channel -> cantools Database used for ``/decoded/...``; ``decode=False``
-    records raw frames only (``TraceReader.decoded`` can still decode them later).
+    ``dbs``: channel -> cantools Database used for ``/decoded/...`` when ``decode`` is True;
+    by default (``decode=False``) only raw frames are recorded and readers derive the
+    signals (``TraceReader.decoded``, ``wheelleg export`` for Foxglove).
     ``flush_interval_s``: wall-clock bound on what a killed process loses
     (None: close chunks by size and bus time only, for byte-identical files).
     ``decode_batch``: frames of one message decoded together (1: each as it
     comes, for a real-time loop that must not stall on a batch).
+    ``can_window_s``: each bus's frames of one such window of bus time are one ``/can/``
+    message (100 ms: the windows of ``/bus/load``; docs/measurements.md has the sizes).
     """
 
     def __init__(self, path, *, metadata: dict[str, dict[str, str]],
                  attachments: Sequence[tuple[str, bytes, str]] = (), dbs: dict | None = None,
-                 decode: bool = True, compression: str = "zstd", chunk_size: int = 512 * 1024,
+                 decode: bool = False, compression: str = "zstd", chunk_size: int = 512 * 1024,
                  chunk_span_s: float = 0.5, flush_interval_s: float | None = 1.0, decode_batch: int = 256,
-                 sim_state_fields: dict[str, str] | None = None):
+                 sim_state_fields: dict[str, str] | None = None, can_window_s: float = 0.1):
         """``sim_state_fields``: the /sim/state fields every record must have (name -> unit; default:
         the wheel-legged robot's, ``schemas.SIM_STATE_FIELDS``)."""
         self.path = Path(path)
@@ -159,8 +95,13 @@ class TraceWriter:
         self._decoder = FrameDecoder(dbs) if (dbs and decode) else None
         self._options = dict(compression=compression, chunk_size=chunk_size,
                              chunk_span_ns=round(chunk_span_s * 1e9), flush_interval_s=flush_interval_s,
-                             before_close=self._write_decoded)
+                             before_close=self._before_close)
         self._decode_batch = max(1, int(decode_batch))
+        self._can_window_ns = round(can_window_s * 1e9)
+        if not 0 < self._can_window_ns <= can_batch.MAX_GAP_NS:
+            raise ValueError(f"can_window_s must be > 0 and <= {can_batch.MAX_GAP_NS / 1e9:.2f} s, got {can_window_s!r}")
+        self._held: dict[str, tuple[int, list[Frame]]] = {}  # channel -> (window, its frames not yet written)
+        self._held_count = 0  # frames held since the chunk opened (an upper bound: some may be written)
         self._pending: dict[object, _Pending] = {}  # DecodePlan -> its frames not yet decoded
         self._file = None
         self._mcap: ChunkedMcapWriter | None = None
@@ -169,6 +110,8 @@ class TraceWriter:
         self._topic_ids: dict[str, int] = {}  # any topic -> MCAP channel id
         self._decoded_ids: dict[object, int] = {}  # DecodePlan (one per channel and message) -> id
         self._schema_ids: dict[bytes, int] = {}
+        self._layouts: dict[str, float_records.FloatLayout] = {}  # float64-record topic -> its fields
+        self._field_sets: dict[str, frozenset] = {}
 
     # -- lifecycle ---------------------------------------------------------
     def start(self) -> "TraceWriter":
@@ -229,11 +172,29 @@ class TraceWriter:
                 topic, schemas.CAN_FRAME_MESSAGE_ENCODING if binary else "json", schema_id)
         return channel_id
 
+    def copy_channel(self, topic: str, schema: Schema | None, message_encoding: str,
+                     metadata: dict[str, str] | None = None) -> int:
+        """A channel with another trace's schema, encoding and channel metadata (its records are then
+        ``copy``-ed as they are)."""
+        mcap = self._writer()
+        schema_id = 0
+        if schema is not None:
+            schema_id = self._schema_ids.get(schema.data)
+            if schema_id is None:
+                schema_id = self._schema_ids[schema.data] = mcap.register_schema(schema.name, schema.encoding,
+                                                                                 schema.data)
+        channel_id = self._topic_ids[topic] = mcap.register_channel(topic, message_encoding, schema_id, metadata)
+        return channel_id
+
+    def copy(self, channel_id: int, t_ns: int, record: bytes) -> None:
+        """One message of a ``copy_channel`` channel, its bytes as stored."""
+        self._writer().add_message(channel_id, t_ns, record)
+
     def _can_channel(self, channel: str) -> int:
         if not isinstance(channel, str) or not channel or "/" in channel or len(channel.split()) != 1:
             raise ValueError(f"bad CAN channel name {channel!r}")
-        channel_id = self._can_ids[channel] = self._channel(CAN_PREFIX + channel, schemas.CAN_FRAME_NAME,
-                                                            schemas.CAN_FRAME_MSG)
+        channel_id = self._can_ids[channel] = self._channel(CAN_PREFIX + channel, schemas.CAN_FRAMES_NAME,
+                                                            schemas.CAN_FRAMES_MSG)
         return channel_id
 
     def _decoded_channel(self, channel: str, plan) -> int:
@@ -246,63 +207,54 @@ class TraceWriter:
 
     # -- records -------------------------------------------------------------------
     def frame(self, frame: Frame) -> None:
-        """One CAN frame at its bus time; also decoded if a DBC of its channel knows it."""
-        channel, t_ns, arbitration_id = frame.channel, frame.t_ns, frame.arbitration_id
-        is_extended, data, is_error = frame.is_extended, frame.data, frame.is_error
-        channel_id = self._can_ids.get(channel)
-        if channel_id is None:
-            channel_id = self._can_channel(channel)
-        mcap = self._mcap
-        if mcap is None or self._finished:
-            mcap = self._writer()
-        if not 0 <= arbitration_id <= _MAX_ID:
-            raise ValueError(f"{channel}: arbitration id {arbitration_id!r} outside 0..0x1FFFFFFF")
-        try:
-            mcap.add_message(channel_id, t_ns, _CAN_HEAD.pack(_CDR_LE, arbitration_id, is_extended, frame.dlc,
-                                                              is_error, len(data)) + data)
-        except struct.error as exc:
-            raise ValueError(f"t_ns must be an int >= 0 (ns), got {t_ns!r}") from exc
-        if self._decoder is None or is_error:
-            return
-        plan = self._decoder.plan(channel, arbitration_id, is_extended)
-        if plan is not None:
-            self._decode(plan, channel, t_ns, arbitration_id, data)
+        """One CAN frame at its bus time; also decoded if ``decode`` and a DBC of its channel knows it."""
+        self.on_frames([frame])
 
     on_frame = frame  # one frame, as a recorder sink would get it
 
     def on_frames(self, frames: Sequence[Frame]) -> None:
-        """Frames in time order (a recorder sink, ``wheelleg.hil.bus.recorder.FrameSink``): as ``frame``
-        one by one, each channel's records appended together and the chunk closed after them if due."""
+        """Frames in time order (a recorder sink, ``wheelleg.hil.bus.recorder.FrameSink``).
+
+        Each bus's frames of one ``can_window_s`` window of bus time are held and
+        written as one ``/can/`` message when a frame of a later window comes or
+        the chunk closes (``can_batch``); the chunk is closed after them if due.
+        """
         mcap = self._mcap
         if mcap is None or self._finished:
             mcap = self._writer()
-        pack, cdr, decoder = _CAN_HEAD.pack, _CDR_LE, self._decoder
-        rows: dict[str, tuple[list, list]] = {}  # channel -> (times, records)
-        try:
-            for f in frames:
-                channel, arbitration_id, data = f.channel, f.arbitration_id, f.data
-                if not 0 <= arbitration_id <= _MAX_ID:
-                    raise ValueError(f"{channel}: arbitration id {arbitration_id!r} outside 0..0x1FFFFFFF")
-                times_records = rows.get(channel)
-                if times_records is None:
-                    if channel not in self._can_ids:
-                        self._can_channel(channel)
-                    times_records = rows[channel] = ([], [])
-                times_records[0].append(f.t_ns)
-                times_records[1].append(pack(cdr, arbitration_id, f.is_extended, f.dlc, f.is_error, len(data)) + data)
-                if decoder is not None and not f.is_error:
-                    plan = decoder.plan(channel, arbitration_id, f.is_extended)
-                    if plan is not None:
-                        self._decode(plan, channel, f.t_ns, arbitration_id, data)
-        finally:  # a bad frame raises after the frames before it are kept
-            for channel, (times, records) in rows.items():
-                try:
-                    mcap.add_messages(self._can_ids[channel], times, records)
-                except struct.error as exc:
-                    bad = next(t for t in times if not (isinstance(t, int) and t >= 0))
-                    raise ValueError(f"t_ns must be an int >= 0 (ns), got {bad!r}") from exc
+        window, held, decoder = self._can_window_ns, self._held, self._decoder
+        for f in frames:  # a bad frame raises after the frames before it are kept
+            channel, arbitration_id, t_ns = f.channel, f.arbitration_id, f.t_ns
+            if not 0 <= arbitration_id <= _MAX_ID:
+                raise ValueError(f"{channel}: arbitration id {arbitration_id!r} outside 0..0x1FFFFFFF")
+            if (t_ns.__class__ is not int and not isinstance(t_ns, Integral)) or t_ns < 0:
+                raise ValueError(f"t_ns must be an int >= 0 (ns), got {t_ns!r}")
+            key = t_ns // window
+            batch = held.get(channel)
+            if batch is None or batch[0] != key or t_ns < batch[1][-1].t_ns:  # a later window, or out of order
+                if batch is not None:
+                    self._write_batch(channel, batch[1])
+                elif channel not in self._can_ids:
+                    self._can_channel(channel)
+                batch = held[channel] = (key, [])
+            batch[1].append(f)
+            if decoder is not None and not f.is_error:
+                plan = decoder.plan(channel, arbitration_id, f.is_extended)
+                if plan is not None:
+                    self._decode(plan, channel, t_ns, arbitration_id, f.data)
         if frames:
-            mcap.flush_if_due(frames[-1].t_ns)
+            self._held_count += len(frames)
+            mcap.flush_if_due(frames[-1].t_ns, held_bytes=_HELD_BYTES * self._held_count if held else 0)
+
+    def _write_batch(self, channel: str, frames: list[Frame]) -> None:
+        self._mcap.add_messages(self._can_ids[channel], [frames[0].t_ns], [can_batch.pack(frames)])
+
+    def _before_close(self) -> None:
+        """Every held frame into the open chunk (called before a chunk closes): ``/can/``, ``/decoded/``."""
+        held, self._held, self._held_count = self._held, {}, 0
+        for channel, (_, frames) in held.items():
+            self._write_batch(channel, frames)
+        self._write_decoded()
 
     def _decode(self, plan, channel: str, t_ns: int, arbitration_id: int, data: bytes) -> None:
         """The frame's ``/decoded/`` row: now (``decode_batch`` 1), or held for its message's batch."""
@@ -331,7 +283,7 @@ class TraceWriter:
         times = pending.t_ns
         batch = plan.decode_columns(pending.can_ids, pending.payloads)
         if batch is not None:
-            records = _json_rows(*batch, len(times))
+            records = json_rows(*batch, len(times))
         else:  # one by one; frames that do not decode (wrong length...) stay raw only
             rows = [plan.decode(i, d) for i, d in zip(pending.can_ids, pending.payloads)]
             times = [t for t, row in zip(times, rows) if row is not None]
@@ -341,23 +293,60 @@ class TraceWriter:
         pending.clear()
 
     def sim_state(self, t_ns: int, state: dict[str, float]) -> None:
-        """Ground truth at ``t_ns``: the contract's fields (``sim_state_fields``) + extras.
+        """Ground truth at ``t_ns``: the contract's fields (``sim_state_fields``) + extras, float64 each.
 
-        ``t`` (s) is taken from ``t_ns``. Every value must be a real number.
+        ``t`` (s) is the log time (``t_ns``), not stored. The first record's fields are the
+        topic's (``float_records``); a later one may lack an extra (NaN), not add one.
+        Every value must be a real number.
         """
         missing = [k for k in self._sim_fields if k != "t" and k not in state]
         if missing:
             raise ValueError(f"sim_state is missing {missing}")
-        record = {"t": t_ns / 1e9}
-        for key, value in state.items():
-            if key != "t":
-                record[key] = _number(key, value)
-        channel_id = self._topic_ids.get(SIM_STATE_TOPIC)
-        if channel_id is None:
-            extra = [k for k in record if k not in self._sim_fields]
-            channel_id = self._channel(SIM_STATE_TOPIC, "wheelleg.SimState",
-                                       schemas.sim_state_schema(extra, self._sim_fields))
-        self._put(channel_id, t_ns, record)
+        layout = self._layouts.get(SIM_STATE_TOPIC)
+        if layout is None:
+            fields = tuple(k for k in state if k != "t")
+            extra = [k for k in fields if k not in self._sim_fields]
+            schema = schemas.sim_state_schema(extra, self._sim_fields)
+            layout = float_records.FloatLayout("wheelleg/msg/SimState", fields, "t",
+                                               tuple(schema["properties"][k].get("description", "") for k in fields))
+            self._float_channel(SIM_STATE_TOPIC, layout, schema["description"])
+        self._put_floats(SIM_STATE_TOPIC, layout, t_ns, state, "sim_state")
+
+    def numbers(self, topic: str, t_ns: int, values: dict, schema: dict) -> None:
+        """Named numbers on ``topic``, float64 each (``float_records``): ``schema`` is a JSON Schema of
+        numbers (``schemas.described_schema``) whose properties, in order, are the fields and their
+        descriptions; a value it does not name is refused, one it lacks is NaN, None is NaN."""
+        if not topic.startswith("/") or topic.startswith(_RESERVED):
+            raise ValueError(f"topic {topic!r} must start with '/' and not be one of {_RESERVED}")
+        layout = self._layouts.get(topic)
+        if layout is None:
+            props = schema["properties"]
+            name = "wheelleg/msg/" + schema["title"].rpartition(".")[2]
+            layout = float_records.FloatLayout(name, tuple(props), "",
+                                               tuple(p.get("description", "") for p in props.values()))
+            self._float_channel(topic, layout, schema.get("description", schema["title"]))
+        self._put_floats(topic, layout, t_ns, values, topic)
+
+    def _float_channel(self, topic: str, layout, title: str) -> None:
+        mcap = self._writer()
+        schema_id = mcap.register_schema(layout.schema_name, float_records.ENCODING,
+                                         layout.message_definition(title).encode())
+        self._topic_ids[topic] = mcap.register_channel(topic, float_records.MESSAGE_ENCODING, schema_id,
+                                                       layout.channel_metadata())
+        self._layouts[topic] = layout
+        self._field_sets[topic] = frozenset(layout.fields) | {layout.time_field} - {""}
+
+    def _put_floats(self, topic: str, layout, t_ns: int, values: dict, what: str) -> None:
+        unknown = values.keys() - self._field_sets[topic]
+        if unknown:
+            raise ValueError(f"{what}: {sorted(unknown)} not among the fields of its first record "
+                             f"{list(layout.fields)}")
+        if self._finished:
+            raise RuntimeError(f"{self.path}: trace already finished")
+        try:
+            self._mcap.add_message(self._topic_ids[topic], t_ns, layout.pack(values, what))
+        except struct.error as exc:
+            raise ValueError(f"t_ns must be an int >= 0 (ns), got {t_ns!r}") from exc
 
     def event(self, t_ns: int, kind: str, **fields) -> None:
         """A scenario event on ``/scenario/events``: {"kind": kind, **fields}."""
@@ -406,13 +395,6 @@ class _Pending:
         self.t_ns, self.can_ids, self.payloads = [], [], []
 
 
-def _number(key: str, value) -> float:
-    try:
-        return float(value)
-    except (TypeError, ValueError):
-        raise TypeError(f"sim_state[{key!r}] must be a number, got {value!r}") from None
-
-
 def _checked_metadata(metadata: dict) -> dict[str, dict[str, str]]:
     out = {}
     for name, record in metadata.items():
@@ -423,148 +405,3 @@ def _checked_metadata(metadata: dict) -> dict[str, dict[str, str]]:
                 raise TypeError(f"metadata[{name!r}][{key!r}] must be str -> str, got {value!r}")
         out[str(name)] = dict(record)
     return out
-
-
-# -- reading ----------------------------------------------------------------------------
-class TraceReader:
-    """Reads a trace back, also one whose writer was killed (``truncated`` is then True).
-
-    ``dbs`` (channel -> cantools Database) lets ``decoded`` decode raw frames
-    of a trace recorded with ``decode=False``.
-    """
-
-    def __init__(self, path, dbs: dict | None = None):
-        self.path = Path(path)
-        self.scan = RecordScan()
-        self.metadata: dict[str, dict[str, str]] = {}
-        self.attachments: dict[str, bytes] = {}
-        self.attachment_media_types: dict[str, str] = {}
-        self._topics: dict[int, str] = {}
-        self._encodings: dict[str, str] = {}  # topic -> message encoding ("cdr": binary /can/)
-        self._messages: dict[str, list[tuple[int, bytes]]] = defaultdict(list)
-        self._decoder = FrameDecoder(dbs) if dbs else None
-        self._load()
-
-    def decode_with(self, dbs: dict) -> None:
-        """Decode raw frames with ``dbs`` (channel -> cantools Database) where ``/decoded/`` lacks them."""
-        self._decoder = FrameDecoder(dbs)
-
-    @property
-    def truncated(self) -> bool:
-        """True when the file ends before its footer (writer killed or file cut)."""
-        return not self.scan.complete
-
-    @property
-    def topics(self) -> dict[str, int]:
-        """Topic -> number of messages."""
-        return {topic: len(msgs) for topic, msgs in self._messages.items()}
-
-    def _load(self) -> None:
-        messages, topics = self._messages, self._topics
-        for record in read_records(self.path, self.scan, by_channel=True):
-            if type(record) is ChunkMessages:
-                for channel_id, rows in record.by_channel.items():
-                    messages[topics[channel_id]].extend(rows)
-            elif type(record) is Message:  # a message outside chunks
-                messages[topics[record.channel_id]].append((record.log_time, record.data))
-            elif isinstance(record, Channel):
-                topics[record.id] = record.topic
-                self._encodings[record.topic] = record.message_encoding
-            elif isinstance(record, Metadata):
-                self.metadata[record.name] = dict(record.metadata)
-            elif isinstance(record, Attachment):
-                self.attachments[record.name] = record.data
-                self.attachment_media_types[record.name] = record.media_type
-            elif not isinstance(record, Schema):
-                continue
-
-    def topic(self, topic: str) -> list[tuple[int, dict]]:
-        """Every message of ``topic`` as (log time ns, payload), in file order.
-
-        A ``/can/`` topic's payloads are {"id", "extended", "dlc", "data" (hex), "error"}
-        whichever way the trace stored them.
-        """
-        if topic.startswith(CAN_PREFIX) and self._encodings.get(topic) == schemas.CAN_FRAME_MESSAGE_ENCODING:
-            return [(f.t_ns, {"id": f.arbitration_id, "extended": f.is_extended, "dlc": f.dlc,
-                              "data": f.data.hex(), "error": f.is_error})
-                    for f in self._channel_frames(topic[len(CAN_PREFIX):], "")]
-        return [(t, loads(data)) for t, data in self._messages.get(topic, ())]
-
-    def frames(self, channel: str | None = None, bus: str = "") -> Iterator[Frame]:
-        """Raw frames of one channel (or of all, merged by bus time); ``bus``: the role to give them."""
-        if channel is not None:
-            return self._channel_frames(channel, bus)
-        return heapq.merge(*(self._channel_frames(n, bus) for n in self.channels()), key=lambda f: f.t_ns)
-
-    def channels(self) -> list[str]:
-        """The CAN channels (interface names) of the trace, sorted."""
-        return sorted(t[len(CAN_PREFIX):] for t in self._messages if t.startswith(CAN_PREFIX))
-
-    def _channel_frames(self, channel: str, bus: str) -> Iterator[Frame]:
-        topic = CAN_PREFIX + channel
-        if self._encodings.get(topic) != schemas.CAN_FRAME_MESSAGE_ENCODING:  # a JSON trace (older)
-            for t_ns, data in self._messages.get(topic, ()):
-                r = loads(data)
-                yield Frame(t_ns, channel, r["id"], r["extended"], bytes.fromhex(r["data"]), r["dlc"], bus,
-                            r["error"])
-            return
-        head, unpack = _CAN_HEAD.size, _CAN_HEAD.unpack_from
-        for t_ns, data in self._messages.get(topic, ()):
-            _, can_id, extended, dlc, error, n = unpack(data)
-            yield Frame(t_ns, channel, can_id, bool(extended), data[head:head + n], dlc, bus, bool(error))
-
-    def sim_state(self) -> dict[str, np.ndarray]:
-        """``/sim/state`` as arrays keyed by field, each shape (n,); {} if absent."""
-        return _columns(self.topic(SIM_STATE_TOPIC))
-
-    def decoded(self, channel: str, message: str) -> dict[str, np.ndarray]:
-        """'t' (s) and each signal of one DBC message, shape (n,); {} if none recorded."""
-        topic = f"{DECODED_PREFIX}{channel}/{message}"
-        if topic in self._messages:
-            return _columns(self.topic(topic), time_key="t")
-        if self._decoder is None:
-            return {}
-        rows = []
-        for frame in self.frames(channel):
-            hit = None if frame.is_error else self._decoder.decode(
-                channel, frame.arbitration_id, frame.is_extended, frame.data)
-            if hit is not None and hit[0].name == message:
-                rows.append((frame.t_ns, hit[1]))
-        return _columns(rows, time_key="t")
-
-    def events(self) -> list[dict]:
-        """``/scenario/events`` payloads, each with 't' (s)."""
-        return [{"t": t / 1e9, **payload} for t, payload in self.topic(EVENTS_TOPIC)]
-
-
-def _columns(rows: list[tuple[int, dict]], time_key: str | None = None) -> dict[str, np.ndarray]:
-    """Rows of dicts -> one float array per key, shape (n,); missing and null -> NaN."""
-    if not rows:
-        return {}
-    keys: dict[str, None] = {}
-    if time_key:
-        keys[time_key] = None
-    for _, row in rows:
-        keys.update(dict.fromkeys(row))
-    out = {}
-    for key in keys:
-        if key == time_key:
-            out[key] = np.array([t for t, _ in rows], dtype=np.int64) / 1e9
-        else:
-            out[key] = _floats([row.get(key) for _, row in rows])
-    return out
-
-
-def _floats(values: list) -> np.ndarray:
-    """Numbers -> float array; None (missing, null) and strings -> NaN."""
-    try:
-        out = np.array(values, dtype=float)  # None -> NaN
-        if out.ndim == 1:
-            return out
-    except (TypeError, ValueError):  # a string among them
-        pass
-    return np.array([_float(v) for v in values], dtype=float)
-
-
-def _float(value) -> float:
-    return math.nan if value is None or isinstance(value, str) else float(value)

@@ -47,7 +47,7 @@ class RigConfig:
     deadline_s: float = 0.5  # wall-clock bound for the heartbeats of one tick
     realtime: bool = False  # plant at wall-clock pace, controller on its own timer (hil/run/realtime.py)
     record_debug: bool = True  # the in-process controller's internals on /controller/debug
-    decode: bool = True  # also write /decoded/ channels (raw frames are always recorded)
+    decode: bool = False  # also write /decoded/ topics live (readers derive them from the raw frames anyway)
     trace_flush_s: float | None = 1.0  # wall s a killed run may lose; None: chunks close by size and bus time only
     bus_kwargs: dict = field(default_factory=dict)  # more keyword arguments for python-can's bus
     plant: PlantConfig = field(default_factory=PlantConfig)
@@ -194,7 +194,7 @@ class Rig:
             return
         result = self.controller.last_result
         if result is not None and result.debug:
-            self.trace.message("/controller/debug", self.clock.now_ns, result.debug, schema["title"], schema)
+            self.trace.numbers("/controller/debug", self.clock.now_ns, result.debug, schema)  # float64 each
 
     # -- scenario actions ------------------------------------------------------
     def apply_actions(self, t_s: float) -> None:

@@ -1,0 +1,45 @@
+"""``wheelleg export TRACE [-o OUT]``: a copy of a trace with the /decoded/ topics, for Foxglove."""
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+NAME = "export"
+HELP = ("write a copy of a trace with every frame's DBC signals on /decoded/<channel>/<Message> (JSON), "
+        "for Foxglove's plots; a run's trace keeps raw frames only; default OUT: TRACE with .decoded.mcap")
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("trace", type=Path, help="the rig's MCAP trace (complete or cut off)")
+    parser.add_argument("-o", "--out", type=Path, default=None, help="the copy (default: TRACE.decoded.mcap)")
+
+
+def default_out(trace: Path) -> Path:
+    return trace.with_suffix(".decoded.mcap")
+
+
+def run(args: argparse.Namespace) -> int:
+    from wheelleg.hil.analyze.export import export_decoded
+    from wheelleg.hil.record.sources import MCAP_MAGIC, TraceError
+
+    out = args.out or default_out(args.trace)
+    try:
+        with open(args.trace, "rb") as f:
+            if f.read(len(MCAP_MAGIC)) != MCAP_MAGIC:
+                print(f"export: {args.trace}: not an MCAP trace", file=sys.stderr)
+                return 2
+        if out.resolve() == args.trace.resolve():
+            print(f"export: {out}: the copy would overwrite the trace; give another -o", file=sys.stderr)
+            return 2
+        done = export_decoded(args.trace, out)
+    except TraceError as exc:
+        print(f"export: {exc}", file=sys.stderr)
+        return 2
+    except OSError as exc:
+        print(f"export: {exc.filename or args.trace}: {exc.strerror or exc}", file=sys.stderr)
+        return 2
+    cut = " (cut off: a killed run's trace)" if done.truncated else ""
+    print(f"export: {args.trace}{cut} -> {done.out}: {done.frames} frames, {done.decoded} /decoded/ messages, "
+          f"{done.copied} other messages copied")
+    return 0

@@ -1,0 +1,122 @@
+"""Decoded signals derived on reading: a trace's raw frames and its own DBC attachments.
+
+A run's trace keeps the raw frames (``/can/<channel>``); the DBC signals of
+every frame are derived when a reader asks for them (``TraceReader.decoded``,
+``TraceReader.topic("/decoded/...")``), one numpy pass per message over all its
+frames (``DecodePlan.decode_columns``). The values are those a
+``/decoded/<channel>/<Message>`` JSON topic recorded live gives back: the same
+numbers, NaN where a frame lacks a field, and NaN for a value that is not
+finite (JSON writes it as null). ``wheelleg export`` writes those topics into a
+copy of the trace for Foxglove.
+
+The databases come from the trace itself: each bus's DBC files
+(``wheelleg.dbc.ROBOT_BUS_FILES`` of the robot in the ``run`` record) are read
+from the trace's attachments, so a trace decodes with the layouts it was
+recorded with; a file the trace lacks is taken from this package.
+"""
+from __future__ import annotations
+
+import functools
+import math
+from collections.abc import Iterable
+
+import cantools
+import numpy as np
+
+from wheelleg import dbc
+from wheelleg.hil.record.decode import FrameDecoder
+from wheelleg.hil.record.frame import Frame
+
+
+def attached_dbs(attachments: dict[str, bytes], run: dict[str, str]) -> dict[str, cantools.database.Database]:
+    """Channel (interface name) -> the cantools database of its bus, from the trace's DBC attachments.
+
+    ``run``: the trace's ``run`` record (its ``robot`` and the interface name of each role);
+    {} when the record names no channel (a trace not written by a run).
+    """
+    files = dbc.ROBOT_BUS_FILES.get(run.get("robot") or "wheel-legged")
+    if files is None:
+        return {}
+    out = {}
+    for role, names in files.items():
+        channel = run.get(role)
+        if channel:
+            texts = tuple(_dbc_text(attachments, name) for name in names)
+            out[channel] = _database(texts)
+    return out
+
+
+def _dbc_text(attachments: dict[str, bytes], name: str) -> str:
+    data = attachments.get(name)
+    return data.decode() if data is not None else dbc.dbc_path(name).read_text()
+
+
+@functools.lru_cache(maxsize=16)
+def _database(texts: tuple[str, ...]) -> cantools.database.Database:
+    """One database of the DBC texts (cached: every trace of a run carries the same files)."""
+    db = cantools.database.Database()
+    for text in texts:
+        db.add_dbc_string(text)
+    return db
+
+
+def decoded_columns(decoder: FrameDecoder, frames: Iterable[Frame], message: str) -> dict[str, np.ndarray]:
+    """'t' (s) and every field of ``message`` over ``frames`` (one channel's), shape (n,); {} if none.
+
+    Keys in the order a JSON topic gives them: 't', then each field as it first
+    appears; a frame without a field (another multiplexer value, a request
+    among replies) has NaN there.
+    """
+    times, ids, payloads, plan = [], [], [], None
+    for f in frames:
+        if f.is_error:
+            continue
+        p = decoder.plan(f.channel, f.arbitration_id, f.is_extended)
+        if p is not None and p.name == message:
+            plan = p
+            times.append(f.t_ns)
+            ids.append(f.arbitration_id)
+            payloads.append(f.data)
+    if plan is None:
+        return {}
+    batch = plan.decode_columns(ids, payloads)
+    if batch is not None:
+        names, columns, id_fields = batch
+        out = {"t": np.array(times, dtype=np.int64) / 1e9}
+        for name, column in zip(names, columns):
+            out[name] = _finite(np.array(column, dtype=float))
+        if id_fields is not None:
+            out.update(_field_columns(id_fields))
+        return out
+    rows = [(t, plan.decode(i, d)) for t, i, d in zip(times, ids, payloads)]
+    return decoded_rows_columns([(t, row) for t, row in rows if row is not None])
+
+
+def decoded_rows_columns(rows: list[tuple[int, dict]]) -> dict[str, np.ndarray]:
+    """(t_ns, values) rows -> 't' (s) and one float array per field (missing -> NaN, not finite -> NaN)."""
+    if not rows:
+        return {}
+    keys = dict.fromkeys(k for _, row in rows for k in row)
+    out = {"t": np.array([t for t, _ in rows], dtype=np.int64) / 1e9}
+    for key in keys:
+        out[key] = _finite(np.array([_number(row.get(key)) for _, row in rows], dtype=float))
+    return out
+
+
+def _field_columns(id_fields: list[dict]) -> dict[str, np.ndarray]:
+    """The CyberGear id fields, one dict per frame (shared between frames of one id), by column."""
+    keys = dict.fromkeys(k for fields in {id(f): f for f in id_fields}.values() for k in fields)
+    return {key: _finite(np.array([_number(fields.get(key)) for fields in id_fields], dtype=float))
+            for key in keys}
+
+
+def _number(value) -> float:
+    return math.nan if value is None or isinstance(value, str) else value
+
+
+def _finite(values: np.ndarray) -> np.ndarray:
+    """NaN where a value is not finite: what a JSON topic (null) reads back as."""
+    bad = ~np.isfinite(values)
+    if bad.any():
+        values[bad] = math.nan
+    return values
