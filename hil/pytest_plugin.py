@@ -13,7 +13,9 @@ robot team's own tests to use ``rig_run``::
   the chosen transport (``--can-interface``, ``--can-channels``) and reads the
   trace back; ``plant`` is a dict of plant overrides (``wheelleg run --plant``,
   e.g. ``{"com_x_m": 0.02}``). Runs are cached for the session per (scenario,
-  seed, duration, plant), so several tests can judge one run. Traces go to ``--rig-out`` (default: pytest's tmp).
+  seed, duration, plant), so several tests can judge one run (under pytest-xdist, per
+  worker: give such tests one ``xdist_group`` and ``--dist loadgroup``). Traces go to
+  ``--rig-out`` (default: pytest's tmp).
 - ``@pytest.mark.socketcan``: skipped, with the reason and the way to get
   vcan, when vcan0/vcan1 (or the ``--can-channels``) cannot be opened.
 - A failing test that used ``rig_run`` gets a "wheelleg rig" report section

@@ -19,3 +19,18 @@ def vbus_pair():
     yield buses
     for bus in buses:
         bus.shutdown()
+
+
+def _is_long(item) -> bool:
+    """A scenario run (``rig_run``) or a test marked ``slow`` (seconds each)."""
+    return "rig_run" in getattr(item, "fixturenames", ()) or item.get_closest_marker("slow") is not None
+
+
+def pytest_collection_modifyitems(config, items):
+    """Long tests first, otherwise in collection order.
+
+    pytest-xdist hands the tests out in this order: with the long ones first, the
+    thousands of short ones fill both workers to the end. In file order the scenario
+    files came last and one worker ran the last 10-20 s runs alone.
+    """
+    items.sort(key=lambda item: not _is_long(item))  # stable: each part keeps its order

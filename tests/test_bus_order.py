@@ -19,6 +19,8 @@ from wheelleg.hil.record.trace import TraceReader
 from wheelleg.hil.scenarios.common import push
 from wheelleg.hil.run import rig as rig_module
 
+from sharing import same_fixture
+
 BITRATE = 1_000_000
 SYNC, HEARTBEAT = 0x080, 0x710
 
@@ -105,6 +107,7 @@ def balance_log(tmp_path_factory):
     return list(read_candump(out.log_path))
 
 
+@same_fixture("balance_log")
 def test_the_log_is_in_time_order_across_both_buses(balance_log):
     times = [f.t_ns for f in balance_log]
     assert len(times) > 2500 and {f.channel for f in balance_log} == {"vcan0", "vcan1"}
@@ -133,6 +136,7 @@ def _kind(f: Frame) -> str:
     return f"type{cg.comm_type(f.arbitration_id)}-{cg.target(f.arbitration_id)}"
 
 
+@same_fixture("balance_log")
 def test_each_bus_is_in_the_order_arbitration_gives(balance_log):
     can2 = _ticks(balance_log, "vcan1")
     enable = [_kind(f) for f in can2[1]]  # tick 1 enables: stop, run-mode write, enable per motor

@@ -116,6 +116,7 @@ def test_separation_is_undefined_without_failures():
 
 
 # -- the command on a fake rig ---------------------------------------------------------------
+@pytest.mark.slow
 def test_campaign_journals_every_run_keeps_failing_traces_and_reports(tmp_path):
     out = tmp_path / "c"
     code = run_campaign(["balance", "drive", "--samples", "12", "--vary", "com_x_m=-0.03..0.03",

@@ -7,7 +7,11 @@ from __future__ import annotations
 import json
 import shlex
 
+import pytest
+
 from wheelleg.hil import cli
+
+pytestmark = pytest.mark.slow  # scheduled first (tests/conftest.py)
 
 CAMPAIGN = ["campaign", "balance", "--samples", "3", "--seed", "5", "--duration", "0.3",
             "--vary", "com_x_m=-0.03..0.03", "--vary", "feedback_delay_s=0..0.002",

@@ -114,6 +114,7 @@ def test_random_frames_leave_the_motors_disabled_or_balancing(seed):
     assert robot.ctl.bus.frames > 2 * 3 * len(results)
 
 
+@pytest.mark.slow
 def test_the_rig_balances_through_a_faulty_node_on_each_bus(tmp_path):
     """Physics in the loop: 2000 garbage frames/s on each bus for 1.5 s, the robot never notices."""
     from wheelleg.hil.run.rig import Rig, RigConfig

@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 
 import can
+import pytest
 
 from controller_feed import DB1, DB2, Robot, _std
 from wheelleg.controller import constants as C
@@ -70,6 +71,7 @@ def _renamed(last) -> dict:
 ORIGINAL_RECORD = telemetry.debug_record
 
 
+@pytest.mark.slow
 def test_commands_do_not_depend_on_the_debug_record(monkeypatch):
     recording, quiet = ScriptedRobot(), ScriptedRobot(record_debug=False)
     recording.step(TICKS)

@@ -23,7 +23,7 @@ cybergear = pytest.importorskip("cybergear", reason="python-cybergear is not ins
 CyberGearDriver = pytest.importorskip("CyberGearDriver", reason="CyberGearDriver is not installed (pip install '.[drivers]')")
 
 UID = 0x1122_3344_5566_7788
-pytestmark = pytest.mark.timeout(120)
+pytestmark = [pytest.mark.timeout(120), pytest.mark.slow]
 
 
 def eventually(condition, timeout_s: float = 5.0, what: str = ""):

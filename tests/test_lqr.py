@@ -10,6 +10,8 @@ from wheelleg.controller import lqr
 from wheelleg.controller import params as P
 from wheelleg.controller.design import lqr as design
 
+from sharing import same_fixture
+
 SAMPLES = np.linspace(P.LEG_LENGTH_MIN, P.LEG_LENGTH_MAX, 200)
 
 
@@ -141,6 +143,8 @@ def test_dlqr_gain_is_optimal_for_its_riccati_solution():
 
 
 # --- the fitted table --------------------------------------------------------------------
+@pytest.mark.slow
+@same_fixture("exact_gains")
 def test_fit_error_is_small(exact_gains):
     fit = np.array([fitted(L0) for L0 in SAMPLES])
     assert np.max(np.abs(fit - exact_gains)) / np.max(np.abs(exact_gains)) < 1e-3
@@ -152,6 +156,8 @@ def test_closed_loop_is_stable_over_the_whole_range():
         assert np.max(np.abs(np.linalg.eigvals(cl))) < 1.0, L0
 
 
+@pytest.mark.slow
+@same_fixture("fresh_design")
 def test_committed_table_is_what_the_script_produces(fresh_design):
     table = design.load_table()
     assert design.table_matches(fresh_design, table) == []
@@ -159,6 +165,8 @@ def test_committed_table_is_what_the_script_produces(fresh_design):
     np.testing.assert_allclose(fitted(0.17), design.evaluate_fit(fresh_design.coeffs, 0.17), rtol=design.TABLE_RTOL)
 
 
+@pytest.mark.slow
+@same_fixture("fresh_design")
 def test_table_check_catches_a_stale_table(fresh_design, tmp_path, monkeypatch, capsys):
     stale = fresh_design.coeffs.copy()
     stale[1, 4, 3] *= 1.001  # Tp's phi gain, constant term

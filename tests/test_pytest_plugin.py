@@ -73,6 +73,7 @@ def test_stopped_during_a_long_run(rig_run):
 '''
 
 
+@pytest.mark.slow
 def test_a_test_timed_out_during_rig_run_names_the_trace(pytester):
     pytest.importorskip("pytest_timeout")
     pytester.makepyfile(test_timeout=TIMEOUT_TEST)

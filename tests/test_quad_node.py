@@ -206,6 +206,7 @@ def test_heartbeat_mask_packs_legs_imu_and_remote():
     assert heartbeat_mask((1 << 11) | (1 << 12) | (1 << 13)) == 0b111000
 
 
+@pytest.mark.slow
 def test_the_lockstep_node_ticks_on_sync_from_both_buses():
     """What the rig does: SYNC k on both buses, ``service()``, the heartbeats of tick k on both."""
     names = ("q-bus0", "q-bus1")

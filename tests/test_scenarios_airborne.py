@@ -5,14 +5,17 @@ import pytest
 from wheelleg.hil.run.scenario import RunData
 from wheelleg.hil.scenarios import airborne as A
 
+from sharing import each_run, same_run
+
 PASSING = ("jump", "jump-step", "drop", "fall", "estop", "pose")
 
 
-@pytest.mark.parametrize("name", PASSING)
+@pytest.mark.parametrize("name", each_run(PASSING))
 def test_scenario_passes_its_checks(name, rig_run):
     rig_run(name).assert_passed()
 
 
+@same_run("jump")
 def test_jump_reaches_the_issue_aim_and_lands_with_the_wheels_powered_again(rig_run):
     run = rig_run("jump")
     assert A.peak_clearance(run) >= 0.2
@@ -20,6 +23,7 @@ def test_jump_reaches_the_issue_aim_and_lands_with_the_wheels_powered_again(rig_
     assert mode[-1] == A.BALANCE and A.first_mode(run, A.JUMP) is not None
 
 
+@same_run("drop")
 def test_in_the_air_the_wheels_only_level_the_body(rig_run):
     """Drop, released level: while the heartbeat says AIRBORNE the wheels get only the
     reaction-wheel levelling (under 1 A: the balance law's free-wheeling wheels would ask
@@ -36,6 +40,7 @@ def test_in_the_air_the_wheels_only_level_the_body(rig_run):
     assert np.degrees(np.abs(run.state["pitch"][flying]).max()) < 2.0
 
 
+@same_run("fall")
 def test_a_fall_is_detected_and_torque_stays_off_until_the_operator_asks(rig_run):
     results = {c.name: c for c in rig_run("fall").checks}
     assert results["heartbeat shows FALLEN"].passed
@@ -43,6 +48,7 @@ def test_a_fall_is_detected_and_torque_stays_off_until_the_operator_asks(rig_run
     assert results["heartbeat shows STAND_UP"].passed  # the re-enable is taken
 
 
+@same_run("fall")
 def test_stands_up_after_a_fall_on_operator_command(rig_run):
     """From lying on its nose: the recovery stand (tuck, tilt up) then the stand-up, to BALANCE."""
     run = rig_run("fall")
@@ -102,6 +108,7 @@ def test_factories_size_their_scenarios_and_refuse_nonsense():
             make()
 
 
+@same_run("jump")
 def test_sim_state_schema_gives_the_airborne_fields_their_units(rig_run):
     from wheelleg.hil.record import schemas
     run = rig_run("jump")

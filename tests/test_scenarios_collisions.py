@@ -7,20 +7,24 @@ from wheelleg.hil.run.scenario import RunData
 from wheelleg.hil.scenarios import collisions
 from wheelleg.hil.scenarios.collisions import FALLEN, falls_safely, recovers
 
+from sharing import each_run, same_run
+
 COLLISIONS = ("push", "impact", "wall")
 
 
-@pytest.mark.parametrize("name", COLLISIONS)
+@pytest.mark.parametrize("name", each_run(COLLISIONS))
 def test_scenario_passes_its_checks(name, rig_run):
     rig_run(name).assert_passed()
 
 
+@same_run("push")
 def test_push_events_carry_the_impulse(rig_run):
     pushes = rig_run("push").events_of("push")
     assert len(pushes) == 4  # sudden and steady, front and side
     assert [round(p["impulse_ns"], 6) for p in pushes] == [5.0] * 4
 
 
+@pytest.mark.slow
 def test_a_wall_hit_too_fast_falls_safely(tmp_path):
     """At 0.5 m/s the robot cannot stop at the wall: it must fall safely (torque off), not recover."""
     results = {r.name: r for r in run_checks(collisions.wall_scenario(speed_mps=0.5), tmp_path)}

@@ -10,16 +10,18 @@ from wheelleg.hil.commands.run import execute
 from wheelleg.hil.run.scenario import RunData
 from wheelleg.hil.scenarios import faults as fs
 
+from sharing import each_run, same_run
+
 FAULTS = ("offline-wheel", "offline-joint", "offline-imu", "frozen-imu", "offline-remote", "motor-fault", "esc-hold",
           "frame-loss", "bus-off", "overload")
 
 
-@pytest.mark.parametrize("name", FAULTS)
+@pytest.mark.parametrize("name", each_run(FAULTS))
 def test_scenario_passes_its_checks(name, rig_run):
     rig_run(name).assert_passed()
 
 
-@pytest.mark.parametrize("name", FAULTS)
+@pytest.mark.parametrize("name", each_run(FAULTS))
 def test_every_injected_fault_is_an_event_with_its_target(name, rig_run):
     events = [e for e in rig_run(name).events if e["kind"].startswith("fault_") and e["kind"] != "fault_end"]
     assert events
@@ -27,6 +29,7 @@ def test_every_injected_fault_is_an_event_with_its_target(name, rig_run):
         assert ("device" in e or "bus" in e) and "duration_s" in e and e["t"] == pytest.approx(e["t_s"], abs=1e-9)
 
 
+@same_run("offline-joint")
 def test_offline_joint_reaction_is_the_joint_threshold(rig_run):
     """Not just under the bound: the controller waits the threshold out (no premature trip)."""
     run = rig_run("offline-joint")
@@ -36,6 +39,7 @@ def test_offline_joint_reaction_is_the_joint_threshold(rig_run):
     assert detect.RULES[0].offline_after_s - 0.002 < reaction <= detect.RULES[0].offline_after_s + 0.002
 
 
+@same_run("frame-loss")
 def test_frame_loss_keeps_the_robot_balancing_in_balance_mode(rig_run):
     run = rig_run("frame-loss")
     hb = run.heartbeat
@@ -44,6 +48,7 @@ def test_frame_loss_keeps_the_robot_balancing_in_balance_mode(rig_run):
     assert np.all(hb["MotorsEnabled"][late] == 1)
 
 
+@same_run("overload")
 def test_overload_shows_the_load_before_and_during(rig_run):
     """At 500 Hz CAN2 carries ~65 %; the babbling node pushes the wire to ~100 %."""
     t, load = rig_run("overload").bus_load["can2"]

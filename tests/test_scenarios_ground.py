@@ -9,14 +9,17 @@ from wheelleg.controller import params as P
 from wheelleg.controller.legs import leg_targets, roll_leg_difference, turn_lean
 from wheelleg.hil.scenarios import ground
 
+from sharing import each_run, same_run
+
 GROUND = ("slope", "bump", "step-down", "turn-fast", "sprint")
 
 
-@pytest.mark.parametrize("name", GROUND)
+@pytest.mark.parametrize("name", each_run(GROUND))
 def test_scenario_passes_its_checks(name, rig_run):
     rig_run(name).assert_passed()
 
 
+@same_run("slope")
 def test_on_the_slope_the_legs_take_up_the_tilt(rig_run):
     """Level body on a 15 deg slope means the legs differ by the slope across the track."""
     run = rig_run("slope")

@@ -14,6 +14,8 @@ from wheelleg.hil import scenarios
 from wheelleg.hil.analyze.replay import replay
 from wheelleg.hil.record.sources import open_recording
 
+from sharing import each_run, same_run
+
 PASSING = ("quad-stand-up", "quad-balance-stand", "quad-push", "quad-trot", "quad-turn", "quad-recovery",
            "quad-estop", "quad-offline-joint")
 
@@ -23,13 +25,14 @@ def test_every_quadruped_scenario_is_judged_here():
     assert scenarios.get("quad-trot") is scenarios.get("quadruped/quad-trot")  # a unique bare name is found
 
 
-@pytest.mark.parametrize("name", PASSING)
+@pytest.mark.parametrize("name", each_run(PASSING))
 def test_scenario_passes_its_checks(rig_run, name):
     run = rig_run(f"quadruped/{name}")
     run.assert_passed()
     assert run.meta["robot"] == "quadruped" and run.meta["control_period_s"] == "0.004"
 
 
+@same_run("quad-stand-up")
 def test_stand_up_rises_from_lying_folded_within_3_s(rig_run):
     run = rig_run("quadruped/quad-stand-up")
     z = run.state["z"]
@@ -38,6 +41,7 @@ def test_stand_up_rises_from_lying_folded_within_3_s(rig_run):
     assert max(np.abs(run.state["roll"]).max(), np.abs(run.state["pitch"]).max()) < np.radians(15)
 
 
+@same_run("quad-offline-joint")
 def test_a_quadruped_trace_and_its_log_replay_identically(rig_run):
     run = rig_run("quadruped/quad-offline-joint")
     for path in (run.trace_path, run.log_path):
@@ -46,6 +50,7 @@ def test_a_quadruped_trace_and_its_log_replay_identically(rig_run):
         assert result.ticks == run.ticks and result.source.robot == "quadruped"
 
 
+@same_run("quad-stand-up")
 def test_a_quadruped_log_is_told_apart_by_its_motor_ids(rig_run):
     """A candump log names no buses: the interface with motors 1..6 (and the remote) is bus 0."""
     run = rig_run("quadruped/quad-stand-up")
@@ -55,6 +60,7 @@ def test_a_quadruped_log_is_told_apart_by_its_motor_ids(rig_run):
         open_recording(run.trace_path, robot="wheel-legged")
 
 
+@same_run("quad-offline-joint")
 def test_inspect_names_the_quadrupeds_modes_and_offline_legs(rig_run):
     from wheelleg.hil.analyze.inspect_trace import summarize
 

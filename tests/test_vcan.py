@@ -147,6 +147,7 @@ def test_uml_script_fails_clearly_without_linux_uml():
 
 
 @pytest.mark.skipif(shutil.which("linux.uml") is None, reason="user-mode-linux not installed")
+@pytest.mark.slow
 def test_uml_script_streams_output_and_returns_the_command_status(tmp_path):
     """One boot: vcan links inside, quoting and env kept, CMD's status is the script's."""
     probe = ("import os, sys; from wheelleg.hil.bus import vcan; "

@@ -10,6 +10,10 @@ from pathlib import Path
 
 import pytest
 
+from sharing import same_fixture
+
+pytestmark = pytest.mark.slow  # a wheel build and a venv: scheduled first (tests/conftest.py)
+
 REPO = Path(__file__).resolve().parent.parent
 
 
@@ -22,6 +26,7 @@ def wheel(tmp_path_factory) -> Path:
     return path
 
 
+@same_fixture("wheel")
 def test_the_wheel_has_one_top_level_package(wheel):
     with zipfile.ZipFile(wheel) as zf:
         names = zf.namelist()
@@ -32,6 +37,7 @@ def test_the_wheel_has_one_top_level_package(wheel):
             "wheelleg/hil/bus/uml/uml-vcan-init.sh", "wheelleg/hil/bus/uml/uml_xstate_shim.c"} <= set(names)
 
 
+@same_fixture("wheel")
 def test_a_project_with_its_own_controller_and_hil_uses_rig_run(wheel, tmp_path):
     """The collision the editable install hid: a team's own ``controller``/``hil`` packages."""
     venv = tmp_path / "venv"

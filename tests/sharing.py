@@ -1,0 +1,32 @@
+"""Tests that share one costly thing (a scenario run, a module's fixture) run on one xdist worker.
+
+``rig_run`` caches a run per worker process (hil/pytest_plugin.py) and a
+module-scoped fixture is built once per worker, so tests that share them save
+the work only when they land on the same worker. With ``--dist loadgroup``
+(pyproject's addopts) the tests of one ``xdist_group`` run on one worker:
+
+- ``same_run(NAME)`` marks a test that calls ``rig_run(NAME)`` with the same
+  arguments (seed, duration, plant) as another test; ``each_run(NAMES)`` gives
+  ``parametrize`` values, each in its run's group;
+- ``same_fixture(NAME)`` marks the tests that use one costly module fixture.
+
+A missing mark costs time, never a result: the run or fixture is made twice.
+"""
+from __future__ import annotations
+
+import pytest
+
+
+def same_run(scenario: str) -> pytest.MarkDecorator:
+    """The mark of the tests that judge ``rig_run(scenario)`` (same seed, duration, plant)."""
+    return pytest.mark.xdist_group(f"run {scenario}")
+
+
+def each_run(scenarios) -> list:
+    """``parametrize`` values: each scenario name in the group of its run."""
+    return [pytest.param(name, marks=same_run(name)) for name in scenarios]
+
+
+def same_fixture(name: str) -> pytest.MarkDecorator:
+    """The mark of the tests that use the module-scoped fixture ``name`` (built once per worker)."""
+    return pytest.mark.xdist_group(f"fixture {name}")
