@@ -74,11 +74,8 @@ class BusWire:
     two heaps instead of scanning every waiting frame: ``_timed`` (ready time,
     key) of the frames whose queueing time is known, and ``_eligible`` (key) of
     those queued by the wire's clock (``free_ns`` never goes back, so a frame
-    once eligible stays so); a reply joins them when the frame it answers
-    has been sent. A frame queued by the wire's clock goes to ``_eligible``
-    at once (``run_until`` would move it there before its next choice; most
-    replies are, the frame they answer having just ended): two heap operations
-    fewer a frame.
+    once eligible stays so); a reply joins ``_timed`` when the frame it answers
+    has been sent.
     """
 
     def __init__(self, bitrate: int):
@@ -122,18 +119,12 @@ class BusWire:
             delay_ns = RESPONSE_NS
         if answers is None:
             item = self._queued(frame, ready_ns, duration_ns=duration_ns)
-            if ready_ns <= self.free_ns:  # queued by the wire's clock: eligible at once (see run_until)
-                heapq.heappush(self._eligible, (item.key, item))
-            else:
-                heapq.heappush(self._timed, (ready_ns, item.key, item))
+            heapq.heappush(self._timed, (ready_ns, item.key, item))
             return item
         item = self._queued(frame, None, answers, delay_ns, duration_ns)
         if answers.end_ns is not None:
             item.ready_ns = answers.end_ns + delay_ns
-            if item.ready_ns <= self.free_ns:
-                heapq.heappush(self._eligible, (item.key, item))
-            else:
-                heapq.heappush(self._timed, (item.ready_ns, item.key, item))
+            heapq.heappush(self._timed, (item.ready_ns, item.key, item))
         else:
             if answers.replies is None:
                 answers.replies = []
@@ -205,9 +196,6 @@ class BusWire:
         if item.replies is not None:  # the replies to it are queued now
             for wire, reply in item.replies:
                 reply.ready_ns = item.end_ns + reply.delay_ns
-                if reply.ready_ns <= wire.free_ns:
-                    heapq.heappush(wire._eligible, (reply.key, reply))
-                else:
-                    heapq.heappush(wire._timed, (reply.ready_ns, reply.key, reply))
+                heapq.heappush(wire._timed, (reply.ready_ns, reply.key, reply))
                 wire._unresolved -= 1
             item.replies = None
