@@ -52,6 +52,49 @@ def test_lockstep_virtual_bus_and_pythons_can_virtual_bus_talk_both_ways_in_orde
         theirs.shutdown()
 
 
+def _fields(msg: can.Message) -> tuple:
+    return (msg.timestamp, msg.arbitration_id, msg.is_extended_id, msg.is_remote_frame, msg.is_error_frame,
+            msg.channel, msg.dlc, type(msg.data), bytes(msg.data), msg.is_fd, msg.is_rx, msg.bitrate_switch,
+            msg.error_state_indicator)
+
+
+def test_a_frame_handed_over_arrives_as_the_copy_send_would_deliver():
+    plant, controller = open_bus("virtual", "transport-test-owned"), open_bus("virtual", "transport-test-owned")
+    try:
+        plant.send(can.Message(1.5, 0x201, False, data=b"\1\2\3", is_rx=False))
+        copied = controller.recv(timeout=0)
+        mine = can.Message(1.5, 0x201, False, data=b"\1\2\3", is_rx=False)
+        plant.send_owned(mine)
+        handed = controller.recv(timeout=0)
+        assert handed is mine and _fields(handed) == _fields(copied)
+        assert (handed.channel, handed.is_rx, type(handed.data)) == (plant.channel_id, True, bytearray)
+    finally:
+        plant.shutdown()
+        controller.shutdown()
+
+
+def test_an_end_that_takes_frames_as_sent_gets_the_senders_frame_and_others_still_copies():
+    plant, controller = open_bus("virtual", "transport-test-as-sent"), open_bus("virtual", "transport-test-as-sent")
+    plant.take_as_sent()
+    try:
+        sent = can.Message(0.0, 0x200, False, data=b"\7")
+        controller.send(sent)
+        assert plant.poll() is sent
+        third = open_bus("virtual", "transport-test-as-sent")  # two receivers: send_owned is send
+        try:
+            mine = can.Message(0.0, 0x1FF, False, data=b"\1", is_rx=False)
+            controller.send_owned(mine)
+            copy = third.recv(timeout=0)
+            assert plant.poll() is mine and not mine.is_rx
+            assert copy is not mine and (bytes(copy.data), copy.is_rx, copy.channel) == (b"\1", True,
+                                                                                        controller.channel_id)
+        finally:
+            third.shutdown()
+    finally:
+        plant.shutdown()
+        controller.shutdown()
+
+
 def test_frame_queue_wakes_a_blocked_reader_and_times_out_when_empty():
     q = FrameQueue()
     with pytest.raises(queue.Empty):

@@ -51,6 +51,13 @@ class PlantBus:
     its next ``recv`` (``wheelleg.emulators.node.DeviceNode``); what it sends
     then is recorded as the answer to that frame, what it sends after a
     ``recv`` that found nothing (periodic frames) as its own.
+
+    On the in-process bus (``transport.LockstepVirtualBus``) frames cross
+    without copies: the plant's frames are made for one send each, so the
+    frame a device sent is the one the controller receives (``send_owned``:
+    a device must not change a frame after sending it), and the plant receives
+    the controller's frames themselves (``take_as_sent``: with the sender's
+    ``channel`` and ``is_rx``, which nothing on the plant side reads).
     """
 
     def __init__(self, bus, channel: str, recorder: Recorder, stages: Sequence[BusStage] = ()):
@@ -60,15 +67,18 @@ class PlantBus:
         self._inbound = tuple(stage.inbound for stage in self.stages)
         self._answering = None  # the recorder's handle of the frame the devices are answering
         self._poll = getattr(bus, "poll", None)  # an in-process end: a frame without python-can's recv loop
+        self._send = getattr(bus, "send_owned", None) or bus.send
+        if hasattr(bus, "take_as_sent"):
+            bus.take_as_sent()
 
     def send(self, msg: can.Message, timeout: float | None = None) -> None:
         frames = [msg]
         for outbound in self._outbound:
             frames = outbound(frames)
-        sent, channel, answering = self.recorder.sent, self.channel, self._answering
+        sent, channel, answering, send = self.recorder.sent, self.channel, self._answering, self._send
         for frame in frames:
             sent(channel, frame, answering)
-            self.bus.send(frame, timeout)
+            send(frame, timeout)
 
     def recv(self, timeout: float | None = None) -> can.Message | None:
         while True:
