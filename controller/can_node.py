@@ -97,7 +97,13 @@ class CanNode:
             self.listener(name, msg, True)
 
     def run(self, stop, idle_s: float = 0.0002) -> None:
-        """Blocking loop until ``stop`` (a threading.Event) is set; disables on exit."""
+        """Blocking loop until ``stop`` (a threading.Event) is set; disables on exit.
+
+        Free-running, the period grid starts here, not when the node was built: the
+        time between (opening buses, building the rest of the program) would otherwise
+        make the first ticks late, counted as missed deadlines."""
+        if not self.sync and self._last_tick < 0:
+            self._start = time.monotonic()
         try:
             while not stop.is_set():
                 if not self.service():

@@ -203,3 +203,68 @@ def test_a_controller_crash_is_an_event_and_the_rest_of_the_run_deadline_misses(
     assert set(range(last_tick + 1, ticks_run)) <= set(missed)
     assert outcome.deadline_misses == len(missed) >= ticks_run - 1 - last_tick
     assert outcome.timing["controller"]["crashed"] == "ZeroDivisionError: boom"
+
+
+# -- the start of a real-time run ----------------------------------------------------------------
+class _IdleProgram:
+    """A controller program that sends nothing (``CanNode``'s interface)."""
+
+    def on_frame(self, msg, bus, now_s):
+        return None
+
+    def tick(self, tick, now_s):
+        return argparse.Namespace(frames={})
+
+    def shutdown_frames(self, now_s):
+        return {}
+
+
+def test_a_free_running_node_starts_its_period_grid_when_its_loop_starts():
+    """Built, then started 30 ms later (a real-time run builds the node before its clock
+    starts): the first tick is tick 0, not 15 ticks counted as missed."""
+    import threading
+
+    from wheelleg.controller.can_node import CanNode
+    import can
+
+    buses = [can.Bus(interface="virtual", channel=f"grid-{i}") for i in range(2)]
+    try:
+        node = CanNode(*buses, _IdleProgram(), sync=False, period_s=PERIOD_S)
+        node.tick_log = []
+        time.sleep(0.03)
+        stop = threading.Event()
+        runner = threading.Thread(target=node.run, args=(stop,))
+        runner.start()
+        deadline = time.monotonic() + 5.0
+        while len(node.tick_log) < 3 and time.monotonic() < deadline:
+            time.sleep(0.001)
+        stop.set()
+        runner.join(5.0)
+    finally:
+        for bus in buses:
+            bus.shutdown()
+    assert node.tick_log and node.tick_log[0][0] == 0
+
+
+def _write_trace(path, write_behind: bool) -> bytes:
+    from wheelleg.hil.record.frame import Frame
+    from wheelleg.hil.record.trace import TraceWriter
+
+    trace = TraceWriter(path, metadata={"run": {"scenario": "test"}}, flush_interval_s=None,
+                        chunk_span_s=0.01, write_behind=write_behind)
+    with trace:
+        for k in range(2000):  # 20 chunks of 10 ms
+            t_ns = k * 50_000
+            trace.frame(Frame(t_ns, "vcan0", 0x201, False, k.to_bytes(8, "little"), 8))
+            if k % 40 == 0:
+                trace.sim_state(t_ns, {name: k * 0.5 for name in trace._sim_fields})
+        trace.add_metadata("late", {"after": "the chunks"})
+    return path.read_bytes()
+
+
+def test_write_behind_writes_the_bytes_the_loop_would_have(tmp_path):
+    """Real time hands closed chunks to a worker thread; the file is the same, byte for byte."""
+    inline = _write_trace(tmp_path / "inline.mcap", write_behind=False)
+    behind = _write_trace(tmp_path / "behind.mcap", write_behind=True)
+    assert behind == inline
+    assert len(TraceReader(tmp_path / "behind.mcap").sim_state()["t"]) == 50

@@ -24,12 +24,19 @@ Crash safety: a chunk is closed and flushed to the OS when it reaches
 process then loses only the open chunk. ``read_records`` streams a file
 record by record, yields a chunk's records only after its CRC checks, and
 stops quietly at the first short or corrupt record (a file without footer).
+
+Write-behind (``write_behind=True``, real-time runs): a closed chunk is compressed,
+checksummed and written by one worker thread, in order, so the loop that closed it
+goes on at once (zstd, crc32 and the file write release the GIL); a record written
+outside chunks, and ``finish``, wait for the worker first. A killed process then
+loses the open chunk and the one being written.
 """
 from __future__ import annotations
 
 import struct
 import time
 import zlib
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
 from io import BytesIO
 from pathlib import Path
@@ -78,7 +85,7 @@ class ChunkedMcapWriter:
 
     def __init__(self, stream: BinaryIO, *, chunk_size: int = 512 * 1024,
                  chunk_span_ns: int = 500_000_000, flush_interval_s: float | None = 1.0,
-                 compression: str = "zstd", before_close=None):
+                 compression: str = "zstd", before_close=None, write_behind: bool = False):
         if compression not in ("zstd", ""):
             raise ValueError(f"compression must be 'zstd' or '', not {compression!r}")
         if compression == "zstd" and zstandard is None:
@@ -107,6 +114,8 @@ class ChunkedMcapWriter:
                                  message_start_time=0, message_end_time=0,
                                  channel_message_counts={})
         self._finished = False
+        self._worker = ThreadPoolExecutor(1, thread_name_prefix="mcap-chunks") if write_behind else None
+        self._written: Future | None = None  # the worker's last chunk
 
     # -- lifecycle ------------------------------------------------------------
     def start(self, profile: str = "", library: str = LIBRARY) -> None:
@@ -120,6 +129,9 @@ class ChunkedMcapWriter:
         if self._finished:
             return
         self.flush()
+        self._wait_written()
+        if self._worker is not None:
+            self._worker.shutdown()
         self._stream.write(_record_bytes(DataEnd(data_section_crc=0)))
         summary_start = self._stream.tell()
         summary, offsets = self._summary_records(summary_start)
@@ -171,6 +183,7 @@ class ChunkedMcapWriter:
     # -- records outside chunks ------------------------------------------------
     def add_metadata(self, name: str, data: dict[str, str]) -> None:
         self.flush()
+        self._wait_written()
         offset = self._stream.tell()
         raw = _record_bytes(Metadata(name=name, metadata=data))
         self._stream.write(raw)
@@ -180,6 +193,7 @@ class ChunkedMcapWriter:
 
     def add_attachment(self, name: str, media_type: str, data: bytes, log_time: int = 0) -> None:
         self.flush()
+        self._wait_written()
         offset = self._stream.tell()
         raw = _record_bytes(Attachment(log_time=log_time, create_time=log_time, name=name,
                                        media_type=media_type, data=data))
@@ -256,38 +270,59 @@ class ChunkedMcapWriter:
             self._flush_deadline = time.monotonic() + self._flush_interval_s
 
     def _write_chunk(self) -> None:
+        """Seal the open chunk (its records joined, each channel's message index packed) and
+        store it: here, or by the write-behind worker."""
         parts, base, bases = [self._records], len(self._records), {}
         for channel_id, (buf, _) in self._runs.items():  # each channel's messages after the last's
             bases[channel_id] = base
             parts.append(buf)
             base += len(buf)
         raw = b"".join(parts)
-        starts = [min(ix[0::2]) for _, ix in self._runs.values()]
-        ends = [max(ix[0::2]) for _, ix in self._runs.values()]
-        data = self._compressor.compress(raw) if self._compressor else raw
-        chunk = Chunk(message_start_time=min(starts), message_end_time=max(ends),
-                      uncompressed_size=len(raw), uncompressed_crc=zlib.crc32(raw),
-                      compression=self._compression, data=data)
-        chunk_offset = self._stream.tell()
-        chunk_raw = _record_bytes(chunk)
-        self._stream.write(chunk_raw)
-        index_offsets, index_raw = {}, bytearray()
-        for channel_id, (_, entries) in self._runs.items():
-            index_offsets[channel_id] = chunk_offset + len(chunk_raw) + len(index_raw)
-            index_raw += _pack_message_index(channel_id, entries, bases[channel_id])
-        self._stream.write(index_raw)
-        self._chunk_indexes.append(ChunkIndex(
-            message_start_time=chunk.message_start_time, message_end_time=chunk.message_end_time,
-            chunk_start_offset=chunk_offset, chunk_length=len(chunk_raw),
-            message_index_offsets=index_offsets, message_index_length=len(index_raw),
-            compression=chunk.compression, compressed_size=len(data), uncompressed_size=len(raw)))
-        self._count_chunk(chunk)
+        start = min(min(ix[0::2]) for _, ix in self._runs.values())
+        end = max(max(ix[0::2]) for _, ix in self._runs.values())
+        indexes = [(channel_id, _pack_message_index(channel_id, entries, bases[channel_id]))
+                   for channel_id, (_, entries) in self._runs.items()]
+        self._count_chunk(start, end)
+        if self._worker is None:
+            self._store_chunk(raw, start, end, indexes)
+        else:
+            self._wait_written(done_only=True)  # an earlier chunk's failure surfaces here
+            self._written = self._worker.submit(self._store_chunk, raw, start, end, indexes)
         self._records = bytearray()
         self._runs = {}
         self._size = 0
         self._chunk_t0 = None
 
-    def _count_chunk(self, chunk: Chunk) -> None:
+    def _store_chunk(self, raw: bytes, start: int, end: int, indexes: list[tuple[int, bytes]]) -> None:
+        """Compress ``raw`` (the chunk's records), write the chunk and its message indexes
+        (``indexes``: channel id -> packed index) and push them to the OS."""
+        data = self._compressor.compress(raw) if self._compressor else raw
+        chunk = Chunk(message_start_time=start, message_end_time=end, uncompressed_size=len(raw),
+                      uncompressed_crc=zlib.crc32(raw), compression=self._compression, data=data)
+        chunk_offset = self._stream.tell()
+        chunk_raw = _record_bytes(chunk)
+        self._stream.write(chunk_raw)
+        index_offsets, position = {}, chunk_offset + len(chunk_raw)
+        for channel_id, packed in indexes:
+            index_offsets[channel_id] = position
+            position += len(packed)
+        self._stream.write(b"".join(packed for _, packed in indexes))
+        self._chunk_indexes.append(ChunkIndex(
+            message_start_time=start, message_end_time=end,
+            chunk_start_offset=chunk_offset, chunk_length=len(chunk_raw),
+            message_index_offsets=index_offsets, message_index_length=position - chunk_offset - len(chunk_raw),
+            compression=self._compression, compressed_size=len(data), uncompressed_size=len(raw)))
+        self._stream.flush()
+
+    def _wait_written(self, done_only: bool = False) -> None:
+        """Wait for the write-behind worker's last chunk (``done_only``: only look whether it
+        failed, if it is done); its error, if any, is raised here."""
+        written = self._written
+        if written is not None and (not done_only or written.done()):
+            self._written = None
+            written.result()
+
+    def _count_chunk(self, start: int, end: int) -> None:
         stats = self._stats
         first = stats.message_count == 0
         for channel_id, (_, entries) in self._runs.items():
@@ -295,9 +330,8 @@ class ChunkedMcapWriter:
             stats.channel_message_counts[channel_id] = stats.channel_message_counts.get(channel_id, 0) + n
             stats.message_count += n
         stats.chunk_count += 1
-        stats.message_start_time = (chunk.message_start_time if first
-                                    else min(stats.message_start_time, chunk.message_start_time))
-        stats.message_end_time = max(stats.message_end_time, chunk.message_end_time)
+        stats.message_start_time = start if first else min(stats.message_start_time, start)
+        stats.message_end_time = max(stats.message_end_time, end)
 
 
 def _pack_message_index(channel_id: int, entries: list[int], base: int) -> bytes:

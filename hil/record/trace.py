@@ -79,13 +79,16 @@ class TraceWriter:
     comes, for a real-time loop that must not stall on a batch).
     ``can_window_s``: each bus's frames of one such window of bus time are one ``/can/``
     message (100 ms: the windows of ``/bus/load``; docs/measurements.md has the sizes).
+    ``write_behind``: closed chunks are compressed and written by a worker thread
+    (``mcap_chunks``), so a real-time loop does not wait 1-2 ms for them.
     """
 
     def __init__(self, path, *, metadata: dict[str, dict[str, str]],
                  attachments: Sequence[tuple[str, bytes, str]] = (), dbs: dict | None = None,
                  decode: bool = False, compression: str = "zstd", chunk_size: int = 512 * 1024,
                  chunk_span_s: float = 0.5, flush_interval_s: float | None = 1.0, decode_batch: int = 256,
-                 sim_state_fields: dict[str, str] | None = None, can_window_s: float = 0.1):
+                 sim_state_fields: dict[str, str] | None = None, can_window_s: float = 0.1,
+                 write_behind: bool = False):
         """``sim_state_fields``: the /sim/state fields every record must have (name -> unit; default:
         the wheel-legged robot's, ``schemas.SIM_STATE_FIELDS``)."""
         self.path = Path(path)
@@ -95,7 +98,7 @@ class TraceWriter:
         self._decoder = FrameDecoder(dbs) if (dbs and decode) else None
         self._options = dict(compression=compression, chunk_size=chunk_size,
                              chunk_span_ns=round(chunk_span_s * 1e9), flush_interval_s=flush_interval_s,
-                             before_close=self._before_close)
+                             before_close=self._before_close, write_behind=write_behind)
         self._decode_batch = max(1, int(decode_batch))
         self._can_window_ns = round(can_window_s * 1e9)
         if not 0 < self._can_window_ns <= can_batch.MAX_GAP_NS:
