@@ -21,16 +21,13 @@ def default_out(trace: Path) -> Path:
 
 def run(args: argparse.Namespace) -> int:
     from wheelleg.hil.analyze.export import export_decoded
-    from wheelleg.hil.record.sources import MCAP_MAGIC, TraceError
+    from wheelleg.hil.record.sources import TraceError, copy_refusal
 
     out = args.out or default_out(args.trace)
     try:
-        with open(args.trace, "rb") as f:
-            if f.read(len(MCAP_MAGIC)) != MCAP_MAGIC:
-                print(f"export: {args.trace}: not an MCAP trace", file=sys.stderr)
-                return 2
-        if out.resolve() == args.trace.resolve():
-            print(f"export: {out}: the copy would overwrite the trace; give another -o", file=sys.stderr)
+        refusal = copy_refusal(args.trace, out)
+        if refusal:
+            print(f"export: {refusal}", file=sys.stderr)
             return 2
         done = export_decoded(args.trace, out)
     except TraceError as exc:

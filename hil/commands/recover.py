@@ -21,16 +21,13 @@ def default_out(trace: Path) -> Path:
 
 def run(args: argparse.Namespace) -> int:
     from wheelleg.hil.analyze.recover import recover
-    from wheelleg.hil.record.sources import MCAP_MAGIC
+    from wheelleg.hil.record.sources import copy_refusal
 
     out = args.out or default_out(args.trace)
     try:
-        with open(args.trace, "rb") as f:
-            if f.read(len(MCAP_MAGIC)) != MCAP_MAGIC:
-                print(f"recover: {args.trace}: not an MCAP trace", file=sys.stderr)
-                return 2
-        if out.resolve() == args.trace.resolve():
-            print(f"recover: {out}: the copy would overwrite the trace; give another -o", file=sys.stderr)
+        refusal = copy_refusal(args.trace, out)
+        if refusal:
+            print(f"recover: {refusal}", file=sys.stderr)
             return 2
         done = recover(args.trace, out)
     except OSError as exc:

@@ -46,6 +46,17 @@ SYNC = DBS[CAN1].get_message_by_name("SYNC")
 MCAP_MAGIC = b"\x89MCAP"
 
 
+def copy_refusal(trace: Path, out: Path) -> str | None:
+    """Why a copy of ``trace`` to ``out`` (``wheelleg export``, ``recover``) must not be made:
+    not an MCAP file, or ``out`` would overwrite it; None when it may. OSError if unreadable."""
+    with open(trace, "rb") as f:
+        if f.read(len(MCAP_MAGIC)) != MCAP_MAGIC:
+            return f"{trace}: not an MCAP trace"
+    if Path(out).resolve() == Path(trace).resolve():
+        return f"{out}: the copy would overwrite the trace; give another -o"
+    return None
+
+
 class TraceError(Exception):
     """The file cannot be read or replayed; the message says why."""
 
