@@ -153,12 +153,12 @@ class Realtime:
             controller = ControllerThread(rig.robot, cfg.interface, rig.names, cfg.period_s)
         steal0 = host_steal_s()
         with _realtime_process() as plant_scheduler:
-            self._first_step()
-            wall0 = time.monotonic() - self.dt  # the clock starts with that step done
+            done = self._first_step() if total else 0
+            wall0 = time.monotonic() - done * self.dt  # the clock starts with that step done
             try:
                 if controller is not None:
                     controller.start(wall0 + CONTROLLER_PHASE_STEPS * self.dt)
-                self._loop(total, wall0, 1)
+                self._loop(total, wall0, done)
             finally:
                 wall_s = time.monotonic() - wall0
                 if controller is not None:
@@ -174,14 +174,16 @@ class Realtime:
         return ticks, sim_s, wall_s, timing
 
     # -- the plant's wall-clock loop ---------------------------------------------------------
-    def _first_step(self) -> None:
+    def _first_step(self) -> int:
         """Physics step 0 before the wall clock starts: it pays every first use (the trace's
         file, header and attachments, MuJoCo's first step, codecs and caches built on first
-        call: 3-4 ms), which on the clock made the plant overrun at once in every run."""
+        call: 3-4 ms), which on the clock made the plant overrun at once in every run.
+        Returns the steps done (1)."""
         self.rig.trace.start()
         self.batches.append(1)
         self.lags.append(0.0)
         self._advance(0, 1)
+        return 1
 
     def _loop(self, total: int, wall0: float, step: int = 0) -> None:
         while step < total:
