@@ -25,8 +25,8 @@ process then loses only the open chunk. ``read_records`` streams a file
 record by record, yields a chunk's records only after its CRC checks, and
 stops quietly at the first short or corrupt record (a file without footer).
 
-Write-behind (``write_behind=True``, real-time runs): a closed chunk is compressed,
-checksummed and written by one worker thread, in order, so the loop that closed it
+Write-behind (``write_behind=True``, real-time runs): a closed chunk is joined, indexed,
+compressed, checksummed and written by one worker thread, in order, so the loop that closed it
 goes on at once (zstd, crc32 and the file write release the GIL); a record written
 outside chunks, and ``finish``, wait for the worker first. A killed process then
 loses the open chunk and the one being written.
@@ -270,47 +270,47 @@ class ChunkedMcapWriter:
             self._flush_deadline = time.monotonic() + self._flush_interval_s
 
     def _write_chunk(self) -> None:
-        """Seal the open chunk (its records joined, each channel's message index packed) and
-        store it: here, or by the write-behind worker."""
-        parts, base, bases = [self._records], len(self._records), {}
-        for channel_id, (buf, _) in self._runs.items():  # each channel's messages after the last's
-            bases[channel_id] = base
-            parts.append(buf)
-            base += len(buf)
-        raw = b"".join(parts)
-        start = min(min(ix[0::2]) for _, ix in self._runs.values())
-        end = max(max(ix[0::2]) for _, ix in self._runs.values())
-        indexes = [(channel_id, _pack_message_index(channel_id, entries, bases[channel_id]))
-                   for channel_id, (_, entries) in self._runs.items()]
-        self._count_chunk(start, end)
-        if self._worker is None:
-            self._store_chunk(raw, start, end, indexes)
-        else:
-            self._wait_written(done_only=True)  # an earlier chunk's failure surfaces here
-            self._written = self._worker.submit(self._store_chunk, raw, start, end, indexes)
+        """Hand the open chunk (its schema/channel records and each channel's messages) to
+        ``_store_chunk``: here, or on the write-behind worker, and start an empty one."""
+        records, runs = self._records, self._runs
         self._records = bytearray()
         self._runs = {}
         self._size = 0
         self._chunk_t0 = None
+        if self._worker is None:
+            self._store_chunk(records, runs)
+        else:
+            self._wait_written(done_only=True)  # an earlier chunk's failure surfaces here
+            self._written = self._worker.submit(self._store_chunk, records, runs)
 
-    def _store_chunk(self, raw: bytes, start: int, end: int, indexes: list[tuple[int, bytes]]) -> None:
-        """Compress ``raw`` (the chunk's records), write the chunk and its message indexes
-        (``indexes``: channel id -> packed index) and push them to the OS."""
+    def _store_chunk(self, records: bytearray, runs: dict[int, tuple[bytearray, list[int]]]) -> None:
+        """Write one chunk: ``records`` (schemas, channels), then each channel's messages of
+        ``runs`` (channel id -> (records, [t0, offset0, ...])); compressed, with each channel's
+        message index after it, counted, and pushed to the OS."""
+        parts, base, bases = [records], len(records), {}
+        for channel_id, (buf, _) in runs.items():  # each channel's messages after the last's
+            bases[channel_id] = base
+            parts.append(buf)
+            base += len(buf)
+        raw = b"".join(parts)
+        start = min(min(ix[0::2]) for _, ix in runs.values())
+        end = max(max(ix[0::2]) for _, ix in runs.values())
+        self._count_chunk(runs, start, end)
         data = self._compressor.compress(raw) if self._compressor else raw
         chunk = Chunk(message_start_time=start, message_end_time=end, uncompressed_size=len(raw),
                       uncompressed_crc=zlib.crc32(raw), compression=self._compression, data=data)
         chunk_offset = self._stream.tell()
         chunk_raw = _record_bytes(chunk)
         self._stream.write(chunk_raw)
-        index_offsets, position = {}, chunk_offset + len(chunk_raw)
-        for channel_id, packed in indexes:
-            index_offsets[channel_id] = position
-            position += len(packed)
-        self._stream.write(b"".join(packed for _, packed in indexes))
+        index_offsets, index_raw = {}, bytearray()
+        for channel_id, (_, entries) in runs.items():
+            index_offsets[channel_id] = chunk_offset + len(chunk_raw) + len(index_raw)
+            index_raw += _pack_message_index(channel_id, entries, bases[channel_id])
+        self._stream.write(index_raw)
         self._chunk_indexes.append(ChunkIndex(
             message_start_time=start, message_end_time=end,
             chunk_start_offset=chunk_offset, chunk_length=len(chunk_raw),
-            message_index_offsets=index_offsets, message_index_length=position - chunk_offset - len(chunk_raw),
+            message_index_offsets=index_offsets, message_index_length=len(index_raw),
             compression=self._compression, compressed_size=len(data), uncompressed_size=len(raw)))
         self._stream.flush()
 
@@ -322,10 +322,10 @@ class ChunkedMcapWriter:
             self._written = None
             written.result()
 
-    def _count_chunk(self, start: int, end: int) -> None:
+    def _count_chunk(self, runs: dict, start: int, end: int) -> None:
         stats = self._stats
         first = stats.message_count == 0
-        for channel_id, (_, entries) in self._runs.items():
+        for channel_id, (_, entries) in runs.items():
             n = len(entries) // 2
             stats.channel_message_counts[channel_id] = stats.channel_message_counts.get(channel_id, 0) + n
             stats.message_count += n
