@@ -120,7 +120,7 @@ class World:
             raise ValueError(f"force and point must be finite 3-vectors, got {force_world_n}, {point_body_m}")
         self._force_world, self._force_point_body = force.copy(), point.copy()
         self._force_held = bool(force.any())
-        if not force.any():
+        if not self._force_held:
             self.data.xfrc_applied[self._body] = 0.0
 
     def _update_body_force(self) -> None:

@@ -190,7 +190,6 @@ class LockstepVirtualBus(VirtualBus):
         if full:
             raise can.CanOperationError("Could not send message to one or more recipients")
 
-
     def send_owned(self, msg: can.Message, timeout: float | None = None) -> None:
         """``send`` of a frame the caller made for this one send and gives up.
 

@@ -94,24 +94,51 @@ def decoded_columns(decoder: FrameDecoder, frames: Iterable[Frame], message: str
 
 def decoded_rows_columns(rows: list[tuple[int, dict]]) -> dict[str, np.ndarray]:
     """(t_ns, values) rows -> 't' (s) and one float array per field (missing -> NaN, not finite -> NaN)."""
+    out = rows_columns(rows, time_key="t")
+    for key, column in out.items():
+        if key != "t":
+            _finite(column)
+    return out
+
+
+def rows_columns(rows: list[tuple[int, dict]], time_key: str | None = None) -> dict[str, np.ndarray]:
+    """Rows of dicts (t_ns, {key: value}) -> one float array per key, shape (n,), in the order the keys
+    first appear (``time_key``, if given, first: the rows' times in s); missing, null, text -> NaN."""
     if not rows:
         return {}
-    keys = dict.fromkeys(k for _, row in rows for k in row)
-    out = {"t": np.array([t for t, _ in rows], dtype=np.int64) / 1e9}
+    keys: dict[str, None] = {}
+    if time_key:
+        keys[time_key] = None
+    for _, row in rows:
+        keys.update(dict.fromkeys(row))
+    out = {}
     for key in keys:
-        out[key] = _finite(np.array([_number(row.get(key)) for _, row in rows], dtype=float))
+        if key == time_key:
+            out[key] = np.array([t for t, _ in rows], dtype=np.int64) / 1e9
+        else:
+            out[key] = _floats([row.get(key) for _, row in rows])
     return out
 
 
 def _field_columns(id_fields: list[dict]) -> dict[str, np.ndarray]:
     """The CyberGear id fields, one dict per frame (shared between frames of one id), by column."""
     keys = dict.fromkeys(k for fields in {id(f): f for f in id_fields}.values() for k in fields)
-    return {key: _finite(np.array([_number(fields.get(key)) for fields in id_fields], dtype=float))
-            for key in keys}
+    return {key: _finite(_floats([fields.get(key) for fields in id_fields])) for key in keys}
 
 
-def _number(value) -> float:
-    return math.nan if value is None or isinstance(value, str) else value
+def _floats(values: list) -> np.ndarray:
+    """Numbers -> float array; None (missing, null) and strings -> NaN."""
+    try:
+        out = np.array(values, dtype=float)  # None -> NaN
+        if out.ndim == 1:
+            return out
+    except (TypeError, ValueError):  # a string among them
+        pass
+    return np.array([_float(v) for v in values], dtype=float)
+
+
+def _float(value) -> float:
+    return math.nan if value is None or isinstance(value, str) else float(value)
 
 
 def _finite(values: np.ndarray) -> np.ndarray:

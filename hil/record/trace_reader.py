@@ -7,7 +7,6 @@ traces (``/can/`` one message per frame or JSON; ``/decoded/`` recorded live;
 from __future__ import annotations
 
 import heapq
-import math
 from collections import defaultdict
 from pathlib import Path
 from typing import Iterator
@@ -17,7 +16,7 @@ from mcap.records import Attachment, Channel, Message, Metadata, Schema
 
 from wheelleg.hil.record import can_batch, float_records, schemas
 from wheelleg.hil.record.decode import FrameDecoder
-from wheelleg.hil.record.derived import attached_dbs, decoded_columns
+from wheelleg.hil.record.derived import attached_dbs, decoded_columns, rows_columns
 from wheelleg.hil.record.frame import Frame
 from wheelleg.hil.record.mcap_chunks import ChunkMessages, RecordScan, read_records
 from wheelleg.hil.record.schemas import CAN_PREFIX, DECODED_PREFIX, EVENTS_TOPIC, SIM_STATE_TOPIC
@@ -170,13 +169,13 @@ class TraceReader:
         layout = self._layout(topic)
         if layout is not None:
             return layout.columns(self._messages.get(topic, []), topic)
-        return _columns(self.topic(topic))
+        return rows_columns(self.topic(topic))
 
     def decoded(self, channel: str, message: str) -> dict[str, np.ndarray]:
         """'t' (s) and each signal of one DBC message, shape (n,); {} if none recorded."""
         topic = f"{DECODED_PREFIX}{channel}/{message}"
         if topic in self._messages:
-            return _columns(self.topic(topic), time_key="t")
+            return rows_columns(self.topic(topic), time_key="t")
         if self._decoder is None:
             return {}
         return decoded_columns(self._decoder, self.frames(channel), message)
@@ -197,35 +196,3 @@ class TraceReader:
         """``/scenario/events`` payloads, each with 't' (s)."""
         return [{"t": t / 1e9, **payload} for t, payload in self.topic(EVENTS_TOPIC)]
 
-
-def _columns(rows: list[tuple[int, dict]], time_key: str | None = None) -> dict[str, np.ndarray]:
-    """Rows of dicts -> one float array per key, shape (n,); missing and null -> NaN."""
-    if not rows:
-        return {}
-    keys: dict[str, None] = {}
-    if time_key:
-        keys[time_key] = None
-    for _, row in rows:
-        keys.update(dict.fromkeys(row))
-    out = {}
-    for key in keys:
-        if key == time_key:
-            out[key] = np.array([t for t, _ in rows], dtype=np.int64) / 1e9
-        else:
-            out[key] = _floats([row.get(key) for _, row in rows])
-    return out
-
-
-def _floats(values: list) -> np.ndarray:
-    """Numbers -> float array; None (missing, null) and strings -> NaN."""
-    try:
-        out = np.array(values, dtype=float)  # None -> NaN
-        if out.ndim == 1:
-            return out
-    except (TypeError, ValueError):  # a string among them
-        pass
-    return np.array([_float(v) for v in values], dtype=float)
-
-
-def _float(value) -> float:
-    return math.nan if value is None or isinstance(value, str) else float(value)
