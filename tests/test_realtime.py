@@ -220,8 +220,9 @@ class _IdleProgram:
 
 
 def test_a_free_running_node_starts_its_period_grid_when_its_loop_starts():
-    """Built, then started 30 ms later (a real-time run builds the node before its clock
-    starts): the first tick is tick 0, not 15 ticks counted as missed."""
+    """Built, then started 0.2 s later (a real-time run builds the node before its clock
+    starts): the first tick is near tick 0, not tick 100 with the periods between counted
+    as missed. Near: a loaded machine may hold the thread a few periods (no timing asserted)."""
     import threading
 
     from wheelleg.controller.can_node import CanNode
@@ -231,7 +232,7 @@ def test_a_free_running_node_starts_its_period_grid_when_its_loop_starts():
     try:
         node = CanNode(*buses, _IdleProgram(), sync=False, period_s=PERIOD_S)
         node.tick_log = []
-        time.sleep(0.03)
+        time.sleep(0.2)  # 100 periods
         stop = threading.Event()
         runner = threading.Thread(target=node.run, args=(stop,))
         runner.start()
@@ -243,7 +244,7 @@ def test_a_free_running_node_starts_its_period_grid_when_its_loop_starts():
     finally:
         for bus in buses:
             bus.shutdown()
-    assert node.tick_log and node.tick_log[0][0] == 0
+    assert node.tick_log and node.tick_log[0][0] < 50
 
 
 def _write_trace(path, write_behind: bool) -> bytes:
