@@ -236,6 +236,25 @@ def test_float_records_decode_with_mcaps_ros2_decoder_to_the_values_written(tmp_
     np.testing.assert_array_equal(reader.sim_state()["t"], [(1_000 + k * 2_000_000) / 1e9 for k in range(5)])
 
 
+def test_sim_state_prepared_before_the_first_record_reads_back_the_same(tmp_path):
+    """Real time registers /sim/state before its clock starts (``prepare_sim_state``); the records are
+    the ones ``sim_state`` alone writes."""
+    columns = []
+    for prepared in (False, True):
+        path = tmp_path / f"prepared-{prepared}.mcap"
+        with TraceWriter(path, metadata={}) as trace:
+            if prepared:
+                trace.prepare_sim_state(_state(9))
+                with pytest.raises(ValueError, match="missing"):
+                    TraceWriter(tmp_path / "x.mcap", metadata={}).prepare_sim_state({"x": 0.0})
+            for k in range(3):
+                trace.sim_state(k * 2_000_000, _state(k))
+        columns.append(TraceReader(path).sim_state())
+    assert list(columns[0]) == list(columns[1])
+    for name, column in columns[0].items():
+        np.testing.assert_array_equal(column, columns[1][name])
+
+
 def test_float_records_refuse_what_they_cannot_hold(tmp_path):
     trace = TraceWriter(tmp_path / "bad.mcap", metadata={})
     trace.sim_state(0, _state(0))

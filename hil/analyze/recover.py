@@ -15,7 +15,7 @@ from pathlib import Path
 from mcap.records import Attachment, Channel, Message, Metadata, Schema
 from mcap.writer import CompressionType, Writer
 
-from wheelleg.hil.record.mcap_chunks import RecordScan, read_records
+from wheelleg.hil.record.mcap_read import RecordScan, read_records
 
 
 @dataclass(frozen=True)

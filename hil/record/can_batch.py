@@ -60,8 +60,11 @@ def pack(frames: list[Frame]) -> bytes:
     except struct.error as exc:
         raise ValueError(f"frame times {times} must not go back and each lie within {MAX_GAP_NS} ns of the one "
                          f"before, ids {ids} within 0..0x1FFFFFFF") from exc
-    flags = bytes([f.is_extended | f.is_error << 1 | f.is_remote << 2 | f.is_fd << 3 | f.fd_flags << _FD_SHIFT
-                   for f in frames])
+    if any([f.is_error or f.is_remote or f.is_fd or f.fd_flags for f in frames]):
+        flags = bytes([f.is_extended | f.is_error << 1 | f.is_remote << 2 | f.is_fd << 3 | f.fd_flags << _FD_SHIFT
+                       for f in frames])
+    else:  # the rig's frames: only the extended bit (half the time of the line above)
+        flags = bytes([f.is_extended for f in frames])
     dlcs = bytes([f.dlc for f in frames])
     payloads = [f.data for f in frames]
     lengths = bytes([len(d) for d in payloads])

@@ -1,4 +1,4 @@
-"""A lean chunked MCAP writer for the rig's hot path, and a tolerant reader.
+"""A lean chunked MCAP writer for the rig's hot path (its reader: ``mcap_read``).
 
 Why not ``mcap.writer.Writer`` for messages: it builds a ``Message`` dataclass,
 updates statistics and writes the record through ``RecordBuilder`` field by
@@ -15,21 +15,19 @@ mcap's own dataclass written by mcap's own code, so the file layout stays
 mcap's; only the Message and MessageIndex records are packed here, by the
 spec's field order (https://mcap.dev/spec: opcode u8, length u64, then fields).
 
-Reading: ``read_records`` streams a file record by record and cuts messages
-out of each chunk with one ``struct.unpack_from`` (``_split_chunk``).
-
 Crash safety: a chunk is closed and flushed to the OS when it reaches
 ``chunk_size`` bytes, spans ``chunk_span_ns`` of log time, or when
 ``flush_interval_s`` of wall-clock time passed since the last flush. A killed
-process then loses only the open chunk. ``read_records`` streams a file
-record by record, yields a chunk's records only after its CRC checks, and
-stops quietly at the first short or corrupt record (a file without footer).
+process then loses only the open chunk; ``mcap_read.read_records`` reads what
+was written up to the first short or corrupt record (a file without footer).
 
 Write-behind (``write_behind=True``, real-time runs): a closed chunk is joined, indexed,
 compressed, checksummed and written by one worker thread, in order, so the loop that closed it
 goes on at once (zstd, crc32 and the file write release the GIL); a record written
 outside chunks, and ``finish``, wait for the worker first. A killed process then
-loses the open chunk and the one being written.
+loses the open chunk and the one being written. Only work that mostly releases the GIL
+belongs there: Python work on the worker holds the GIL the loop waits for between its
+steps (docs/measurements.md, Real time: packing the ``/can/`` windows there doubled the jitter).
 """
 from __future__ import annotations
 
@@ -37,18 +35,12 @@ import struct
 import time
 import zlib
 from concurrent.futures import Future, ThreadPoolExecutor
-from dataclasses import dataclass
-from io import BytesIO
-from pathlib import Path
-from typing import BinaryIO, Iterator
+from typing import BinaryIO
 
-from mcap.data_stream import ReadDataStream, RecordBuilder
-from mcap.exceptions import McapError, RecordLengthLimitExceeded
+from mcap.data_stream import RecordBuilder
 from mcap.opcode import Opcode
 from mcap.records import (Attachment, AttachmentIndex, Channel, Chunk, ChunkIndex, DataEnd,
-                          Footer, Header, Message, Metadata, MetadataIndex, Schema, Statistics,
-                          SummaryOffset)
-from mcap.stream_reader import CRCValidationError, breakup_chunk, read_magic
+                          Footer, Header, Metadata, MetadataIndex, Schema, Statistics, SummaryOffset)
 from mcap.writer import MCAP0_MAGIC
 
 try:
@@ -60,8 +52,6 @@ except ImportError:  # mcap lists it as optional; fall back to no compression
 _MESSAGE_HEAD = struct.Struct("<BQHIQQ")
 _MESSAGE_FIELDS_LEN = 2 + 4 + 8 + 8
 _INDEX_HEAD = struct.Struct("<BQHI")  # opcode, record length, channel id, entries byte length
-_RECORD_HEAD = struct.Struct("<BQ")  # opcode, record length
-_MESSAGE_FIELDS = struct.Struct("<HIQQ")  # channel id, sequence, log time, publish time
 _FOOTER_CRC_PREFIX = struct.Struct("<BQQQ")  # opcode, length, summary start, summary offset start
 _OP_MESSAGE, _OP_MESSAGE_INDEX = int(Opcode.MESSAGE), int(Opcode.MESSAGE_INDEX)  # plain ints pack 2x faster
 LIBRARY = "wheelleg-hil mcap_chunks (mcap-python records)"
@@ -262,7 +252,8 @@ class ChunkedMcapWriter:
             self._before_close()
         if self._runs:
             self._write_chunk()
-        self._stream.flush()
+        if self._worker is None:  # the worker flushes what it writes; the stream is its alone
+            self._stream.flush()
         self._arm_flush_timer()
 
     def _arm_flush_timer(self) -> None:
@@ -340,151 +331,3 @@ def _pack_message_index(channel_id: int, entries: list[int], base: int) -> bytes
     entries[1::2] = [offset + base for offset in entries[1::2]]
     body = struct.pack(f"<{len(entries)}Q", *entries)
     return _INDEX_HEAD.pack(_OP_MESSAGE_INDEX, 2 + 4 + len(body), channel_id, len(body)) + body
-
-
-# -- reading ------------------------------------------------------------------
-# What a cut-off file can raise while its last record is parsed.
-_CORRUPT_TAIL = (McapError, struct.error, ValueError, EOFError, UnicodeDecodeError)
-if zstandard is not None:
-    _CORRUPT_TAIL += (zstandard.ZstdError,)
-
-
-@dataclass
-class RecordScan:
-    """Outcome of ``read_records``: ``complete`` once the footer was reached."""
-
-    complete: bool = False
-    error: str = ""
-    records: int = 0
-    chunks: int = 0
-    stop_offset: int = 0  # bytes consumed up to the last good record
-
-
-def read_records(path: str | Path, scan: RecordScan, by_channel: bool = False) -> Iterator[object]:
-    """Every record of an MCAP file in file order, chunks opened after their CRC checks.
-
-    Tolerant of a writer that was killed: the first short or corrupt record
-    ends the iteration; ``scan.complete`` stays False and ``scan.error`` says
-    why. Records after the data section (summary) are yielded too.
-    ``by_channel``: a chunk's messages come as one ``ChunkMessages`` after its
-    other records instead of a ``Message`` each.
-    """
-    size = Path(path).stat().st_size
-    with open(path, "rb") as f:
-        records = _file_records(f, max(size, 1))
-        while True:
-            try:
-                record = next(records)
-                inner = _split_chunk(record, by_channel) if isinstance(record, Chunk) else None
-            except StopIteration:
-                scan.complete = True
-                return
-            except _CORRUPT_TAIL as exc:
-                scan.error = f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__
-                return
-            scan.records += 1
-            scan.stop_offset = f.tell()
-            if inner is None:
-                yield record
-                continue
-            scan.chunks += 1
-            yield from inner
-
-
-# Records parsed by their mcap class (``cls.read(stream)``); Message also takes its length.
-_RECORD_TYPES = {int(Opcode.ATTACHMENT): Attachment, int(Opcode.ATTACHMENT_INDEX): AttachmentIndex,
-                 int(Opcode.CHANNEL): Channel, int(Opcode.CHUNK): Chunk, int(Opcode.CHUNK_INDEX): ChunkIndex,
-                 int(Opcode.DATA_END): DataEnd, int(Opcode.FOOTER): Footer, int(Opcode.HEADER): Header,
-                 int(Opcode.METADATA): Metadata, int(Opcode.METADATA_INDEX): MetadataIndex,
-                 int(Opcode.SCHEMA): Schema, int(Opcode.STATISTICS): Statistics,
-                 int(Opcode.SUMMARY_OFFSET): SummaryOffset}
-
-
-def _file_records(f: BinaryIO, size_limit: int) -> Iterator[object]:
-    """The file's records up to the footer, as mcap's ``StreamReader(emit_chunks=True)`` gives them,
-    but MessageIndex records (and unknown opcodes) skipped unparsed.
-
-    Why: mcap parses each MessageIndex entry by entry, two stream reads per
-    message, which took 40 % of reading a trace back; the reader here cuts
-    messages out of the chunks and has no use for the index.
-    """
-    stream = ReadDataStream(f)
-    read_magic(stream)
-    while True:
-        opcode, length = stream.read1(), stream.read8()
-        if length > size_limit:
-            raise RecordLengthLimitExceeded(opcode, length, size_limit)
-        kind = _RECORD_TYPES.get(opcode)
-        if kind is None and opcode != _OP_MESSAGE:
-            stream.read(length)
-            continue
-        start = stream.count
-        record = Message.read(stream, length) if kind is None else kind.read(stream)
-        padding = length - (stream.count - start)
-        if padding > 0:
-            stream.read(padding)
-        yield record
-        if kind is Footer:
-            read_magic(stream)
-            return
-
-
-@dataclass
-class ChunkMessages:
-    """The messages of one chunk, without a record object each (``read_records(by_channel=True)``).
-
-    ``by_channel``: channel id -> [(log time ns, data), ...] in chunk order.
-    """
-
-    by_channel: dict[int, list[tuple[int, bytes]]]
-
-
-def _split_chunk(chunk: Chunk, by_channel: bool = False) -> list:
-    """The records of a chunk after its CRC checks: Schema, Channel and Message (or ``ChunkMessages``).
-
-    Same result as mcap's ``breakup_chunk(chunk, validate_crc=True)`` but
-    messages are cut out with one ``struct.unpack_from`` each (2.5x faster
-    than mcap's field-by-field stream reads; reading a trace back matters for
-    every scenario test). Other compressions go through mcap.
-    """
-    if chunk.compression == "zstd" and zstandard is not None:
-        data = zstandard.ZstdDecompressor().decompress(chunk.data, max_output_size=chunk.uncompressed_size)
-    elif chunk.compression == "":
-        data = chunk.data
-    else:
-        return _grouped(breakup_chunk(chunk, validate_crc=True)) if by_channel \
-            else breakup_chunk(chunk, validate_crc=True)
-    if chunk.uncompressed_crc != 0 and zlib.crc32(data) != chunk.uncompressed_crc:
-        raise CRCValidationError(chunk.uncompressed_crc, zlib.crc32(data), chunk)
-    records, grouped, pos, end = [], {}, 0, len(data)
-    head, fields, skip = _RECORD_HEAD.unpack_from, _MESSAGE_FIELDS.unpack_from, _RECORD_HEAD.size
-    while pos < end:
-        opcode, length = head(data, pos)
-        body, pos = pos + skip, pos + skip + length
-        if pos > end:
-            raise McapError("chunk record runs past the chunk's end")
-        if opcode == _OP_MESSAGE:
-            channel_id, sequence, log_time, publish_time = fields(data, body)
-            if by_channel:
-                rows = grouped.get(channel_id)
-                if rows is None:
-                    rows = grouped[channel_id] = []
-                rows.append((log_time, data[body + _MESSAGE_FIELDS_LEN:pos]))
-            else:
-                records.append(Message(channel_id=channel_id, sequence=sequence, log_time=log_time,
-                                       publish_time=publish_time, data=data[body + _MESSAGE_FIELDS_LEN:pos]))
-        elif opcode in (Opcode.SCHEMA, Opcode.CHANNEL):
-            stream = ReadDataStream(BytesIO(data[body:pos]))
-            records.append((Schema if opcode == Opcode.SCHEMA else Channel).read(stream))
-    if by_channel:
-        records.append(ChunkMessages(grouped))
-    return records
-
-
-def _grouped(records: list) -> list:
-    """mcap's records of a chunk with the messages gathered into one ``ChunkMessages``."""
-    grouped: dict[int, list[tuple[int, bytes]]] = {}
-    for m in records:
-        if isinstance(m, Message):
-            grouped.setdefault(m.channel_id, []).append((m.log_time, m.data))
-    return [r for r in records if not isinstance(r, Message)] + [ChunkMessages(grouped)]

@@ -302,18 +302,29 @@ class TraceWriter:
         topic's (``float_records``); a later one may lack an extra (NaN), not add one.
         Every value must be a real number.
         """
-        missing = [k for k in self._sim_fields if k != "t" and k not in state]
-        if missing:
-            raise ValueError(f"sim_state is missing {missing}")
+        self._check_sim_fields(state)
+        layout = self._layouts.get(SIM_STATE_TOPIC) or self.prepare_sim_state(state)
+        self._put_floats(SIM_STATE_TOPIC, layout, t_ns, state, "sim_state")
+
+    def prepare_sim_state(self, state: dict[str, float]):
+        """``/sim/state``'s channel for records of ``state``'s fields, registered now if it is not yet (the
+        first ``sim_state`` does it otherwise: ~1 ms of schema building, which a real-time loop pays
+        before its clock starts). Returns its layout."""
         layout = self._layouts.get(SIM_STATE_TOPIC)
         if layout is None:
+            self._check_sim_fields(state)
             fields = tuple(k for k in state if k != "t")
             extra = [k for k in fields if k not in self._sim_fields]
             schema = schemas.sim_state_schema(extra, self._sim_fields)
             layout = float_records.FloatLayout("wheelleg/msg/SimState", fields, "t",
                                                tuple(schema["properties"][k].get("description", "") for k in fields))
             self._float_channel(SIM_STATE_TOPIC, layout, schema["description"])
-        self._put_floats(SIM_STATE_TOPIC, layout, t_ns, state, "sim_state")
+        return layout
+
+    def _check_sim_fields(self, state: dict) -> None:
+        missing = [k for k in self._sim_fields if k != "t" and k not in state]
+        if missing:
+            raise ValueError(f"sim_state is missing {missing}")
 
     def numbers(self, topic: str, t_ns: int, values: dict, schema: dict) -> None:
         """Named numbers on ``topic``, float64 each (``float_records``): ``schema`` is a JSON Schema of

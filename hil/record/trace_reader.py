@@ -18,7 +18,7 @@ from wheelleg.hil.record import can_batch, float_records, schemas
 from wheelleg.hil.record.decode import FrameDecoder
 from wheelleg.hil.record.derived import attached_dbs, decoded_columns, rows_columns
 from wheelleg.hil.record.frame import Frame
-from wheelleg.hil.record.mcap_chunks import ChunkMessages, RecordScan, read_records
+from wheelleg.hil.record.mcap_read import ChunkMessages, RecordScan, read_records
 from wheelleg.hil.record.schemas import CAN_PREFIX, DECODED_PREFIX, EVENTS_TOPIC, SIM_STATE_TOPIC
 from wheelleg.hil.record.trace_json import dumps, loads
 
