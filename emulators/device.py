@@ -171,10 +171,10 @@ class PeriodicSchedule:
         self._next_slot = 0
 
     def due(self, now_s: float) -> bool:
-        slot = math.floor(now_s / self.period_s + 1e-6)  # 1e-6 of a period: float grid error
-        if slot < self._next_slot:
+        slots = now_s / self.period_s + 1e-6  # 1e-6 of a period: float grid error
+        if slots < self._next_slot:  # floor(slots) < next slot, without the floor: asked ~3 times a slot
             return False
-        self._next_slot = slot + 1
+        self._next_slot = math.floor(slots) + 1
         return True
 
 

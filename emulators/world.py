@@ -204,7 +204,7 @@ class World:
     def pose_truth(self) -> dict[str, float]:
         """The body's pose and velocity now: t (s); x, y, z of the body frame's origin (m, world);
         roll, pitch, yaw (rad, ZYX, pitch > 0 nose down); vx, vy, vz (m/s, world); wx, wy, wz (rad/s, body)."""
-        qpos, qvel = self._qpos[:7].tolist(), self._qvel[:6].tolist()
+        qpos, qvel = self._qpos.tolist(), self._qvel.tolist()  # whole: a slice is a new array first
         roll, pitch, yaw = euler_zyx(qpos[3:7])
         return {"t": float(self.data.time), "x": qpos[0], "y": qpos[1], "z": qpos[2],
                 "roll": roll, "pitch": pitch, "yaw": yaw,

