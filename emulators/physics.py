@@ -2,9 +2,9 @@
 
 ``Physics`` is a ``World`` (emulators/world.py: the scene compiled with terrain
 and overrides, stepping, the body force, IMU and shaft readings, and when each
-reading is taken). The plant writes motor torques (``set_torques``), steps it
-(``step``) and reads back what the devices would measure (``shaft_state``,
-``imu``); the recorder reads ``ground_truth``, which the controller never sees.
+reading is taken). The plant writes motor torques (``set_motor_torques`` in
+``MOTORS`` order each step; ``set_torques`` by name), steps it (``step``) and reads
+back what the devices would measure (``motor_states``, ``shaft_state``, ``imu``); the recorder reads ``ground_truth``, which the controller never sees.
 Its numbers and conventions are the robot description's
 (emulators/robot/description.py), never the controller's; the model is
 described in emulators/robot/README.md. ``overrides`` (plant overrides,
