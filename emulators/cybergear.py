@@ -300,9 +300,13 @@ class CyberGear(EmulatedDevice):
             self.inject_fault("FaultOverTemp")
 
     # -- frames in ---------------------------------------------------------------
+    # its node hands it only extended frames addressed to its id: the first test of ``_handle``
+    rx_filter = (True, cg.target, "motor_id")
+
     def _handle(self, msg: can.Message, now_s: float) -> list[can.Message]:
         can_id = msg.arbitration_id
-        # most frames on the bus are for the other motors: the cheap tests first
+        # most frames on the bus are for the other motors: the cheap tests first (a direct
+        # caller's; its node already filtered them, ``rx_filter``)
         if not msg.is_extended_id or cg.target(can_id) != self.motor_id or not is_data_frame(msg):
             return []
         data = bytes(msg.data)

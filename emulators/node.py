@@ -3,9 +3,10 @@
 In the rig the plant calls ``service(now_s)`` with simulated time; alone
 (``wheelleg emulate``) ``run_realtime`` serves the bus against the wall clock
 and integrates each device's shaft itself. A device is anything with
-``handle(msg, now_s)``, ``periodic(now_s)`` and ``listens`` (False: it is not
-handed received frames; ``EmulatedDevice`` or the remote); ``step_alone`` is
-used when present.
+``handle(msg, now_s)``, ``periodic(now_s)``, ``listens`` (False: it is not
+handed received frames) and ``rx_filter`` (None: every frame; else only the
+frames addressed to it: ``EmulatedDevice.rx_filter``), as ``EmulatedDevice``
+has them; ``step_alone`` is used when present.
 """
 from __future__ import annotations
 
@@ -53,12 +54,24 @@ class DeviceNode:
         self.send_errors = 0
 
     def dispatch(self, msg: can.Message, now_s: float) -> None:
-        """Hand one received frame to every device and send their replies."""
+        """Hand one received frame to every device that listens and whose ``rx_filter`` passes
+        it, and send their replies."""
+        field = value = None  # the identifier field last worked out for this frame, and its value
         for device in self.devices:
-            if device.listens:
-                replies = device.handle(msg, now_s)
-                if replies:
-                    self._emit_all(replies, now_s)
+            if not device.listens:
+                continue
+            rx_filter = device.rx_filter
+            if rx_filter is not None:
+                extended, rx_field, attribute = rx_filter
+                if bool(msg.is_extended_id) != extended:
+                    continue
+                if rx_field is not field:
+                    field, value = rx_field, rx_field(msg.arbitration_id)
+                if value != getattr(device, attribute):
+                    continue
+            replies = device.handle(msg, now_s)
+            if replies:
+                self._emit_all(replies, now_s)
 
     def send_periodic(self, now_s: float) -> None:
         """Send every device's periodic frames due by ``now_s``."""

@@ -2,9 +2,9 @@
 
 ``Physics`` is a ``World`` (emulators/world.py: the scene compiled with terrain
 and overrides, stepping, the body force, IMU and shaft readings, and when each
-reading is taken). The plant writes motor torques (``set_torques``), steps it
-(``step``) and reads back what the devices would measure (``shaft_state``,
-``imu``); the recorder reads ``ground_truth``, which the controller never sees.
+reading is taken). The plant writes motor torques (``set_motor_torques`` in
+``MOTORS`` order each step; ``set_torques`` by name), steps it (``step``) and reads
+back what the devices would measure (``motor_states``, ``shaft_state``, ``imu``); the recorder reads ``ground_truth``, which the controller never sees.
 Its numbers and conventions are the robot description's
 (emulators/robot/description.py), never the controller's; the model is
 described in emulators/robot/README.md. ``overrides`` (plant overrides,
@@ -46,6 +46,9 @@ _HOLD_KP, _HOLD_KD = 50.0, 0.5  # N m/rad, N m s/rad: the hold, stiff enough, st
 _RAY_START_ABOVE_M = 0.5  # rays for the ground start this far above a wheel's lowest point
 _GROUND_ONLY = np.array([i == GROUND_GROUP for i in range(6)], dtype=np.uint8)
 _DOWN = np.array([0.0, 0.0, -1.0])
+# ground_truth's keys of each leg, made once (it runs every control period)
+_LEG_KEYS = {leg: (f"{leg}_leg_length", f"{leg}_leg_angle", f"{leg}_normal_force", f"{leg}_wheel_clearance")
+             for leg in LEGS}
 
 
 def _quat_yaw_pitch(yaw: float, pitch: float) -> np.ndarray:
@@ -117,15 +120,15 @@ class Physics(World):
         sites = self._kin_site_xpos.tolist()
         cos_yaw, sin_yaw = math.cos(yaw), math.sin(yaw)
         forces, body_down = self._contacts()
-        for leg in LEGS:
+        for leg, (length_key, angle_key, force_key, _) in _LEG_KEYS.items():
             (ax, ay, az), (ex, ey, ez), (cx, cy, cz) = (sites[i] for i in self._leg_sites[leg])
             vx, vy, vz = cx - 0.5 * (ax + ex), cy - 0.5 * (ay + ey), cz - 0.5 * (az + ez)
-            out[f"{leg}_leg_length"] = math.sqrt(vx * vx + vy * vy + vz * vz)
-            out[f"{leg}_leg_angle"] = math.atan2(-(vx * cos_yaw + vy * sin_yaw), -vz)
-            out[f"{leg}_normal_force"] = forces[leg]
+            out[length_key] = math.sqrt(vx * vx + vy * vy + vz * vz)
+            out[angle_key] = math.atan2(-(vx * cos_yaw + vy * sin_yaw), -vz)
+            out[force_key] = forces[leg]
         out["body_on_ground"] = 1.0 if body_down else 0.0
-        for leg in LEGS:
-            out[f"{leg}_wheel_clearance"] = self._wheel_clearance(kin, leg)
+        for leg, (*_, clearance_key) in _LEG_KEYS.items():
+            out[clearance_key] = self._wheel_clearance(kin, leg)
         return out
 
     def _contacts(self) -> tuple[dict[str, float], bool]:
@@ -134,9 +137,10 @@ class Physics(World):
         d = self.data
         total = {leg: 0.0 for leg in LEGS}
         body_down = False
-        if d.ncon == 0:
+        ncon = d.ncon  # read once: each MjData attribute is a binding call
+        if ncon == 0:
             return total, body_down
-        pairs = d.contact.geom[:d.ncon].tolist()
+        pairs = d.contact.geom[:ncon].tolist()
         for i, (g1, g2) in enumerate(pairs):
             for leg, g in self._wheel_geom.items():
                 if g == g1 or g == g2:

@@ -90,8 +90,9 @@ class Plant:
             CAN1: DeviceNode(buses[CAN1], [*self.wheels.values(), self.imu, self.remote], **delays),
             CAN2: DeviceNode(buses[CAN2], list(self.joints.values()), **delays),
         }
-        self._motor_names = (*self.joints, *self.wheels)  # the motors the physics moves, hips first
-        self._motors = (*self.joints.values(), *self.wheels.values())
+        self._motors = (*self.joints.values(), *self.wheels.values())  # in the physics' MOTORS order
+        if (*self.joints, *self.wheels) != physics.MOTORS:
+            raise ValueError(f"the plant's motors {(*self.joints, *self.wheels)} are not the physics' {physics.MOTORS}")
         self._dt = physics.model.opt.timestep  # s, one physics step
         self._sync_shafts()
 
@@ -101,16 +102,17 @@ class Plant:
 
     def step(self, now_s: float) -> None:
         """One physics step from ``now_s``: device torques in, new state out."""
-        hips = {name: dev.output_torque(now_s) for name, dev in self.joints.items()}
-        wheels = {name: dev.output_torque(now_s) for name, dev in self.wheels.items()}
-        self.physics.set_torques(hips, wheels)
+        motors = self._motors
+        self.physics.set_motor_torques([dev.output_torque(now_s) for dev in motors])
         self.physics.step()
         dt = self._dt
-        for dev in self._motors:
-            dev.advance(dt, now_s + dt)
+        end_s = now_s + dt
+        for dev in motors:
+            dev.advance(dt, end_s)
         self._sync_shafts()
 
     def _sync_shafts(self) -> None:
-        for dev, (angle, speed) in zip(self._motors, self.physics.shaft_states(self._motor_names)):
-            dev.shaft.angle, dev.shaft.speed = angle, speed
+        for dev, (angle, speed) in zip(self._motors, self.physics.motor_states()):
+            shaft = dev.shaft
+            shaft.angle, shaft.speed = angle, speed
         self.imu.set_truth(*self.physics.imu_truth())

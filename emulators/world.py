@@ -83,6 +83,13 @@ class World:
             j = m.joint(name).id
             self._shafts[name] = (int(m.jnt_qposadr[j]), int(m.jnt_dofadr[j]))
         self._actuator = {name: m.actuator(name).id for name in self.MOTORS}
+        # the per-step path (``set_motor_torques``, ``motor_states``): indices in MOTORS order
+        self._motor_ctrl = tuple(self._actuator[name] for name in self.MOTORS)
+        first = self._motor_ctrl[0] if self._motor_ctrl else 0
+        contiguous = self._motor_ctrl == tuple(range(first, first + len(self._motor_ctrl)))
+        # one numpy assignment a step: a slice where the actuators are in MOTORS order, else their indices
+        self._motor_ctrl_at = slice(first, first + len(self._motor_ctrl)) if contiguous else np.array(self._motor_ctrl)
+        self._motor_shafts = tuple(self._shafts[name] for name in self.MOTORS)
         self._body = m.body("body").id
         self._com_body = m.body_ipos[self._body].copy()  # m, body frame: the nominal CoM is its origin
         sensors = [m.sensor(name) for name in ("imu_quat", "imu_gyro", "imu_accel")]
@@ -108,6 +115,19 @@ class World:
             if not math.isfinite(value):
                 raise ValueError(f"torque for {name} must be finite, got {value}")
             ctrl[actuator[name]] = value
+
+    def set_motor_torques(self, torques_nm: Sequence[float]) -> None:
+        """Every motor's torque (N m, shaft sign) in ``MOTORS`` order, held until changed.
+
+        ``set_torques`` by position: a plant calls it every physics step, where
+        building and checking the names costs more than the step's Python.
+        """
+        if len(torques_nm) != len(self._motor_ctrl):
+            raise ValueError(f"need {len(self._motor_ctrl)} torques ({', '.join(self.MOTORS)}), got {len(torques_nm)}")
+        if not all(map(math.isfinite, torques_nm)):
+            name, value = next((n, v) for n, v in zip(self.MOTORS, torques_nm) if not math.isfinite(v))
+            raise ValueError(f"torque for {name} must be finite, got {value}")
+        self._ctrl[self._motor_ctrl_at] = torques_nm
 
     def apply_body_force(self, force_world_n, point_body_m=(0.0, 0.0, 0.0)) -> None:
         """Hold a force (N, world frame, (3,)) on the body at ``point_body_m`` (m, body frame, (3,)).
@@ -161,6 +181,11 @@ class World:
         except KeyError as exc:
             raise KeyError(f"no motor named {exc.args[0]!r}; expected one of {self.MOTORS}") from None
 
+    def motor_states(self) -> list[tuple[float, float]]:
+        """``shaft_state`` of every motor, in ``MOTORS`` order."""
+        qpos, qvel = self._qpos.tolist(), self._qvel.tolist()
+        return [(qpos[q], qvel[v]) for q, v in self._motor_shafts]
+
     def imu_truth(self) -> tuple[tuple, tuple, tuple]:
         """``imu`` as tuples of floats: quaternion (4), gyro (3), specific force (3)."""
         s = self.data.sensordata.tolist()
@@ -179,7 +204,7 @@ class World:
     def pose_truth(self) -> dict[str, float]:
         """The body's pose and velocity now: t (s); x, y, z of the body frame's origin (m, world);
         roll, pitch, yaw (rad, ZYX, pitch > 0 nose down); vx, vy, vz (m/s, world); wx, wy, wz (rad/s, body)."""
-        qpos, qvel = self._qpos[:7].tolist(), self._qvel[:6].tolist()
+        qpos, qvel = self._qpos.tolist(), self._qvel.tolist()  # whole: a slice is a new array first
         roll, pitch, yaw = euler_zyx(qpos[3:7])
         return {"t": float(self.data.time), "x": qpos[0], "y": qpos[1], "z": qpos[2],
                 "roll": roll, "pitch": pitch, "yaw": yaw,

@@ -142,3 +142,44 @@ def test_change_id_to_the_can_master_id_keeps_the_old_id():
     motor = CyberGear(motor_id=0x7F, host_id=0x00)
     reply = motor.handle(frame(cg.set_id_id(0x00, 0xFD, 0x7F)), 0.0)
     assert motor.motor_id == 0x7F and cg.parse_reply_id(reply[0].arbitration_id).motor_id == 0x7F
+
+
+class _Counting(CyberGear):
+    """A CyberGear that counts the frames its node hands it."""
+
+    def __init__(self, **kwargs):
+        super().__init__(**kwargs)
+        self.handed = []
+
+    def handle(self, msg, now_s):
+        self.handed.append(msg.arbitration_id)
+        return super().handle(msg, now_s)
+
+
+class _Bus:
+    """Just what a DeviceNode sends on."""
+
+    def __init__(self):
+        self.sent = []
+
+    def send(self, msg, timeout=None):
+        self.sent.append(msg)
+
+
+def test_node_hands_a_motor_only_the_frames_addressed_to_it_and_follows_an_id_change():
+    """``rx_filter``: the node skips the motors a frame is not for (standard frames, other
+    targets), as the motor's own first test would; the same replies as handing every frame over."""
+    one, two = _Counting(motor_id=0x01), _Counting(motor_id=0x02)
+    bus = _Bus()
+    node = DeviceNode(bus, [one, two])
+    enable_two = frame(cg.request_id(cg.T_ENABLE, 0x00, 0x02))
+    node.dispatch(enable_two, 0.0)
+    node.dispatch(can.Message(arbitration_id=0x02, data=bytes(8), is_extended_id=False), 0.0)  # standard id
+    assert one.handed == [] and two.handed == [enable_two.arbitration_id]
+    assert len(bus.sent) == 1  # motor 2's answer
+    move = frame(cg.set_id_id(0x03, 0x00, 0x01))  # motor 1 takes id 3
+    node.dispatch(move, 0.0)
+    enable_three = frame(cg.request_id(cg.T_ENABLE, 0x00, 0x03))
+    node.dispatch(enable_three, 0.0)
+    assert one.motor_id == 0x03 and one.handed == [move.arbitration_id, enable_three.arbitration_id]
+    assert two.handed == [enable_two.arbitration_id] and len(bus.sent) == 3

@@ -182,6 +182,26 @@ def test_torques_are_validated_and_clipped():
     assert phys.data.actuator_force[phys.model.actuator("left_wheel").id] == -C.WHEEL_TORQUE_LIMIT
 
 
+def test_motor_torques_in_order_are_the_torques_by_name():
+    """The plant's per-step path (``set_motor_torques``, ``motor_states``) is ``set_torques`` and
+    ``shaft_state`` by position: the same ctrl, the same readings; bad input refused by name."""
+    torques = [0.5, -1.25, 2.0, -0.75, 0.3, -0.6]  # Physics.MOTORS order: hips, then wheels
+    by_name, in_order = Physics(), Physics()
+    for phys in (by_name, in_order):
+        phys.reset_standing(0.17)
+    by_name.set_torques(dict(zip(HIP_NAMES, torques[:4])), dict(zip(Physics.MOTORS[4:], torques[4:])))
+    in_order.set_motor_torques(torques)
+    assert in_order.data.ctrl.tolist() == by_name.data.ctrl.tolist()
+    for phys in (by_name, in_order):
+        phys.step(5)
+    assert in_order.motor_states() == [by_name.shaft_state(name) for name in Physics.MOTORS]
+    with pytest.raises(ValueError, match="need 6 torques"):
+        in_order.set_motor_torques(torques[:5])
+    with pytest.raises(ValueError, match="right_front_hip must be finite"):
+        in_order.set_motor_torques([0.0, 0.0, math.inf, 0.0, 0.0, 0.0])
+    assert in_order.data.ctrl.tolist() == by_name.data.ctrl.tolist()  # a refused call writes nothing
+
+
 # --- IMU -----------------------------------------------------------------------------------
 def test_imu_at_rest_standing():
     phys = Physics()

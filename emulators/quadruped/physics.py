@@ -2,8 +2,8 @@
 
 ``QuadrupedPhysics`` is a ``World`` (emulators/world.py: stepping, the body
 force, IMU and shaft readings, and when each is taken). The plant writes the
-twelve joint torques (``set_torques``), steps it and reads back what the
-CyberGears and the IMU measure; the recorder reads ``ground_truth``. Its
+twelve joint torques (``set_motor_torques``, in ``MOTORS`` order; ``set_torques``
+by name), steps it and reads back what the CyberGears and the IMU measure; the recorder reads ``ground_truth``. Its
 numbers and conventions are the quadruped's description
 (emulators/quadruped/description.py), never its controller's.
 

@@ -51,6 +51,9 @@ class QuadrupedPlant:
             CAN1: DeviceNode(buses[CAN1], [*motors[0], self.imu, self.remote], **delays),
             CAN2: DeviceNode(buses[CAN2], motors[1], **delays),
         }
+        self._motors = tuple(self.joints.values())  # in the physics' MOTORS order
+        if tuple(self.joints) != physics.MOTORS:
+            raise ValueError(f"the plant's motors {tuple(self.joints)} are not the physics' {physics.MOTORS}")
         self._sync_shafts()
 
     @property
@@ -59,14 +62,17 @@ class QuadrupedPlant:
 
     def step(self, now_s: float) -> None:
         """One physics step from ``now_s``: device torques in, new state out."""
-        self.physics.set_torques({name: dev.output_torque(now_s) for name, dev in self.joints.items()})
+        motors = self._motors
+        self.physics.set_motor_torques([dev.output_torque(now_s) for dev in motors])
         self.physics.step()
         dt = self.physics.model.opt.timestep
-        for dev in self.joints.values():
-            dev.advance(dt, now_s + dt)
+        end_s = now_s + dt
+        for dev in motors:
+            dev.advance(dt, end_s)
         self._sync_shafts()
 
     def _sync_shafts(self) -> None:
-        for name, dev in self.joints.items():
-            dev.shaft.angle, dev.shaft.speed = self.physics.shaft_state(name)
-        self.imu.set_truth(*self.physics.imu())
+        for dev, (angle, speed) in zip(self._motors, self.physics.motor_states()):
+            shaft = dev.shaft
+            shaft.angle, shaft.speed = angle, speed
+        self.imu.set_truth(*self.physics.imu_truth())

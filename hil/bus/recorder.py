@@ -24,6 +24,7 @@ on every run and transport.
 """
 from __future__ import annotations
 
+from operator import attrgetter
 from typing import Protocol, Sequence
 
 import can
@@ -34,6 +35,7 @@ from wheelleg.hil.bus.wire_order import BusWire, Queued
 from wheelleg.hil.record.frame import Frame
 
 SYNC_ID = load_bus(CAN1).get_message_by_name("SYNC").frame_id
+_T_NS = attrgetter("t_ns")
 
 
 class FrameSink(Protocol):
@@ -146,19 +148,32 @@ class Recorder:
         A wire's next frame ends after its last one and after ``now_ns`` (nothing
         is queued in the past), so frames up to the earliest of those are settled.
         """
-        queues = [wire.sent for wire in self.wires.values()]
+        wires = self.wires.values()
         if now_ns is None:
             settled = None
         else:
-            settled = min(max(wire.free_ns, now_ns) for wire in self.wires.values())
-        while True:
-            first = None
-            for queue in queues:
-                if queue and (first is None or queue[0].t_ns < first[0].t_ns):
-                    first = queue
-            if first is None or (settled is not None and first[0].t_ns > settled):
-                return
-            out.append(first.popleft())
+            settled = None
+            for wire in wires:  # min(max(free_ns, now_ns)), written out: ~4 times a tick
+                free = wire.free_ns if wire.free_ns > now_ns else now_ns
+                if settled is None or free < settled:
+                    settled = free
+        # Each wire's frames are in time order (each ends after the one before it): take
+        # every wire's settled ones, then one stable sort by time puts the buses' frames
+        # in time order with ties in channel order, as a merge would.
+        start, buses = len(out), 0
+        for wire in wires:
+            queue = wire.sent
+            if not queue:
+                continue
+            buses += 1
+            if settled is None:
+                out += queue
+                queue.clear()
+            else:
+                while queue and queue[0].t_ns <= settled:
+                    out.append(queue.popleft())
+        if buses > 1 and len(out) - start > 1:
+            out[start:] = sorted(out[start:], key=_T_NS)
 
     def _hand_over(self, frames: list[Frame]) -> None:
         if frames:
@@ -179,5 +194,7 @@ class Recorder:
 
 
 def _frame(channel: str, msg: can.Message) -> Frame:
-    return Frame(0, channel, msg.arbitration_id, msg.is_extended_id, bytes(msg.data[:msg.dlc]), msg.dlc, "",
-                 msg.is_error_frame, msg.is_remote_frame, msg.is_fd)
+    data, dlc = msg.data, msg.dlc
+    # the payload up to the DLC; sliced only when longer (a slice is a second copy, ~20 a tick)
+    return Frame(0, channel, msg.arbitration_id, msg.is_extended_id, bytes(data) if len(data) <= dlc
+                 else bytes(data[:dlc]), dlc, "", msg.is_error_frame, msg.is_remote_frame, msg.is_fd)

@@ -51,17 +51,15 @@ class Queued:
 
     ``key`` orders arbitration (smaller wins): the frame's priority, then
     the order it was queued in. ``ready_ns`` is when its sender queued it,
-    None while the frame it answers is still waiting; ``end_ns`` the end of
-    its transmission once sent.
+    None while the frame it answers is still waiting (then ``delay_ns`` after
+    that frame's end); ``end_ns`` the end of its transmission once sent.
     """
 
-    __slots__ = ("frame", "wire_ns", "key", "ready_ns", "answers", "delay_ns", "end_ns", "replies")
+    __slots__ = ("frame", "wire_ns", "key", "ready_ns", "delay_ns", "end_ns", "replies")
 
-    def __init__(self, frame: Frame, duration_ns: int = 0, key: int = 0, ready_ns: int | None = None,
-                 answers: "Queued | None" = None, delay_ns: int = 0):
-        self.frame, self.wire_ns, self.key = frame, duration_ns, key
-        self.ready_ns = ready_ns
-        self.answers, self.delay_ns = answers, delay_ns
+    def __init__(self, frame: Frame, duration_ns: int = 0, key: int = 0, ready_ns: int | None = None):
+        self.frame, self.wire_ns, self.key, self.ready_ns = frame, duration_ns, key, ready_ns
+        self.delay_ns = 0
         self.end_ns: int | None = None
         self.replies: list | None = None  # (wire, reply) queued before this frame was sent
 
@@ -91,17 +89,17 @@ class BusWire:
         self._seq = 0
         self._last: Queued | None = None  # the frame queued last (an error frame flags it)
 
-    def _queued(self, frame: Frame, ready_ns: int | None, answers: Queued | None = None,
-                delay_ns: int = 0, duration_ns: int | None = None, item: Queued | None = None) -> Queued:
+    def _queued(self, frame: Frame, ready_ns: int | None, duration_ns: int | None = None,
+                item: Queued | None = None) -> Queued:
         if duration_ns is None:
             duration_ns = wire_ns(frame.arbitration_id, frame.is_extended, frame.data, self.bitrate)
         self.busy_ns_total += duration_ns
         self.frames_total += 1
-        self._seq += 1
+        self._seq = seq = self._seq + 1
         priority = _FIRST if frame.is_error else _priority(frame.arbitration_id, frame.is_extended, frame.is_remote)
-        key = (priority << _SEQ_BITS) + self._seq
+        key = (priority << _SEQ_BITS) + seq
         if item is None:
-            item = Queued(frame, duration_ns, key, ready_ns, answers, delay_ns)
+            item = Queued(frame, duration_ns, key, ready_ns)
         else:  # a handle made when the frame was handed over (``Recorder.received``)
             item.frame, item.wire_ns, item.key, item.ready_ns = frame, duration_ns, key, ready_ns
         self._last = item
@@ -118,14 +116,15 @@ class BusWire:
         else:
             delay_ns = RESPONSE_NS
         if answers is None:
-            item = self._queued(frame, ready_ns, duration_ns=duration_ns)
+            item = self._queued(frame, ready_ns, duration_ns)
             heapq.heappush(self._timed, (ready_ns, item.key, item))
             return item
-        item = self._queued(frame, None, answers, delay_ns, duration_ns)
+        item = self._queued(frame, None, duration_ns)
         if answers.end_ns is not None:
             item.ready_ns = answers.end_ns + delay_ns
             heapq.heappush(self._timed, (item.ready_ns, item.key, item))
         else:
+            item.delay_ns = delay_ns
             if answers.replies is None:
                 answers.replies = []
             answers.replies.append((self, item))
@@ -135,14 +134,14 @@ class BusWire:
     def queue_controller(self, frame: Frame, ready_ns: int, duration_ns: int | None = None,
                          item: Queued | None = None) -> Queued:
         """A frame of the controller, queued at ``ready_ns`` behind its earlier ones."""
-        item = self._queued(frame, ready_ns, duration_ns=duration_ns, item=item)
+        item = self._queued(frame, ready_ns, duration_ns, item)
         self.controller.append(item)
         return item
 
     def barrier(self, frame: Frame, ready_ns: int, duration_ns: int | None = None) -> int:
         """Everything queued goes first, then ``frame`` from ``ready_ns``; returns its end (ns)."""
         self.run_until(None)
-        item = self._queued(frame, ready_ns, duration_ns=duration_ns)
+        item = self._queued(frame, ready_ns, duration_ns)
         self._send(item, max(ready_ns, self.free_ns))
         return self.free_ns
 
