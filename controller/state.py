@@ -18,7 +18,7 @@ import can
 from wheelleg.controller import constants as C
 from wheelleg.dbc import cybergear as cg
 from wheelleg.dbc import CAN1, CAN2, load_bus
-from wheelleg.dbc.codec import MessageCodec
+from wheelleg.dbc.codec import MessageCodec, SignalCodec
 
 _DBS = {CAN1: load_bus(CAN1), CAN2: load_bus(CAN2)}
 _DB1 = _DBS[CAN1]
@@ -181,15 +181,32 @@ def _layout(db, frame_id: int) -> tuple:
     """
     message = db.get_message_by_frame_id(frame_id)
     try:
-        decode = MessageCodec.of(message).decode
+        codec = MessageCodec.of(message)
+        decode = codec.decode
     except ValueError:  # a layout the codec does not compile
-        decode = functools.partial(message.decode, decode_choices=False)
+        codec, decode = None, functools.partial(message.decode, decode_choices=False)
     limits = []
     for s in message.signals:
         low = -math.inf if s.minimum is None else s.minimum - 1e-9
         high = math.inf if s.maximum is None else s.maximum + 1e-9
-        limits.append((s.name, low, high, math.isfinite(low) and math.isfinite(high)))
+        if codec is None or not _always_within(codec.signals[s.name], low, high):
+            limits.append((s.name, low, high, math.isfinite(low) and math.isfinite(high)))
     return message.length, decode, tuple(limits)
+
+
+def _always_within(signal: SignalCodec, low: float, high: float) -> bool:
+    """Whether every value the compiled codec can decode for ``signal`` lies in [low, high].
+
+    An integer field's value is ``raw * scale + offset`` (or ``raw`` itself), monotonic in
+    ``raw`` in floating point too (each rounding is): its two raw extremes bound every value,
+    and none is NaN or infinite. Such a signal's check cannot fail and is left out (most of
+    the controller's frames: the CyberGear feedback, gyro, accelerometer, SYNC, operator).
+    An IEEE float field can hold anything.
+    """
+    if signal.float_format is not None:
+        return False
+    ends = (signal.value(signal.raw_lo), signal.value(signal.raw_hi))
+    return low <= min(ends) and max(ends) <= high
 
 
 def take_cybergear(msg: can.Message, now_s: float, feedback: dict, host_id: int, db) -> None:
