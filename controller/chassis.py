@@ -54,8 +54,7 @@ class Sensed(NamedTuple):
     legs: dict  # leg name -> LegState
 
 
-@dataclass(frozen=True)
-class LegReport:
+class LegReport(NamedTuple):
     """One leg as the chassis saw and drove it in one tick."""
 
     length_m: float  # L0 measured
@@ -65,8 +64,7 @@ class LegReport:
     leg_torque_nm: float  # Tp: virtual hip torque, LQR plus split
 
 
-@dataclass(frozen=True)
-class ChassisReport:
+class ChassisReport(NamedTuple):
     """What one chassis step saw and decided; the next tick's controller reads it."""
 
     x_m: float  # wheel travel since reset

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import collections
 from dataclasses import dataclass
+from typing import NamedTuple
 
 from wheelleg.controller import constants as C
 
@@ -37,8 +38,7 @@ assert tuple(r.name for r in RULES) == C.DEVICES
 _ROUNDING_S = 1e-9
 
 
-@dataclass(frozen=True)
-class Report:
+class Report(NamedTuple):
     offline_mask: int  # bit i set: RULES[i] offline or reporting a fault
     offline_count: int  # devices offline or faulted
     warning_level: int  # highest level among them, 0 when all is well

@@ -9,15 +9,14 @@ renaming or dropping one of its keys cannot change what the robot does.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from typing import NamedTuple
 
 from wheelleg.controller.chassis import ChassisReport
 from wheelleg.controller.legs import LEGS
 from wheelleg.controller.jump import Phase
 
 
-@dataclass(frozen=True)
-class LastOutput:
+class LastOutput(NamedTuple):
     """One run tick's result as the next tick sees it (SI units)."""
 
     chassis: ChassisReport
