@@ -8,6 +8,7 @@ All devices start offline, as in detect_device_init().
 from __future__ import annotations
 
 import collections
+import math
 from dataclasses import dataclass
 from typing import NamedTuple
 
@@ -57,7 +58,7 @@ def check(last_seen_s: dict[str, float], now_s: float, faulted=frozenset(), rule
     mask = count = level = 0
     balance_ok = True
     for bit, rule in enumerate(rules):
-        silent_s = now_s - last_seen_s.get(rule.name, float("-inf"))
+        silent_s = now_s - last_seen_s.get(rule.name, -math.inf)
         if rule.name in faulted or silent_s >= rule.offline_after_s - _ROUNDING_S:
             mask |= 1 << bit
             count += 1

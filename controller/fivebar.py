@@ -41,6 +41,7 @@ from typing import NamedTuple
 from wheelleg.controller import constants as C
 
 _HALF_L5 = 0.5 * C.L5
+_TWO_L2, _L2_SQ, _L3_SQ = 2.0 * C.L2, C.L2 * C.L2, C.L3 * C.L3  # the loop closure's constants (m, m^2)
 # A loop-closure discriminant below -_CLOSURE_TOL (relative) is not noise:
 # the angles do not belong to an assembled leg.
 _CLOSURE_TOL = 1e-9
@@ -104,12 +105,16 @@ def _knees_and_phi2(phi1: float, phi4: float) -> tuple[float, float, float, floa
         raise ValueError(f"hip angles must be finite, got phi1={phi1}, phi4={phi4}")
     xb, yb = C.L1 * math.cos(phi1), C.L1 * math.sin(phi1)
     xd, yd = C.L5 + C.L4 * math.cos(phi4), C.L4 * math.sin(phi4)
-    a0 = 2.0 * C.L2 * (xd - xb)
-    b0 = 2.0 * C.L2 * (yd - yb)
-    bd_sq = (xd - xb) ** 2 + (yd - yb) ** 2
-    c0 = C.L2 * C.L2 + bd_sq - C.L3 * C.L3
-    disc = a0 * a0 + b0 * b0 - c0 * c0
-    if disc < -_CLOSURE_TOL * (a0 * a0 + b0 * b0) or bd_sq == 0.0:
+    # the design document's expressions, each part worked out once (the same operations in
+    # the same order: the same bits); four calls a tick
+    bd_x, bd_y = xd - xb, yd - yb
+    a0 = _TWO_L2 * bd_x
+    b0 = _TWO_L2 * bd_y
+    bd_sq = bd_x ** 2 + bd_y ** 2
+    c0 = _L2_SQ + bd_sq - _L3_SQ
+    ab_sq = a0 * a0 + b0 * b0
+    disc = ab_sq - c0 * c0
+    if disc < -_CLOSURE_TOL * ab_sq or bd_sq == 0.0:
         raise ValueError(f"phi1={phi1:.4f}, phi4={phi4:.4f} rad do not close the five-bar loop")
     phi2 = _wrap(2.0 * math.atan2(b0 + math.sqrt(max(disc, 0.0)), a0 + c0))
     return xb, yb, xd, yd, phi2

@@ -57,6 +57,11 @@ DEBUG_FIELDS = {
 }
 
 
+# each leg's keys (L0, L0_ref, theta, T, Tp) and support-force key, named once
+_LEG_KEYS = tuple((leg, tuple(f"{leg}_{key}" for key in ("L0", "L0_ref", "theta", "T", "Tp")), f"Fn_{leg}")
+                  for leg in LEGS)
+
+
 def debug_record(last: LastOutput) -> dict:
     """The trace's flat debug record (key -> number) of ``last``; read by no control path."""
     c = last.chassis
@@ -64,10 +69,11 @@ def debug_record(last: LastOutput) -> dict:
               "balance_theta": c.balance_theta_rad, "hold_torque": c.hold_torque_nm, "speed": c.speed_m_s,
               "slipping": float(c.slipping), "speed_ref": c.speed_ref_m_s,
               "pitch": c.pitch_rad, "roll": c.roll_rad, "yaw": c.yaw_rad, "yaw_ref": c.yaw_ref_rad}
-    for leg in LEGS:
+    for leg, (length, length_ref, theta, wheel, hip), _ in _LEG_KEYS:
         s = c.legs[leg]
-        record.update({f"{leg}_L0": s.length_m, f"{leg}_L0_ref": s.length_ref_m, f"{leg}_theta": s.theta_rad,
-                       f"{leg}_T": s.wheel_torque_nm, f"{leg}_Tp": s.leg_torque_nm})
-    record.update({f"Fn_{leg}": last.support_n[leg] for leg in LEGS})
+        record[length], record[length_ref], record[theta] = s.length_m, s.length_ref_m, s.theta_rad
+        record[wheel], record[hip] = s.wheel_torque_nm, s.leg_torque_nm
+    for leg, _, fn_key in _LEG_KEYS:
+        record[fn_key] = last.support_n[leg]
     record["jump_phase"] = int(last.jump_phase)
     return record
