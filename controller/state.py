@@ -21,7 +21,7 @@ from wheelleg.dbc import CAN1, CAN2, load_bus
 from wheelleg.dbc.codec import MessageCodec, SignalCodec
 
 _DBS = {CAN1: load_bus(CAN1), CAN2: load_bus(CAN2)}
-_DB1 = _DBS[CAN1]
+_DB1, _DB2 = _DBS[CAN1], _DBS[CAN2]
 _SYNC_ID = _DB1.get_message_by_name("SYNC").frame_id
 _WHEEL_BY_FEEDBACK_ID = {0x200 + w.esc_id: w for w in C.WHEELS}
 IMU_PARTS = {"IMU_Orientation": "quat", "IMU_Gyro": "gyro", "IMU_Accel": "accel"}
@@ -96,13 +96,12 @@ class BusState:
         try:
             if msg.is_error_frame or msg.is_remote_frame:
                 return None
-            if bus == CAN2 and msg.is_extended_id:
-                self._cybergear(msg, now_s)
-                return None
-            if msg.is_extended_id:
+            if msg.is_extended_id:  # CyberGear frames, on CAN2 only
+                if bus == CAN2:
+                    take_cybergear(msg, now_s, self.joints, C.CG_HOST_ID, _DB2)
                 return None
             if msg.arbitration_id == _SYNC_ID:
-                return self._decode(CAN1, msg)["Tick"] if bus in _DBS else None
+                return checked_decode(_DB1, msg)["Tick"] if bus in _DBS else None
             if bus == CAN1:
                 self._can1(msg, now_s)
         except Exception:  # a BadFrame, or anything else: never let a frame take the controller down
@@ -110,13 +109,10 @@ class BusState:
         return None
 
     # -- per-bus parsers -------------------------------------------------------
-    def _cybergear(self, msg: can.Message, now_s: float) -> None:
-        take_cybergear(msg, now_s, self.joints, C.CG_HOST_ID, _DBS[CAN2])
-
     def _can1(self, msg: can.Message, now_s: float) -> None:
         wheel = _WHEEL_BY_FEEDBACK_ID.get(msg.arbitration_id)
         if wheel is not None:
-            sig = checked_decode(_DB1, msg)  # ~4 a tick: no hop through _decode
+            sig = checked_decode(_DB1, msg)
             fb = self.wheels[wheel.esc_id]
             fb.rotor_angle, fb.current = sig["RotorAngle"], sig["TorqueCurrent"]
             fb.speed = sig["RotorSpeed"] * RPM_TO_OUTPUT_RAD_S
@@ -124,12 +120,9 @@ class BusState:
             return
         name = _MESSAGE_NAMES.get(msg.arbitration_id)
         if name in IMU_PARTS:
-            self._imu(name, self._decode(CAN1, msg), now_s, bytes(msg.data))
+            self._imu_frames.take(self.imu, name, checked_decode(_DB1, msg), now_s, bytes(msg.data))
         elif name == "Operator":
-            self._operator(self._decode(CAN1, msg), now_s)
-
-    def _imu(self, name: str, sig: dict, now_s: float, data: bytes) -> None:
-        self._imu_frames.take(self.imu, name, sig, now_s, data)
+            self._operator(checked_decode(_DB1, msg), now_s)
 
     def _operator(self, sig: dict, now_s: float) -> None:
         op = self.operator
@@ -137,10 +130,6 @@ class BusState:
         op.reenable, op.speed, op.yaw_rate = bool(sig["Reenable"]), sig["SpeedX"], sig["YawRate"]
         op.leg_length, op.pitch, op.roll = sig["LegLength"], sig["Pitch"], sig["Roll"]
         op.received_s = now_s
-
-    @staticmethod
-    def _decode(bus: str, msg: can.Message, frame_id: int | None = None) -> dict:
-        return checked_decode(_DBS[bus], msg, frame_id)
 
 
 class BadFrame(Exception):
@@ -247,11 +236,11 @@ class ImuFrames:
         """
         part = IMU_PARTS[name]
         if part == "quat":
-            quat = (sig["QuatW"], sig["QuatX"], sig["QuatY"], sig["QuatZ"])
-            norm = math.sqrt(sum([q * q for q in quat]))  # lists, not generators: every tick
+            w, x, y, z = sig["QuatW"], sig["QuatX"], sig["QuatY"], sig["QuatZ"]
+            norm = math.sqrt(w * w + x * x + y * y + z * z)
             if abs(norm - 1.0) > 0.05:
                 raise BadFrame("quaternion not unit")
-            imu.quat = tuple([q / norm for q in quat])
+            imu.quat = (w / norm, x / norm, y / norm, z / norm)
         elif part == "gyro":
             imu.gyro = (sig["RateX"], sig["RateY"], sig["RateZ"])
         else:

@@ -25,11 +25,13 @@ class LastOutput(NamedTuple):
 
     def leg_lengths_m(self) -> tuple[float, float]:
         """Measured L0 (m) of the left and the right leg."""
-        return tuple(self.chassis.legs[leg].length_m for leg in LEGS)
+        legs = self.chassis.legs
+        return legs["left"].length_m, legs["right"].length_m
 
     def leg_angles_rad(self) -> tuple[float, float]:
         """Measured theta (rad) of the left and the right leg."""
-        return tuple(self.chassis.legs[leg].theta_rad for leg in LEGS)
+        legs = self.chassis.legs
+        return legs["left"].theta_rad, legs["right"].theta_rad
 
 
 # Every key of ``debug_record`` with its meaning and unit (the trace's schema describes
