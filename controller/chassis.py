@@ -22,8 +22,9 @@ from wheelleg.controller import fivebar
 from wheelleg.controller import lqr
 from wheelleg.controller import motion
 from wheelleg.controller import params as P
+from wheelleg.controller.bounds import clamp, within
 from wheelleg.controller.jump import StanceHold
-from wheelleg.controller.legs import (LEG_WHEEL, LEGS, Attitude, LegState, attitude, clamp, leg_state, leg_targets, legs_under_body,
+from wheelleg.controller.legs import (LEG_WHEEL, LEGS, Attitude, LegState, attitude, leg_state, leg_targets, legs_under_body,
                                       mean_speed, roll_leg_difference, turn_lean, unwind, wrap)
 from wheelleg.controller.motion import Travel
 from wheelleg.controller.state import BusState
@@ -231,7 +232,7 @@ class ChassisController:
         wheel_t, tp = {}, {}
         for leg in LEGS:
             s = legs[leg]
-            self.leg_ref[leg] = min(max(cmd.leg_length, P.LEG_LENGTH_MIN), P.LEG_LENGTH_MAX)
+            self.leg_ref[leg] = within(cmd.leg_length, P.LEG_LENGTH_MIN, P.LEG_LENGTH_MAX)
             wheel_t[leg] = levelling
             hold = cmd.stance_hold
             theta_ref, dtheta_ref = (0.0, 0.0) if hold is None else hold.leg_angle(leg, s.L0, s.dL0)

@@ -21,6 +21,8 @@ from __future__ import annotations
 
 import math
 
+from wheelleg.controller.bounds import clamp
+
 
 def quat_mul(a: tuple, b: tuple) -> tuple:
     """Hamilton product a b of two (w, x, y, z) quaternions."""
@@ -81,9 +83,9 @@ class GyroBiasObserver:
         ex, ey, ez = rotation_vector(quat_mul(quat_conj(self._quat), quat))  # measured relative to propagated
         (bx, by, bz), (gx, gy, gz) = self.bias, gyro
         ki, kp, dt, limit = self.ki, self.kp, self.dt_s, self.limit
-        bx = max(-limit, min(limit, bx - ki * ex * dt))
-        by = max(-limit, min(limit, by - ki * ey * dt))
-        bz = max(-limit, min(limit, bz - ki * ez * dt))
+        bx = clamp(bx - ki * ex * dt, limit)
+        by = clamp(by - ki * ey * dt, limit)
+        bz = clamp(bz - ki * ez * dt, limit)
         self.bias = (bx, by, bz)
         rate_dt = ((gx - bx + kp * ex) * dt, (gy - by + kp * ey) * dt, (gz - bz + kp * ez) * dt)
         w, x, y, z = quat_mul(self._quat, quat_exp(rate_dt))

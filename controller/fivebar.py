@@ -116,7 +116,8 @@ def _knees_and_phi2(phi1: float, phi4: float) -> tuple[float, float, float, floa
     disc = ab_sq - c0 * c0
     if disc < -_CLOSURE_TOL * ab_sq or bd_sq == 0.0:
         raise ValueError(f"phi1={phi1:.4f}, phi4={phi4:.4f} rad do not close the five-bar loop")
-    phi2 = _wrap(2.0 * math.atan2(b0 + math.sqrt(max(disc, 0.0)), a0 + c0))
+    root = math.sqrt(0.0 if 0.0 > disc else disc)  # max(disc, 0.0) written out (bounds.py)
+    phi2 = _wrap(2.0 * math.atan2(b0 + root, a0 + c0))
     return xb, yb, xd, yd, phi2
 
 

@@ -15,6 +15,7 @@ from wheelleg.controller import constants as C
 from wheelleg.controller import fivebar
 from wheelleg.controller import params as P
 from wheelleg.controller.attitude import euler_zyx
+from wheelleg.controller.bounds import clamp, within
 from wheelleg.controller.state import BusState, ImuReading
 
 LEGS = ("left", "right")
@@ -116,20 +117,11 @@ def leg_targets(length: float, difference: float) -> dict:
     When one leg would leave [LEG_LENGTH_MIN, LEG_LENGTH_MAX] both shift
     together, so the difference (the body's level) is kept over the height.
     """
-    length = min(max(length, P.LEG_LENGTH_MIN), P.LEG_LENGTH_MAX)
+    length = within(length, P.LEG_LENGTH_MIN, P.LEG_LENGTH_MAX)
     half = 0.5 * min(abs(difference), P.LEG_LENGTH_MAX - P.LEG_LENGTH_MIN)
-    mean = min(max(length, P.LEG_LENGTH_MIN + half), P.LEG_LENGTH_MAX - half)
+    mean = within(length, P.LEG_LENGTH_MIN + half, P.LEG_LENGTH_MAX - half)
     sign = 1.0 if difference >= 0 else -1.0
     return {"left": mean + sign * half, "right": mean - sign * half}
-
-
-def clamp(value: float, limit: float) -> float:
-    """``value`` within +-``limit`` (NaN gives ``limit``).
-
-    ``max(-limit, min(limit, value))`` written out (about 25 calls a tick): the same
-    comparisons in the same order, so the same result for NaN and signed zeros."""
-    low = value if value < limit else limit  # min(limit, value)
-    return low if low > -limit else -limit  # max(-limit, low)
 
 
 def unwind(integral: float, step: float) -> float:

@@ -8,6 +8,7 @@ from __future__ import annotations
 import can
 
 from wheelleg.controller import constants as C
+from wheelleg.controller.bounds import within
 from wheelleg.dbc import cybergear as cg
 from wheelleg.dbc import CAN1, CAN2, load_bus, truncating_raw
 from wheelleg.dbc.codec import MessageCodec
@@ -78,7 +79,7 @@ def joint_run_mode(motor_id: int, run_mode: int, t_s: float = 0.0) -> can.Messag
 
 def esc_current(amps: float) -> float:
     """The current (A) a C620 command carries for ``amps``: clamped to the ESC's range."""
-    return min(max(amps, -C.C620_CURRENT_LIMIT), C.C620_CURRENT_LIMIT)
+    return within(amps, -C.C620_CURRENT_LIMIT, C.C620_CURRENT_LIMIT)
 
 
 def wheel_currents(currents_a: dict[int, float], t_s: float = 0.0) -> can.Message:

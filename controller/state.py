@@ -147,9 +147,10 @@ def checked_decode(db, msg: can.Message, frame_id: int | None = None) -> dict:
     except KeyError:
         raise BadFrame("unknown id") from None
     data = msg.data
-    if msg.dlc != length or len(data) < length:
+    size = len(data)
+    if msg.dlc != length or size < length:
         raise BadFrame("wrong DLC")
-    values = decode(bytes(data) if len(data) == length else bytes(data[:length]))
+    values = decode(bytes(data) if size == length else bytes(data[:length]))
     for name, low, high, bounded in limits:
         value = values.get(name)
         # within finite bounds excludes NaN and infinities too; else isfinite decides them
