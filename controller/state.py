@@ -150,7 +150,7 @@ def checked_decode(db, msg: can.Message, frame_id: int | None = None) -> dict:
     size = len(data)
     if msg.dlc != length or size < length:
         raise BadFrame("wrong DLC")
-    values = decode(bytes(data) if size == length else bytes(data[:length]))
+    values = decode(data if size == length else data[:length])  # bytes-like: no copy
     for name, low, high, bounded in limits:
         value = values.get(name)
         # within finite bounds excludes NaN and infinities too; else isfinite decides them
@@ -164,8 +164,8 @@ def _layout(db, frame_id: int) -> tuple:
     """(length, decode, (signal, lowest, highest, both finite) per signal) of the message at
     ``frame_id`` in ``db``.
 
-    ``decode`` is the compiled codec's (``wheelleg.dbc.codec``: cantools' values without choices,
-    ~1 us a frame instead of ~10) where it compiles, else cantools'. The range takes 1e-9 of
+    ``decode`` (of any bytes-like payload) is the compiled codec's (``wheelleg.dbc.codec``: cantools'
+    values without choices, ~1 us a frame instead of ~10) where it compiles, else cantools'. The range takes 1e-9 of
     slack beyond the DBC's minimum and maximum; a side the DBC leaves open is infinite.
     KeyError for an id ``db`` does not know.
     """
@@ -174,7 +174,10 @@ def _layout(db, frame_id: int) -> tuple:
         codec = MessageCodec.of(message)
         decode = codec.decode
     except ValueError:  # a layout the codec does not compile
-        codec, decode = None, functools.partial(message.decode, decode_choices=False)
+        codec = None
+
+        def decode(data, message=message):
+            return message.decode(bytes(data), decode_choices=False)
     limits = []
     for s in message.signals:
         low = -math.inf if s.minimum is None else s.minimum - 1e-9
