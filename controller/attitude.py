@@ -3,6 +3,8 @@ from __future__ import annotations
 
 import math
 
+from wheelleg.controller.bounds import clamp
+
 
 def euler_zyx(quat) -> tuple[float, float, float]:
     """(roll, pitch, yaw) in rad of a unit quaternion (w, x, y, z) body -> world.
@@ -12,6 +14,6 @@ def euler_zyx(quat) -> tuple[float, float, float]:
     """
     w, x, y, z = quat
     roll = math.atan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
-    pitch = math.asin(max(-1.0, min(1.0, 2 * (w * y - z * x))))
+    pitch = math.asin(clamp(2 * (w * y - z * x), 1.0))
     yaw = math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
     return roll, pitch, yaw

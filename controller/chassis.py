@@ -13,6 +13,7 @@ wheel behind the hip, phi (body) nose-up positive, T forward-rolling positive.
 from __future__ import annotations
 
 import math
+import operator
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
@@ -22,8 +23,9 @@ from wheelleg.controller import fivebar
 from wheelleg.controller import lqr
 from wheelleg.controller import motion
 from wheelleg.controller import params as P
+from wheelleg.controller.bounds import clamp, within
 from wheelleg.controller.jump import StanceHold
-from wheelleg.controller.legs import (LEG_WHEEL, LEGS, Attitude, LegState, attitude, clamp, leg_state, leg_targets, legs_under_body,
+from wheelleg.controller.legs import (LEG_WHEEL, LEGS, Attitude, LegState, attitude, leg_state, leg_targets, legs_under_body,
                                       mean_speed, roll_leg_difference, turn_lean, unwind, wrap)
 from wheelleg.controller.motion import Travel
 from wheelleg.controller.state import BusState
@@ -54,8 +56,7 @@ class Sensed(NamedTuple):
     legs: dict  # leg name -> LegState
 
 
-@dataclass(frozen=True)
-class LegReport:
+class LegReport(NamedTuple):
     """One leg as the chassis saw and drove it in one tick."""
 
     length_m: float  # L0 measured
@@ -65,8 +66,7 @@ class LegReport:
     leg_torque_nm: float  # Tp: virtual hip torque, LQR plus split
 
 
-@dataclass(frozen=True)
-class ChassisReport:
+class ChassisReport(NamedTuple):
     """What one chassis step saw and decided; the next tick's controller reads it."""
 
     x_m: float  # wheel travel since reset
@@ -96,6 +96,8 @@ class Output:
 
 _TRAVEL = tuple(lqr.GAIN_NAMES.index(name) for name in ("x", "dx", "ix"))  # LQR states of the travel
 _BALANCE = tuple(i for i in range(len(lqr.GAIN_NAMES)) if i not in _TRAVEL)  # the others, in order
+# each picks its states, in order, out of a gain row or an error vector
+_travel_part, _balance_part = operator.itemgetter(*_TRAVEL), operator.itemgetter(*_BALANCE)
 # s: a speed error e (m/s) asks of the wheel what a trim of e times this does (K_dx / K_ix
 # of the wheel's row: 0.54 s at the nominal length, 0.54-0.55 over the whole leg range), so
 # the trim takes up a steady speed error by growing this much per m/s of it (``_trim``)
@@ -233,7 +235,7 @@ class ChassisController:
         wheel_t, tp = {}, {}
         for leg in LEGS:
             s = legs[leg]
-            self.leg_ref[leg] = min(max(cmd.leg_length, P.LEG_LENGTH_MIN), P.LEG_LENGTH_MAX)
+            self.leg_ref[leg] = within(cmd.leg_length, P.LEG_LENGTH_MIN, P.LEG_LENGTH_MAX)
             wheel_t[leg] = levelling
             hold = cmd.stance_hold
             theta_ref, dtheta_ref = (0.0, 0.0) if hold is None else hold.leg_angle(leg, s.L0, s.dL0)
@@ -385,10 +387,10 @@ class ChassisController:
         # integral) is limited apart: a hard push asks for far more than the wheel has, and
         # saturating the whole sum would give away the torque that keeps the legs upright
         wheel_gains, hip_gains = k
-        travel = -sum([wheel_gains[i] * err[i] for i in _TRAVEL])
-        t = -sum([wheel_gains[i] * err[i] for i in _BALANCE])
+        travel = -lqr.dot(_travel_part(wheel_gains), _travel_part(err))
+        t = -lqr.dot(_balance_part(wheel_gains), _balance_part(err))
         t += clamp(travel, P.SLIP_TRAVEL_TORQUE_LIMIT if self.slip.slipping else P.TRAVEL_TORQUE_LIMIT)
-        tp = hold - sum([g * e for g, e in zip(hip_gains, err)])
+        tp = hold - lqr.dot(hip_gains, err)
         return t, tp
 
     def _lqr_hold(self, leg: LegState, name: str, att: Attitude, cmd: Command) -> tuple[float, float]:
@@ -402,8 +404,8 @@ class ChassisController:
         theta_ref, dtheta_ref = cmd.stance_hold.leg_angle(name, leg.L0, leg.dL0)
         err = (leg.theta - theta_ref, leg.dtheta - dtheta_ref, 0.0, 0.0, cmd.stance_hold.pitch_rad - att.pitch,
                -att.wy, 0.0, *self.u_prev[name])
-        t = -sum(g * e for g, e in zip(k[0], err))
-        tp = -sum(g * e for g, e in zip(k[1], err))
+        t = -lqr.dot(k[0], err)
+        tp = -lqr.dot(k[1], err)
         if cmd.leg_force is not None:
             tp -= cmd.leg_force * leg.L0 * math.tan(leg.theta)
         return t, tp

@@ -8,7 +8,9 @@ All devices start offline, as in detect_device_init().
 from __future__ import annotations
 
 import collections
+import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 from wheelleg.controller import constants as C
 
@@ -37,8 +39,7 @@ assert tuple(r.name for r in RULES) == C.DEVICES
 _ROUNDING_S = 1e-9
 
 
-@dataclass(frozen=True)
-class Report:
+class Report(NamedTuple):
     offline_mask: int  # bit i set: RULES[i] offline or reporting a fault
     offline_count: int  # devices offline or faulted
     warning_level: int  # highest level among them, 0 when all is well
@@ -57,7 +58,7 @@ def check(last_seen_s: dict[str, float], now_s: float, faulted=frozenset(), rule
     mask = count = level = 0
     balance_ok = True
     for bit, rule in enumerate(rules):
-        silent_s = now_s - last_seen_s.get(rule.name, float("-inf"))
+        silent_s = now_s - last_seen_s.get(rule.name, -math.inf)
         if rule.name in faulted or silent_s >= rule.offline_after_s - _ROUNDING_S:
             mask |= 1 << bit
             count += 1

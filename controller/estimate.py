@@ -21,6 +21,8 @@ from __future__ import annotations
 
 import math
 
+from wheelleg.controller.bounds import clamp
+
 
 def quat_mul(a: tuple, b: tuple) -> tuple:
     """Hamilton product a b of two (w, x, y, z) quaternions."""
@@ -48,7 +50,8 @@ def rotation_vector(q: tuple) -> tuple:
 
 def quat_exp(r: tuple) -> tuple:
     """Unit quaternion of the rotation vector ``r`` (rad, (3,))."""
-    angle = math.sqrt(sum(v * v for v in r))
+    rx, ry, rz = r
+    angle = math.sqrt(rx * rx + ry * ry + rz * rz)
     if angle < 1e-12:
         return (1.0, 0.5 * r[0], 0.5 * r[1], 0.5 * r[2])
     s = math.sin(0.5 * angle) / angle
@@ -76,13 +79,18 @@ class GyroBiasObserver:
         if self._quat is None:
             self._quat = quat
             return self.bias
-        err = rotation_vector(quat_mul(quat_conj(self._quat), quat))  # measured relative to propagated
-        self.bias = tuple(max(-self.limit, min(self.limit, b - self.ki * e * self.dt_s))
-                          for b, e in zip(self.bias, err))
-        rate = tuple(g - b + self.kp * e for g, b, e in zip(gyro, self.bias, err))
-        q = quat_mul(self._quat, quat_exp(tuple(r * self.dt_s for r in rate)))
-        norm = math.sqrt(sum(v * v for v in q))
-        self._quat = tuple(v / norm for v in q)
+        # per axis, written out (every tick: no generators), each in the same order of operations
+        ex, ey, ez = rotation_vector(quat_mul(quat_conj(self._quat), quat))  # measured relative to propagated
+        (bx, by, bz), (gx, gy, gz) = self.bias, gyro
+        ki, kp, dt, limit = self.ki, self.kp, self.dt_s, self.limit
+        bx = clamp(bx - ki * ex * dt, limit)
+        by = clamp(by - ki * ey * dt, limit)
+        bz = clamp(bz - ki * ez * dt, limit)
+        self.bias = (bx, by, bz)
+        rate_dt = ((gx - bx + kp * ex) * dt, (gy - by + kp * ey) * dt, (gz - bz + kp * ez) * dt)
+        w, x, y, z = quat_mul(self._quat, quat_exp(rate_dt))
+        norm = math.sqrt(w * w + x * x + y * y + z * z)
+        self._quat = (w / norm, x / norm, y / norm, z / norm)
         return self.bias
 
 

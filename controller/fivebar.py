@@ -36,12 +36,12 @@ links AB and ED, positive in the sense that increases phi1 and phi4.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from functools import cached_property
+from typing import NamedTuple
 
 from wheelleg.controller import constants as C
 
 _HALF_L5 = 0.5 * C.L5
+_TWO_L2, _L2_SQ, _L3_SQ = 2.0 * C.L2, C.L2 * C.L2, C.L3 * C.L3  # the loop closure's constants (m, m^2)
 # A loop-closure discriminant below -_CLOSURE_TOL (relative) is not noise:
 # the angles do not belong to an assembled leg.
 _CLOSURE_TOL = 1e-9
@@ -56,11 +56,12 @@ _CLOSURE_TOL = 1e-9
 MASS_AT_AXLE = C.MASS_WHEEL + C.MASS_WHEEL_MOTOR + 2 * C.MASS_LINK_SHIN
 
 
-@dataclass(frozen=True)
-class LegKinematics:
+class LegKinematics(NamedTuple):
     """One five-bar pose. Angles in rad (five-bar frame), lengths in m.
 
     B, C, D are (x_fb, y_fb) points in m: front knee, wheel axle, rear knee.
+    ``jacobian`` is ``_jacobian`` of the pose, made with it: the chassis uses it three
+    times a leg a tick (leg velocity, joint torques, the measured leg force).
     """
 
     phi1: float
@@ -72,12 +73,7 @@ class LegKinematics:
     B: tuple[float, float]
     C: tuple[float, float]
     D: tuple[float, float]
-
-    @cached_property
-    def jacobian(self) -> tuple[tuple[float, float], tuple[float, float]]:
-        """``jacobian(self)``, made once per pose: the chassis uses it three times a leg a tick
-        (leg velocity, joint torques, the measured leg force)."""
-        return _jacobian(self)
+    jacobian: tuple[tuple[float, float], tuple[float, float]]  # d(L0, phi0)/d(phi1, phi4)
 
 
 def _wrap(angle: float) -> float:
@@ -97,8 +93,9 @@ def forward_kinematics(phi1: float, phi4: float) -> LegKinematics:
     xc, yc = xb + C.L2 * math.cos(phi2), yb + C.L2 * math.sin(phi2)
     phi3 = math.atan2(yc - yd, xc - xd)
     dx = xc - _HALF_L5
-    return LegKinematics(phi1, phi4, phi2, phi3, math.hypot(dx, yc), math.atan2(yc, dx),
-                         (xb, yb), (xc, yc), (xd, yd))
+    L0, phi0 = math.hypot(dx, yc), math.atan2(yc, dx)
+    return LegKinematics(phi1, phi4, phi2, phi3, L0, phi0, (xb, yb), (xc, yc), (xd, yd),
+                         _jacobian(phi1, phi4, phi2, phi3, L0, phi0))
 
 
 def _knees_and_phi2(phi1: float, phi4: float) -> tuple[float, float, float, float, float]:
@@ -108,14 +105,19 @@ def _knees_and_phi2(phi1: float, phi4: float) -> tuple[float, float, float, floa
         raise ValueError(f"hip angles must be finite, got phi1={phi1}, phi4={phi4}")
     xb, yb = C.L1 * math.cos(phi1), C.L1 * math.sin(phi1)
     xd, yd = C.L5 + C.L4 * math.cos(phi4), C.L4 * math.sin(phi4)
-    a0 = 2.0 * C.L2 * (xd - xb)
-    b0 = 2.0 * C.L2 * (yd - yb)
-    bd_sq = (xd - xb) ** 2 + (yd - yb) ** 2
-    c0 = C.L2 * C.L2 + bd_sq - C.L3 * C.L3
-    disc = a0 * a0 + b0 * b0 - c0 * c0
-    if disc < -_CLOSURE_TOL * (a0 * a0 + b0 * b0) or bd_sq == 0.0:
+    # the design document's expressions, each part worked out once (the same operations in
+    # the same order: the same bits); four calls a tick
+    bd_x, bd_y = xd - xb, yd - yb
+    a0 = _TWO_L2 * bd_x
+    b0 = _TWO_L2 * bd_y
+    bd_sq = bd_x ** 2 + bd_y ** 2
+    c0 = _L2_SQ + bd_sq - _L3_SQ
+    ab_sq = a0 * a0 + b0 * b0
+    disc = ab_sq - c0 * c0
+    if disc < -_CLOSURE_TOL * ab_sq or bd_sq == 0.0:
         raise ValueError(f"phi1={phi1:.4f}, phi4={phi4:.4f} rad do not close the five-bar loop")
-    phi2 = _wrap(2.0 * math.atan2(b0 + math.sqrt(max(disc, 0.0)), a0 + c0))
+    root = math.sqrt(0.0 if 0.0 > disc else disc)  # max(disc, 0.0) written out (bounds.py)
+    phi2 = _wrap(2.0 * math.atan2(b0 + root, a0 + c0))
     return xb, yb, xd, yd, phi2
 
 
@@ -126,23 +128,25 @@ def shin_angle(phi1: float, phi4: float) -> float:
 
 
 def jacobian(k: LegKinematics) -> tuple[tuple[float, float], tuple[float, float]]:
-    """J = d(L0, phi0)/d(phi1, phi4) at pose ``k`` (``_jacobian``, kept on the pose once made)."""
+    """J = d(L0, phi0)/d(phi1, phi4) at pose ``k`` (``_jacobian``, kept on the pose)."""
     return k.jacobian
 
 
-def _jacobian(k: LegKinematics) -> tuple[tuple[float, float], tuple[float, float]]:
-    """J = d(L0, phi0)/d(phi1, phi4), closed form, as ((j11, j12), (j21, j22)).
+def _jacobian(phi1: float, phi4: float, phi2: float, phi3: float, L0: float,
+              phi0: float) -> tuple[tuple[float, float], tuple[float, float]]:
+    """J = d(L0, phi0)/d(phi1, phi4) of the pose with these angles (rad) and L0 (m),
+    closed form, as ((j11, j12), (j21, j22)).
 
     Rows: L0 (m/rad), phi0 (rad/rad); columns: phi1, phi4. From the loop
     closure B + L2 e(phi2) = D + L3 e(phi3) (the form of Reborn's vmc.cpp,
     with L1 and L4 kept apart). Singular when the shins are parallel
     (phi2 = phi3, the loop's full stretch).
     """
-    s32 = math.sin(k.phi3 - k.phi2)
-    a = C.L1 * math.sin(k.phi1 - k.phi2) / s32  # front thigh's lever
-    b = C.L4 * math.sin(k.phi3 - k.phi4) / s32  # rear thigh's lever
-    return ((a * math.sin(k.phi0 - k.phi3), b * math.sin(k.phi0 - k.phi2)),
-            (a * math.cos(k.phi0 - k.phi3) / k.L0, b * math.cos(k.phi0 - k.phi2) / k.L0))
+    s32 = math.sin(phi3 - phi2)
+    a = C.L1 * math.sin(phi1 - phi2) / s32  # front thigh's lever
+    b = C.L4 * math.sin(phi3 - phi4) / s32  # rear thigh's lever
+    return ((a * math.sin(phi0 - phi3), b * math.sin(phi0 - phi2)),
+            (a * math.cos(phi0 - phi3) / L0, b * math.cos(phi0 - phi2) / L0))
 
 
 def leg_velocity(k: LegKinematics, dphi1: float, dphi4: float) -> tuple[float, float]:

@@ -11,8 +11,10 @@ command of the period before (the design allows one period of delay).
 from __future__ import annotations
 
 import math
+import operator
 
 from wheelleg.controller import lqr_gains
+from wheelleg.controller.bounds import clamp, within
 
 L0_MIN = lqr_gains.L0_MIN  # m, the fit's range; gain_matrix clamps to it
 L0_MAX = lqr_gains.L0_MAX
@@ -29,9 +31,15 @@ def gain_matrix(L0: float) -> tuple[tuple[float, ...], tuple[float, ...]]:
     """
     if not math.isfinite(L0):
         raise ValueError(f"leg length must be finite, got {L0}")
-    length = min(max(L0, L0_MIN), L0_MAX)
+    length = within(L0, L0_MIN, L0_MAX)
     return tuple([tuple([((c3 * length + c2) * length + c1) * length + c0 for c3, c2, c1, c0 in row])
                   for row in _COEFFS])  # lists, not generators: called twice a tick
+
+
+def dot(gains, states) -> float:
+    """sum(g * s for each pair), added left to right from 0 as ``sum`` adds (the same bits as
+    the written-out sum), the products made in C (``map``): the LQR's rows, twice a tick."""
+    return sum(map(operator.mul, gains, states))
 
 
 def balance_lean(hold_torque: float, L0: float, limit: float, weight_ratio: float = 1.0) -> float:
@@ -40,7 +48,7 @@ def balance_lean(hold_torque: float, L0: float, limit: float, weight_ratio: floa
     length L0 (m, clamped to the fit): sin(theta) = -Tp / (ARM(L0) weight_ratio) (the
     design's ``static_arm`` scaled by the weight the legs carry over the believed one:
     the body's term is ~90 % of the arm), bounded by +-``limit`` (rad)."""
-    length = min(max(L0, L0_MIN), L0_MAX)
+    length = within(L0, L0_MIN, L0_MAX)
     c3, c2, c1, c0 = _ARM
     arm = (((c3 * length + c2) * length + c1) * length + c0) * weight_ratio
-    return max(-limit, min(limit, -math.asin(max(-1.0, min(1.0, hold_torque / arm)))))
+    return clamp(-math.asin(clamp(hold_torque / arm, 1.0)), limit)

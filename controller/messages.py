@@ -8,6 +8,7 @@ from __future__ import annotations
 import can
 
 from wheelleg.controller import constants as C
+from wheelleg.controller.bounds import within
 from wheelleg.dbc import cybergear as cg
 from wheelleg.dbc import CAN1, CAN2, load_bus, truncating_raw
 from wheelleg.dbc.codec import MessageCodec
@@ -29,7 +30,8 @@ _MOTION_CODEC = MessageCodec.of(_MOTION)
 _MOTION_PAYLOAD = _MOTION_CODEC.encoder(dict.fromkeys(("PosRef", "VelRef", "Kp", "Kd"), "truncated"))
 _ESC_SLOTS = tuple(f"ESC{i}_Current" for i in range(1, 5))
 _ESC_PAYLOAD = MessageCodec.of(_ESC_CMD).encoder(dict.fromkeys(_ESC_SLOTS, "raw"))
-_ESC_SIGNALS = tuple(_ESC_CMD.get_signal_by_name(name) for name in _ESC_SLOTS)
+# (offset, scale) of each slot, read once: cantools' signal attributes are properties
+_ESC_STEPS = tuple((s.offset, s.scale) for s in (_ESC_CMD.get_signal_by_name(name) for name in _ESC_SLOTS))
 _ESC_CMD_ID, _HEARTBEAT_ID = _ESC_CMD.frame_id, _HEARTBEAT.frame_id  # read once: cantools properties
 _HEARTBEAT_PAYLOAD = MessageCodec.of(_HEARTBEAT).encoder(dict.fromkeys(
     ("Tick", "Mode", "WarningLevel", "OfflineCount", "OfflineMask", "MotorsEnabled", "OffGround", "Fallen",
@@ -77,7 +79,7 @@ def joint_run_mode(motor_id: int, run_mode: int, t_s: float = 0.0) -> can.Messag
 
 def esc_current(amps: float) -> float:
     """The current (A) a C620 command carries for ``amps``: clamped to the ESC's range."""
-    return min(max(amps, -C.C620_CURRENT_LIMIT), C.C620_CURRENT_LIMIT)
+    return within(amps, -C.C620_CURRENT_LIMIT, C.C620_CURRENT_LIMIT)
 
 
 def wheel_currents(currents_a: dict[int, float], t_s: float = 0.0) -> can.Message:
@@ -87,7 +89,7 @@ def wheel_currents(currents_a: dict[int, float], t_s: float = 0.0) -> can.Messag
         if 1 <= esc_id <= 4:  # (cantools' encode ignores other names)
             values[esc_id - 1] = esc_current(amps)
     # cantools' encode of each: round((value - offset) / scale) (NaN raises ValueError there as here)
-    raws = [int(round((value - signal.offset) / signal.scale)) for value, signal in zip(values, _ESC_SIGNALS)]
+    raws = [int(round((value - offset) / scale)) for value, (offset, scale) in zip(values, _ESC_STEPS)]
     return _frame(_ESC_CMD_ID, _ESC_PAYLOAD(*raws), False, t_s)
 
 

@@ -73,9 +73,14 @@ TRANSITIONS: tuple = (
 )
 
 
+# mode -> its (condition, to) pairs, in the table's order (picked once, not every tick)
+_FROM: dict = {mode: tuple((condition, target) for sources, condition, target in TRANSITIONS
+                           if sources == "*" or mode in sources) for mode in Mode}
+
+
 def next_mode(mode: Mode, inputs: Inputs) -> Mode:
     """The mode after this tick: the first transition from ``mode`` that holds."""
-    for sources, condition, target in TRANSITIONS:
-        if (sources == "*" or mode in sources) and condition(mode, inputs):
+    for condition, target in _FROM[mode]:
+        if condition(mode, inputs):
             return target
     return mode

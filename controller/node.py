@@ -31,6 +31,7 @@ from wheelleg.controller.telemetry import LastOutput, debug_record
 
 _DEVICE_OF_JOINT = {j.motor_id: j.name for j in C.JOINTS}
 _DEVICE_OF_WHEEL = {w.esc_id: w.name for w in C.WHEELS}
+_SWITCH = {int(s): s for s in Switch}  # the operator's Mode number -> Switch (a dict: no Enum call a tick)
 
 
 @dataclass
@@ -159,10 +160,7 @@ class Controller:
         stood = False
         if self.mode == Mode.STAND_UP:
             stood, fallen = self._stand_up_inputs(att, fallen)
-        try:
-            switch = Switch(op.mode)
-        except ValueError:
-            switch = Switch.ESTOP  # an unknown switch position is treated as E-stop
+        switch = _SWITCH.get(op.mode, Switch.ESTOP)  # an unknown switch position is treated as E-stop
         reenable = self.reenable.update(reenable_edge, self.mode not in ENABLED, now_s)
         return Inputs(switch=switch, devices_ok=devices_ok, reenable=reenable,
                       jump=jump_edge or forward_edge, fallen=fallen, stood_up=stood,

@@ -18,10 +18,10 @@ import can
 from wheelleg.controller import constants as C
 from wheelleg.dbc import cybergear as cg
 from wheelleg.dbc import CAN1, CAN2, load_bus
-from wheelleg.dbc.codec import MessageCodec
+from wheelleg.dbc.codec import MessageCodec, SignalCodec
 
 _DBS = {CAN1: load_bus(CAN1), CAN2: load_bus(CAN2)}
-_DB1 = _DBS[CAN1]
+_DB1, _DB2 = _DBS[CAN1], _DBS[CAN2]
 _SYNC_ID = _DB1.get_message_by_name("SYNC").frame_id
 _WHEEL_BY_FEEDBACK_ID = {0x200 + w.esc_id: w for w in C.WHEELS}
 IMU_PARTS = {"IMU_Orientation": "quat", "IMU_Gyro": "gyro", "IMU_Accel": "accel"}
@@ -96,13 +96,12 @@ class BusState:
         try:
             if msg.is_error_frame or msg.is_remote_frame:
                 return None
-            if bus == CAN2 and msg.is_extended_id:
-                self._cybergear(msg, now_s)
-                return None
-            if msg.is_extended_id:
+            if msg.is_extended_id:  # CyberGear frames, on CAN2 only
+                if bus == CAN2:
+                    take_cybergear(msg, now_s, self.joints, C.CG_HOST_ID, _DB2)
                 return None
             if msg.arbitration_id == _SYNC_ID:
-                return self._decode(CAN1, msg)["Tick"] if bus in _DBS else None
+                return checked_decode(_DB1, msg)["Tick"] if bus in _DBS else None
             if bus == CAN1:
                 self._can1(msg, now_s)
         except Exception:  # a BadFrame, or anything else: never let a frame take the controller down
@@ -110,13 +109,10 @@ class BusState:
         return None
 
     # -- per-bus parsers -------------------------------------------------------
-    def _cybergear(self, msg: can.Message, now_s: float) -> None:
-        take_cybergear(msg, now_s, self.joints, C.CG_HOST_ID, _DBS[CAN2])
-
     def _can1(self, msg: can.Message, now_s: float) -> None:
         wheel = _WHEEL_BY_FEEDBACK_ID.get(msg.arbitration_id)
         if wheel is not None:
-            sig = checked_decode(_DB1, msg)  # ~4 a tick: no hop through _decode
+            sig = checked_decode(_DB1, msg)
             fb = self.wheels[wheel.esc_id]
             fb.rotor_angle, fb.current = sig["RotorAngle"], sig["TorqueCurrent"]
             fb.speed = sig["RotorSpeed"] * RPM_TO_OUTPUT_RAD_S
@@ -124,12 +120,9 @@ class BusState:
             return
         name = _MESSAGE_NAMES.get(msg.arbitration_id)
         if name in IMU_PARTS:
-            self._imu(name, self._decode(CAN1, msg), now_s, bytes(msg.data))
+            self._imu_frames.take(self.imu, name, checked_decode(_DB1, msg), now_s, bytes(msg.data))
         elif name == "Operator":
-            self._operator(self._decode(CAN1, msg), now_s)
-
-    def _imu(self, name: str, sig: dict, now_s: float, data: bytes) -> None:
-        self._imu_frames.take(self.imu, name, sig, now_s, data)
+            self._operator(checked_decode(_DB1, msg), now_s)
 
     def _operator(self, sig: dict, now_s: float) -> None:
         op = self.operator
@@ -137,10 +130,6 @@ class BusState:
         op.reenable, op.speed, op.yaw_rate = bool(sig["Reenable"]), sig["SpeedX"], sig["YawRate"]
         op.leg_length, op.pitch, op.roll = sig["LegLength"], sig["Pitch"], sig["Roll"]
         op.received_s = now_s
-
-    @staticmethod
-    def _decode(bus: str, msg: can.Message, frame_id: int | None = None) -> dict:
-        return checked_decode(_DBS[bus], msg, frame_id)
 
 
 class BadFrame(Exception):
@@ -158,9 +147,10 @@ def checked_decode(db, msg: can.Message, frame_id: int | None = None) -> dict:
     except KeyError:
         raise BadFrame("unknown id") from None
     data = msg.data
-    if msg.dlc != length or len(data) < length:
+    size = len(data)
+    if msg.dlc != length or size < length:
         raise BadFrame("wrong DLC")
-    values = decode(bytes(data) if len(data) == length else bytes(data[:length]))
+    values = decode(data if size == length else data[:length])  # bytes-like: no copy
     for name, low, high, bounded in limits:
         value = values.get(name)
         # within finite bounds excludes NaN and infinities too; else isfinite decides them
@@ -174,22 +164,42 @@ def _layout(db, frame_id: int) -> tuple:
     """(length, decode, (signal, lowest, highest, both finite) per signal) of the message at
     ``frame_id`` in ``db``.
 
-    ``decode`` is the compiled codec's (``wheelleg.dbc.codec``: cantools' values without choices,
-    ~1 us a frame instead of ~10) where it compiles, else cantools'. The range takes 1e-9 of
+    ``decode`` (of any bytes-like payload) is the compiled codec's (``wheelleg.dbc.codec``: cantools'
+    values without choices, ~1 us a frame instead of ~10) where it compiles, else cantools'. The range takes 1e-9 of
     slack beyond the DBC's minimum and maximum; a side the DBC leaves open is infinite.
     KeyError for an id ``db`` does not know.
     """
     message = db.get_message_by_frame_id(frame_id)
     try:
-        decode = MessageCodec.of(message).decode
+        codec = MessageCodec.of(message)
+        decode = codec.decode
     except ValueError:  # a layout the codec does not compile
-        decode = functools.partial(message.decode, decode_choices=False)
+        codec = None
+
+        def decode(data, message=message):
+            return message.decode(bytes(data), decode_choices=False)
     limits = []
     for s in message.signals:
         low = -math.inf if s.minimum is None else s.minimum - 1e-9
         high = math.inf if s.maximum is None else s.maximum + 1e-9
-        limits.append((s.name, low, high, math.isfinite(low) and math.isfinite(high)))
+        if codec is None or not _always_within(codec.signals[s.name], low, high):
+            limits.append((s.name, low, high, math.isfinite(low) and math.isfinite(high)))
     return message.length, decode, tuple(limits)
+
+
+def _always_within(signal: SignalCodec, low: float, high: float) -> bool:
+    """Whether every value the compiled codec can decode for ``signal`` lies in [low, high].
+
+    An integer field's value is ``raw * scale + offset`` (or ``raw`` itself), monotonic in
+    ``raw`` in floating point too (each rounding is): its two raw extremes bound every value,
+    and none is NaN or infinite. Such a signal's check cannot fail and is left out (most of
+    the controller's frames: the CyberGear feedback, gyro, accelerometer, SYNC, operator).
+    An IEEE float field can hold anything.
+    """
+    if signal.float_format is not None:
+        return False
+    ends = (signal.value(signal.raw_lo), signal.value(signal.raw_hi))
+    return low <= min(ends) and max(ends) <= high
 
 
 def take_cybergear(msg: can.Message, now_s: float, feedback: dict, host_id: int, db) -> None:
@@ -230,11 +240,11 @@ class ImuFrames:
         """
         part = IMU_PARTS[name]
         if part == "quat":
-            quat = (sig["QuatW"], sig["QuatX"], sig["QuatY"], sig["QuatZ"])
-            norm = math.sqrt(sum([q * q for q in quat]))  # lists, not generators: every tick
+            w, x, y, z = sig["QuatW"], sig["QuatX"], sig["QuatY"], sig["QuatZ"]
+            norm = math.sqrt(w * w + x * x + y * y + z * z)
             if abs(norm - 1.0) > 0.05:
                 raise BadFrame("quaternion not unit")
-            imu.quat = tuple([q / norm for q in quat])
+            imu.quat = (w / norm, x / norm, y / norm, z / norm)
         elif part == "gyro":
             imu.gyro = (sig["RateX"], sig["RateY"], sig["RateZ"])
         else:

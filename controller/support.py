@@ -22,7 +22,7 @@ whose static Fn is ~22.7 N per wheel).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from typing import NamedTuple
 
 from wheelleg.controller import constants as C
 from wheelleg.controller import fivebar
@@ -81,8 +81,7 @@ class Derivative:
         return self.filter(raw)
 
 
-@dataclass(frozen=True)
-class LegMeasurement:
+class LegMeasurement(NamedTuple):
     """One leg this tick, in fivebar's signs."""
 
     F: float  # N, measured push along the leg

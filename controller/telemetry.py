@@ -9,15 +9,14 @@ renaming or dropping one of its keys cannot change what the robot does.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from typing import NamedTuple
 
 from wheelleg.controller.chassis import ChassisReport
 from wheelleg.controller.legs import LEGS
 from wheelleg.controller.jump import Phase
 
 
-@dataclass(frozen=True)
-class LastOutput:
+class LastOutput(NamedTuple):
     """One run tick's result as the next tick sees it (SI units)."""
 
     chassis: ChassisReport
@@ -26,11 +25,13 @@ class LastOutput:
 
     def leg_lengths_m(self) -> tuple[float, float]:
         """Measured L0 (m) of the left and the right leg."""
-        return tuple(self.chassis.legs[leg].length_m for leg in LEGS)
+        legs = self.chassis.legs
+        return legs["left"].length_m, legs["right"].length_m
 
     def leg_angles_rad(self) -> tuple[float, float]:
         """Measured theta (rad) of the left and the right leg."""
-        return tuple(self.chassis.legs[leg].theta_rad for leg in LEGS)
+        legs = self.chassis.legs
+        return legs["left"].theta_rad, legs["right"].theta_rad
 
 
 # Every key of ``debug_record`` with its meaning and unit (the trace's schema describes
@@ -58,6 +59,11 @@ DEBUG_FIELDS = {
 }
 
 
+# each leg's keys (L0, L0_ref, theta, T, Tp) and support-force key, named once
+_LEG_KEYS = tuple((leg, tuple(f"{leg}_{key}" for key in ("L0", "L0_ref", "theta", "T", "Tp")), f"Fn_{leg}")
+                  for leg in LEGS)
+
+
 def debug_record(last: LastOutput) -> dict:
     """The trace's flat debug record (key -> number) of ``last``; read by no control path."""
     c = last.chassis
@@ -65,10 +71,11 @@ def debug_record(last: LastOutput) -> dict:
               "balance_theta": c.balance_theta_rad, "hold_torque": c.hold_torque_nm, "speed": c.speed_m_s,
               "slipping": float(c.slipping), "speed_ref": c.speed_ref_m_s,
               "pitch": c.pitch_rad, "roll": c.roll_rad, "yaw": c.yaw_rad, "yaw_ref": c.yaw_ref_rad}
-    for leg in LEGS:
+    for leg, (length, length_ref, theta, wheel, hip), _ in _LEG_KEYS:
         s = c.legs[leg]
-        record.update({f"{leg}_L0": s.length_m, f"{leg}_L0_ref": s.length_ref_m, f"{leg}_theta": s.theta_rad,
-                       f"{leg}_T": s.wheel_torque_nm, f"{leg}_Tp": s.leg_torque_nm})
-    record.update({f"Fn_{leg}": last.support_n[leg] for leg in LEGS})
+        record[length], record[length_ref], record[theta] = s.length_m, s.length_ref_m, s.theta_rad
+        record[wheel], record[hip] = s.wheel_torque_nm, s.leg_torque_nm
+    for leg, _, fn_key in _LEG_KEYS:
+        record[fn_key] = last.support_n[leg]
     record["jump_phase"] = int(last.jump_phase)
     return record
