@@ -18,8 +18,8 @@ from mcap.reader import make_reader
 
 from wheelleg import dbc
 from wheelleg.dbc import cybergear as cg
-from wheelleg.hil.record import schemas
-from wheelleg.hil.record.frame import Frame
+from wheelleg.hil.record import can_batch, schemas
+from wheelleg.hil.record.frame import Frame, FrameColumns
 from wheelleg.hil.record.trace import TraceReader, TraceWriter
 from wheelleg.hil.record.decode import FrameDecoder
 
@@ -234,6 +234,27 @@ def test_float_records_decode_with_mcaps_ros2_decoder_to_the_values_written(tmp_
     debug = reader.columns("/controller/debug")
     assert list(debug) == list(fields) and np.isnan(debug["FR_foot_z"]).all()
     np.testing.assert_array_equal(reader.sim_state()["t"], [(1_000 + k * 2_000_000) / 1e9 for k in range(5)])
+
+
+def test_a_can_record_by_column_holds_the_frames_it_unpacks_to():
+    """Checks and derived signals read /can/ records by column (``unpack_columns``): the same frames."""
+    rng = np.random.default_rng(3)
+    frames, t_ns = [], 5_000
+    for k in range(40):
+        t_ns += int(rng.integers(0, 300_000))
+        fd, extended = k % 9 == 4, bool(rng.integers(2))
+        size = int(rng.integers(0, 65 if fd else 9))
+        frames.append(Frame(t_ns, "vcan1", int(rng.integers(0, 0x1FFFFFFF if extended else 0x7FF)), extended,
+                            rng.bytes(size), size, is_error=k % 13 == 7, is_fd=fd))
+    record = can_batch.pack(frames)
+    columns = can_batch.unpack_columns(record, frames[0].t_ns)
+    expected = FrameColumns.of(can_batch.unpack(record, frames[0].t_ns, "vcan1"))
+    for name in ("t_ns", "arbitration_id", "is_extended", "is_error"):
+        np.testing.assert_array_equal(getattr(columns, name), getattr(expected, name))
+        assert getattr(columns, name).dtype == getattr(expected, name).dtype
+    assert columns.data == expected.data == [f.data for f in frames]
+    with pytest.raises(ValueError):
+        can_batch.unpack_columns(record[:len(record) // 2], 0)
 
 
 def test_sim_state_prepared_before_the_first_record_reads_back_the_same(tmp_path):

@@ -27,7 +27,9 @@ import struct
 from functools import lru_cache
 from itertools import accumulate
 
-from wheelleg.hil.record.frame import Frame
+import numpy as np
+
+from wheelleg.hil.record.frame import Frame, FrameColumns
 from wheelleg.hil.record.schemas import CDR_LE
 
 EXTENDED, ERROR, REMOTE, FD = 1, 2, 4, 8  # flags bits; bits 4-6: the CAN FD flags (BRS, ESI)
@@ -103,3 +105,28 @@ def unpack(record: bytes, log_time_ns: int, channel: str, bus: str = "") -> list
                          bool(flag & ERROR), bool(flag & REMOTE), bool(flag & FD), flag >> _FD_SHIFT))
         start += size
     return out
+
+
+def unpack_columns(record: bytes, log_time_ns: int) -> FrameColumns:
+    """The frames of one ``/can/`` record by column (what ``unpack`` gives, without a ``Frame`` each)."""
+    if record[:4] != CDR_LE:
+        raise ValueError("/can/: not a little-endian CDR record")
+    (n,) = _COUNT.unpack_from(record, 4)
+    gaps = np.frombuffer(record, dtype="<u4", count=n, offset=8)
+    ids = np.frombuffer(record, dtype="<u4", count=n, offset=12 + 4 * n)
+    at = 4 + 8 + 8 * n + 4  # the flags, as in ``unpack``
+    flags = np.frombuffer(record, dtype=np.uint8, count=n, offset=at)
+    for _ in range(2):  # dlc, length
+        at += n
+        at += -(at - 4) % 4 + 4
+    lengths = record[at:at + n]
+    at += n
+    at += -(at - 4) % 4 + 4
+    if len(flags) != n or len(lengths) != n:
+        raise ValueError(f"/can/: a record of {n} frames is cut short")
+    data, start = [], at
+    for size in lengths:
+        data.append(record[start:start + size])
+        start += size
+    return FrameColumns(log_time_ns + np.cumsum(gaps, dtype=np.int64), ids.astype(np.int64),
+                        (flags & EXTENDED) != 0, (flags & ERROR) != 0, data)

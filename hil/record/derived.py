@@ -18,14 +18,12 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Iterable
-
 import cantools
 import numpy as np
 
 from wheelleg import dbc
 from wheelleg.hil.record.decode import FrameDecoder
-from wheelleg.hil.record.frame import Frame
+from wheelleg.hil.record.frame import FrameColumns
 
 
 def attached_dbs(attachments: dict[str, bytes], run: dict[str, str]) -> dict[str, cantools.database.Database]:
@@ -60,35 +58,33 @@ def _database(texts: tuple[str, ...]) -> cantools.database.Database:
     return db
 
 
-def decoded_columns(decoder: FrameDecoder, frames: Iterable[Frame], message: str) -> dict[str, np.ndarray]:
-    """'t' (s) and every field of ``message`` over ``frames`` (one channel's), shape (n,); {} if none.
+def decoded_columns(decoder: FrameDecoder, channel: str, frames: FrameColumns, message: str) -> dict[str, np.ndarray]:
+    """'t' (s) and every field of ``message`` over ``frames`` (``channel``'s), shape (n,); {} if none.
 
     Keys in the order a JSON topic gives them: 't', then each field as it first
     appears; a frame without a field (another multiplexer value, a request
-    among replies) has NaN there.
+    among replies) has NaN there. The plan of each distinct id is looked up once.
     """
-    times, ids, payloads, plan = [], [], [], None
-    for f in frames:
-        if f.is_error:
-            continue
-        p = decoder.plan(f.channel, f.arbitration_id, f.is_extended)
-        if p is not None and p.name == message:
-            plan = p
-            times.append(f.t_ns)
-            ids.append(f.arbitration_id)
-            payloads.append(f.data)
-    if plan is None:
+    keys = frames.arbitration_id * 2 + frames.is_extended  # (id, extended) as one number
+    distinct = np.unique(keys[~frames.is_error])
+    plans = {int(k): decoder.plan(channel, int(k) >> 1, bool(k & 1)) for k in distinct}
+    mine = [k for k, p in plans.items() if p is not None and p.name == message]
+    if not mine:
         return {}
+    plan = plans[mine[-1]]  # one plan per channel and message
+    where = np.flatnonzero(np.isin(keys, mine) & ~frames.is_error)
+    times, ids = frames.t_ns[where], frames.arbitration_id[where].tolist()
+    payloads = [frames.data[i] for i in where.tolist()]
     batch = plan.decode_columns(ids, payloads)
     if batch is not None:
         names, columns, id_fields = batch
-        out = {"t": np.array(times, dtype=np.int64) / 1e9}
+        out = {"t": times / 1e9}
         for name, column in zip(names, columns):
             out[name] = _finite(np.array(column, dtype=float))
         if id_fields is not None:
             out.update(_field_columns(id_fields))
         return out
-    rows = [(t, plan.decode(i, d)) for t, i, d in zip(times, ids, payloads)]
+    rows = [(t, plan.decode(i, d)) for t, i, d in zip(times.tolist(), ids, payloads)]
     return decoded_rows_columns([(t, row) for t, row in rows if row is not None])
 
 

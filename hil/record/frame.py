@@ -9,6 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import can
+import numpy as np
 
 
 @dataclass(slots=True)
@@ -55,3 +56,31 @@ class Frame:
     def where(self) -> str:
         """'line 12' for a log, 't=1.234567 s' for a trace."""
         return f"line {self.line_no}" if self.line_no else f"t={self.t_ns / 1e9:.6f} s"
+
+
+@dataclass
+class FrameColumns:
+    """One channel's frames by column, in time order (``TraceReader.frame_columns``): what
+    readers that judge every frame of a bus at once (checks, derived signals) need,
+    without a ``Frame`` object each. Arrays have shape (n,)."""
+
+    t_ns: np.ndarray  # int64, bus time (ns)
+    arbitration_id: np.ndarray  # int64
+    is_extended: np.ndarray  # bool
+    is_error: np.ndarray  # bool
+    data: list[bytes]  # each frame's payload
+
+    @classmethod
+    def of(cls, frames: list[Frame]) -> "FrameColumns":
+        return cls(np.array([f.t_ns for f in frames], dtype=np.int64),
+                   np.array([f.arbitration_id for f in frames], dtype=np.int64),
+                   np.array([f.is_extended for f in frames], dtype=bool),
+                   np.array([f.is_error for f in frames], dtype=bool), [f.data for f in frames])
+
+    @classmethod
+    def joined(cls, parts: list["FrameColumns"]) -> "FrameColumns":
+        if not parts:
+            return cls.of([])
+        return cls(*(np.concatenate([getattr(p, name) for p in parts]) for name in
+                     ("t_ns", "arbitration_id", "is_extended", "is_error")),
+                   [d for p in parts for d in p.data])

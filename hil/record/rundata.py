@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 from collections import defaultdict
-from collections.abc import Iterable
 from pathlib import Path
 
 import numpy as np
@@ -11,7 +10,7 @@ from wheelleg.dbc import cybergear as cg
 from wheelleg.dbc import CAN1, load_file
 from wheelleg.hil import robots
 from wheelleg.hil.bus.busload import LOAD_TOPIC
-from wheelleg.hil.record.frame import Frame
+from wheelleg.hil.record.frame import FrameColumns
 from wheelleg.hil.record.sources import TraceError, open_recording
 from wheelleg.hil.record.trace import TraceReader
 from wheelleg.hil.run.scenario import RunData
@@ -21,20 +20,28 @@ _MOTION = load_file("cybergear.dbc").get_message_by_name("CG_MotionCmd")
 _KP, _KD = _MOTION.get_signal_by_name("Kp"), _MOTION.get_signal_by_name("Kd")  # big-endian u16, bytes 4-5, 6-7
 
 
-def _commands(frames: Iterable[Frame]) -> tuple[dict, dict]:
-    """What type-1 (MIT) frames commanded, per motor id: (t (n,) s, torque feed-forward (n,) N m) and
-    (t (n,) s, Kp (n,) N m/rad, Kd (n,) N m s/rad)."""
-    series = defaultdict(lambda: ([], [], [], []))
-    for frame in frames:
-        if frame.is_extended and cg.comm_type(frame.arbitration_id) == cg.T_MOTION and len(frame.data) == 8:
-            t, tau, kp, kd = series[cg.target(frame.arbitration_id)]
-            t.append(frame.t_ns / 1e9)
-            tau.append(cg.motion_torque(frame.arbitration_id))
-            kp.append(int.from_bytes(frame.data[4:6], "big") * _KP.scale + _KP.offset)
-            kd.append(int.from_bytes(frame.data[6:8], "big") * _KD.scale + _KD.offset)
-    arrays = {k: tuple(np.array(v) for v in columns) for k, columns in series.items()}
-    return ({k: (t, tau) for k, (t, tau, _, _) in arrays.items()},
-            {k: (t, kp, kd) for k, (t, _, kp, kd) in arrays.items()})
+def _commands(buses: list[FrameColumns]) -> tuple[dict, dict]:
+    """What type-1 (MIT) frames commanded, per motor id (in the order each first commands): (t (n,) s,
+    torque feed-forward (n,) N m) and (t (n,) s, Kp (n,) N m/rad, Kd (n,) N m s/rad)."""
+    parts: dict[int, list[tuple]] = {}  # motor -> (t, tau, kp, kd) of each bus it is on
+    for frames in buses:
+        ids = frames.arbitration_id
+        full = np.fromiter(map(len, frames.data), dtype=np.int64, count=len(frames.data)) == 8
+        motion = np.flatnonzero(frames.is_extended & ~frames.is_error & full & (cg.comm_type(ids) == cg.T_MOTION))
+        if not len(motion):
+            continue
+        targets = cg.target(ids[motion])
+        words = np.frombuffer(b"".join([frames.data[i] for i in motion.tolist()]), dtype=">u2").reshape(-1, 4)
+        _, first = np.unique(targets, return_index=True)
+        for motor in targets[np.sort(first)].tolist():
+            rows = targets == motor
+            at = motion[rows]
+            parts.setdefault(motor, []).append((frames.t_ns[at] / 1e9, cg.motion_torque(ids[at]),
+                                                words[rows, 2] * _KP.scale + _KP.offset,
+                                                words[rows, 3] * _KD.scale + _KD.offset))
+    series = {motor: [np.concatenate(column) for column in zip(*bus_parts)] for motor, bus_parts in parts.items()}
+    return ({k: (t, tau) for k, (t, tau, _, _) in series.items()},
+            {k: (t, kp, kd) for k, (t, _, kp, kd) in series.items()})
 
 
 def _motor_roles(robot: str) -> list[str]:
@@ -58,7 +65,8 @@ def load_run(path: Path | str) -> RunData:
         raise TraceError(f"{path}: run data needs the rig's MCAP trace, not a candump log")
     channels = recording.channels
     can1 = channels.get(CAN1, "")
-    torques, gains = _commands(f for role in _motor_roles(recording.robot) for f in recording.bus_frames(role))
+    torques, gains = _commands([reader.frame_columns(channels[role]) for role in _motor_roles(recording.robot)
+                                if role in channels])
     return RunData(
         state=reader.sim_state(),
         heartbeat=reader.decoded(can1, "Heartbeat"),

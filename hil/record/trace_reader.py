@@ -17,7 +17,7 @@ from mcap.records import Attachment, Channel, Message, Metadata, Schema
 from wheelleg.hil.record import can_batch, float_records, schemas
 from wheelleg.hil.record.decode import FrameDecoder
 from wheelleg.hil.record.derived import attached_dbs, decoded_columns, rows_columns
-from wheelleg.hil.record.frame import Frame
+from wheelleg.hil.record.frame import Frame, FrameColumns
 from wheelleg.hil.record.mcap_read import ChunkMessages, RecordScan, read_records
 from wheelleg.hil.record.schemas import CAN_PREFIX, DECODED_PREFIX, EVENTS_TOPIC, SIM_STATE_TOPIC
 from wheelleg.hil.record.trace_json import dumps, loads
@@ -159,6 +159,15 @@ class TraceReader:
             _, can_id, extended, dlc, error, n = unpack_from(data)
             yield Frame(t_ns, channel, can_id, bool(extended), data[head:head + n], dlc, bus, bool(error))
 
+    def frame_columns(self, channel: str) -> FrameColumns:
+        """One channel's frames by column (``FrameColumns``), for readers that take all of them at once."""
+        topic = CAN_PREFIX + channel
+        schema = self._schemas.get(self._schema_of.get(topic, 0))
+        if schema is not None and schema.name == schemas.CAN_FRAMES_NAME and b"uint32[] gap_ns" in schema.data:
+            return FrameColumns.joined([can_batch.unpack_columns(data, t_ns)
+                                        for t_ns, data in self._messages.get(topic, ())])
+        return FrameColumns.of(list(self._channel_frames(channel, "")))  # older layouts, frame by frame
+
     def sim_state(self) -> dict[str, np.ndarray]:
         """``/sim/state`` as arrays keyed by field, each shape (n,); {} if absent."""
         return self.columns(SIM_STATE_TOPIC)
@@ -178,7 +187,7 @@ class TraceReader:
             return rows_columns(self.topic(topic), time_key="t")
         if self._decoder is None:
             return {}
-        return decoded_columns(self._decoder, self.frames(channel), message)
+        return decoded_columns(self._decoder, channel, self.frame_columns(channel), message)
 
     def _derived_rows(self, topic: str) -> list[tuple[int, dict]]:
         channel, _, message = topic[len(DECODED_PREFIX):].partition("/")
