@@ -29,7 +29,7 @@ from pathlib import Path
 
 import can
 
-from tools.loop_instructions import _callgrind
+from tools.loop_instructions import callgrind
 
 
 def _outputs(result) -> tuple:
@@ -94,7 +94,7 @@ def replay(path: Path, reps: int, counting: bool = False) -> tuple[int, float, i
         program = program_class()
         on_frame, tick, results = program.on_frame, program.tick, []
         if counting:
-            _callgrind("on")
+            callgrind("on")
         start = time.perf_counter()
         for is_frame, a, b, c in inputs:
             if is_frame:
@@ -103,7 +103,7 @@ def replay(path: Path, reps: int, counting: bool = False) -> tuple[int, float, i
                 results.append(tick(a, b))
         best = min(best, time.perf_counter() - start)
         if counting:
-            _callgrind("off")
+            callgrind("off")
         differ = sum(_outputs(r) != e for r, e in zip(results, expected)) + abs(len(results) - len(expected))
     return len(expected), best / max(1, len(expected)), differ
 

@@ -32,15 +32,16 @@ def count_loop(scenario_name: str, duration_s: float, decode: bool, out: Path) -
     rig = Rig(scenario, RigConfig(decode=decode, trace_flush_s=None), out)
     ticks = round(scenario.duration_s / rig.config.period_s)
     rig.schedule.step_tick(rig, 0)  # first-use caches filled outside the count
-    _callgrind("on")
+    callgrind("on")
     for tick in range(1, ticks):
         rig.schedule.step_tick(rig, tick)
     rig.close()
-    _callgrind("off")
+    callgrind("off")
     return ticks - 1
 
 
-def _callgrind(state: str) -> None:
+def callgrind(state: str) -> None:
+    """Switch valgrind's instruction counting for this process "on" or "off" (it runs inside callgrind)."""
     subprocess.run(["callgrind_control", "-i", state, str(os.getpid())], check=True, capture_output=True)
 
 

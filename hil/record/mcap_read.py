@@ -23,10 +23,15 @@ from mcap.records import (Attachment, AttachmentIndex, Channel, Chunk, ChunkInde
                           SummaryOffset)
 from mcap.stream_reader import CRCValidationError, breakup_chunk, read_magic
 
-from wheelleg.hil.record.mcap_chunks import _MESSAGE_FIELDS_LEN, _OP_MESSAGE, zstandard
+try:
+    import zstandard
+except ImportError:  # mcap lists it as optional: such files are then read through mcap's own code
+    zstandard = None
 
 _RECORD_HEAD = struct.Struct("<BQ")  # opcode, record length
 _MESSAGE_FIELDS = struct.Struct("<HIQQ")  # channel id, sequence, log time, publish time
+_MESSAGE_FIELDS_LEN = _MESSAGE_FIELDS.size
+_OP_MESSAGE = int(Opcode.MESSAGE)
 
 # What a cut-off file can raise while its last record is parsed.
 _CORRUPT_TAIL = (McapError, struct.error, ValueError, EOFError, UnicodeDecodeError)
