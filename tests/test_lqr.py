@@ -8,13 +8,22 @@ import pytest
 from wheelleg.controller import constants as C
 from wheelleg.controller import lqr
 from wheelleg.controller import params as P
-from wheelleg.controller.design import lqr as design
 
 from sharing import same_fixture
 
 # every test here reaches the design's sympy derivation (design._linearised_model, cached per
 # process, ~1 s) or the fixtures built on it: on one xdist worker it is derived once, not on each
 pytestmark = same_fixture("lqr design")
+
+design = None  # wheelleg.controller.design.lqr, imported by _design_module below
+
+
+@pytest.fixture(scope="module", autouse=True)
+def _design_module():
+    """The design module (sympy and scipy: ~0.5 s of imports) on the worker that runs these tests
+    only; at module level every xdist worker imported it while collecting."""
+    global design
+    from wheelleg.controller.design import lqr as design  # noqa: PLC0415
 
 SAMPLES = np.linspace(P.LEG_LENGTH_MIN, P.LEG_LENGTH_MAX, 200)
 
