@@ -1,10 +1,15 @@
 """Shared fixtures: keep this small."""
 from __future__ import annotations
 
+import os
 import uuid
 
 import can
 import pytest
+
+# As `wheelleg` itself does (hil/cli.py): no test renders, and without this MuJoCo loads an OpenGL
+# back end (glfw) on import, 0.1-0.2 s in each xdist worker and in each process a test starts
+os.environ.setdefault("MUJOCO_GL", "disable")
 
 
 @pytest.fixture

@@ -8,7 +8,8 @@ the work only when they land on the same worker. With ``--dist loadgroup``
 - ``same_run(NAME)`` marks a test that calls ``rig_run(NAME)`` with the same
   arguments (seed, duration, plant) as another test; ``each_run(NAMES)`` gives
   ``parametrize`` values, each in its run's group;
-- ``same_fixture(NAME)`` marks the tests that use one costly module fixture.
+- ``same_fixture(NAME)`` marks the tests that use one costly module fixture (or a module's
+  cache that lives as long as the process).
 
 A missing mark costs time, never a result: the run or fixture is made twice.
 """

@@ -141,7 +141,9 @@ def test_cybergeardriver_drives_every_command(emulator):
     bus = can.Bus(**bus_kwargs)
     motor = CyberGearMotor(2, send_message=lambda m: bus.send(
         can.Message(arbitration_id=m.arbitration_id, data=m.data, is_extended_id=True)))
-    notifier = can.Notifier(bus, [motor.message_received])
+    # timeout: how long its thread's recv waits before it sees a stop (python-can's default 1 s was
+    # the test's last second: nothing arrives once the motor is left alone)
+    notifier = can.Notifier(bus, [motor.message_received], timeout=0.05)
     try:
         def param(name, target, tol):
             def check():

@@ -8,9 +8,22 @@ import pytest
 from wheelleg.controller import constants as C
 from wheelleg.controller import lqr
 from wheelleg.controller import params as P
-from wheelleg.controller.design import lqr as design
 
 from sharing import same_fixture
+
+# every test here reaches the design's sympy derivation (design._linearised_model, cached per
+# process, ~1 s) or the fixtures built on it: on one xdist worker it is derived once, not on each
+pytestmark = same_fixture("lqr design")
+
+design = None  # wheelleg.controller.design.lqr, imported by _design_module below
+
+
+@pytest.fixture(scope="module", autouse=True)
+def _design_module():
+    """The design module (sympy and scipy: ~0.5 s of imports) on the worker that runs these tests
+    only; at module level every xdist worker imported it while collecting."""
+    global design
+    from wheelleg.controller.design import lqr as design  # noqa: PLC0415
 
 SAMPLES = np.linspace(P.LEG_LENGTH_MIN, P.LEG_LENGTH_MAX, 200)
 
@@ -144,7 +157,6 @@ def test_dlqr_gain_is_optimal_for_its_riccati_solution():
 
 # --- the fitted table --------------------------------------------------------------------
 @pytest.mark.slow
-@same_fixture("exact_gains")
 def test_fit_error_is_small(exact_gains):
     fit = np.array([fitted(L0) for L0 in SAMPLES])
     assert np.max(np.abs(fit - exact_gains)) / np.max(np.abs(exact_gains)) < 1e-3
@@ -157,7 +169,6 @@ def test_closed_loop_is_stable_over_the_whole_range():
 
 
 @pytest.mark.slow
-@same_fixture("fresh_design")
 def test_committed_table_is_what_the_script_produces(fresh_design):
     table = design.load_table()
     assert design.table_matches(fresh_design, table) == []
@@ -166,7 +177,6 @@ def test_committed_table_is_what_the_script_produces(fresh_design):
 
 
 @pytest.mark.slow
-@same_fixture("fresh_design")
 def test_table_check_catches_a_stale_table(fresh_design, tmp_path, monkeypatch, capsys):
     stale = fresh_design.coeffs.copy()
     stale[1, 4, 3] *= 1.001  # Tp's phi gain, constant term
@@ -177,6 +187,9 @@ def test_table_check_catches_a_stale_table(fresh_design, tmp_path, monkeypatch, 
     path.write_text(design.render(dataclasses.replace(fresh_design, arm_coeffs=fresh_design.arm_coeffs * 1.001)))
     assert any(p.startswith("ARM") for p in design.table_matches(fresh_design, design.load_table(path)))
     monkeypatch.setattr(design, "GAINS_PATH", path)
+    # the fresh design --check compares with is the fixture's (the same call, ~1 s; the test above checks it)
+    real_design = design.design
+    monkeypatch.setattr(design, "design", lambda dt: fresh_design if dt == fresh_design.dt else real_design(dt))
     assert design.main(["--check"]) == 1
     assert "stale table" in capsys.readouterr().err
     path.write_text(design.render(fresh_design))

@@ -438,14 +438,14 @@ _KILLED_WRITER = textwrap.dedent("""
     from wheelleg.hil.record.frame import Frame
     from wheelleg.hil.record.trace import TraceWriter
     mode, path = sys.argv[1], sys.argv[2]
-    if mode == "bus-time":  # bus time runs at about real time: chunks close on their span
+    if mode == "bus-time":  # bus time runs faster than real time, as in a lockstep run: chunks close on their span
         trace = TraceWriter(path, metadata={"run": {"scenario": "killed"}},
                             attachments=[("note.txt", b"kept", "text/plain")], flush_interval_s=None)
-        step_ns, per_report = 100_000, 200
+        step_ns, per_report, pause_s = 100_000, 200, 0.005
     else:  # bus time crawls: only the wall-clock flush closes chunks
         trace = TraceWriter(path, metadata={"run": {"scenario": "killed"}}, chunk_size=1 << 30,
                             chunk_span_s=1e6, flush_interval_s=0.25)
-        step_ns, per_report = 1, 200
+        step_ns, per_report, pause_s = 1, 200, 0.02
     trace.start()
     t0, n = time.monotonic(), 0
     while True:
@@ -453,7 +453,7 @@ _KILLED_WRITER = textwrap.dedent("""
         n += 1
         if n % per_report == 0:
             print(f"{n} {n * step_ns} {time.monotonic() - t0:.6f}", flush=True)
-            time.sleep(0.02)
+            time.sleep(pause_s)
 """)
 
 
