@@ -71,7 +71,12 @@ class SignalCodec:
         identity = isinstance(conv, IdentityConversion)
         self.conv_scale, self.conv_offset = (None, None) if identity else (conv.scale, conv.offset)
         # the manual's truncating encoder over [minimum, maximum] (``truncate``), unsigned fields
-        self.truncated = functools.partial(truncate, self.minimum, self.maximum, self.mask)
+        self.truncated = functools.partial(truncate, self.minimum, self.maximum, self.mask) \
+            if self.has_span() else functools.partial(_no_span, self.name, self.minimum, self.maximum)
+
+    def has_span(self) -> bool:
+        """Whether the DBC gives a range of more than one value, which truncation maps onto the field."""
+        return self.minimum is not None and self.maximum is not None and self.minimum < self.maximum
 
     # -- raw <-> physical ----------------------------------------------------------
     def value(self, raw):
@@ -254,6 +259,8 @@ def _compiled_encoder(codec: MessageCodec, kinds: dict):
                       f"v{i} = {f.raw_hi} if r{i} >= {f.raw_hi} else {f.raw_lo} if r{i} <= {f.raw_lo} "
                       f"else int(round(r{i}))"]
         else:  # truncate(minimum, maximum, mask, value)
+            if not f.has_span():
+                _no_span(f"{codec.name}.{name}", f.minimum, f.maximum)
             env[f"lo{i}"], env[f"hi{i}"], env[f"span{i}"] = f.minimum, f.maximum, f.maximum - f.minimum
             lines += [f"if a{i} != a{i}: v{i} = 0", "else:",
                       f"    a{i} = lo{i} if a{i} < lo{i} else hi{i} if a{i} > hi{i} else a{i}",
@@ -267,6 +274,11 @@ def _compiled_encoder(codec: MessageCodec, kinds: dict):
 
 def _length_error(name: str, data: bytes, length: int):
     raise ValueError(f"{name}: {len(data)} bytes, expected {length}")
+
+
+def _no_span(name: str, minimum, maximum, *_):
+    raise ValueError(f"{name}: its DBC range [{minimum}|{maximum}] has no span to truncate a value over "
+                     f"(the manual's float_to_uint needs minimum < maximum); encode it raw or rounded")
 
 
 def _range_error(fields: tuple, raws: tuple):

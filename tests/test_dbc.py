@@ -202,7 +202,7 @@ def test_a_compiled_encoder_gives_encode_raw_of_the_converted_values(data):
     kinds, values, raw = {}, [], {}
     for f in data.draw(st.permutations(codec.fields), label="order"):
         ways = ["raw"] if f.float_format is not None else ["raw", "rounded"] + (
-            ["truncated"] if f.minimum is not None and f.maximum is not None and f.minimum < f.maximum else [])
+            ["truncated"] if f.has_span() else [])
         how = kinds[f.name] = data.draw(st.sampled_from(ways), label=f.name)
         if how == "raw":
             value = data.draw(st.integers(f.raw_lo - 1, f.raw_hi + 1) if f.float_format is None
@@ -220,6 +220,18 @@ def test_a_compiled_encoder_gives_encode_raw_of_the_converted_values(data):
             encode(*values)
     else:
         assert encode(*values) == expected, (msg.name, kinds)
+
+
+def test_truncating_a_signal_whose_range_has_no_span_is_a_clear_error():
+    """CG_QuickMove's Index is the constant [28677|28677]: truncation has nothing to map it onto."""
+    quick = MessageCodec.of(load_file("cybergear_id.dbc").get_message_by_name("CG_QuickMove"))
+    index = quick.signals["Index"]
+    assert not index.has_span()
+    with pytest.raises(ValueError, match=r"Index: its DBC range \[28677\|28677\] has no span"):
+        index.truncated(28677.0)
+    kinds = {name: "raw" for name in quick.signals}
+    with pytest.raises(ValueError, match=r"CG_QuickMove.Index: its DBC range .* has no span"):
+        quick.encoder({**kinds, "Index": "truncated"})
 
 
 def test_a_compiled_encoder_needs_every_signal_once():
