@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import functools
 import math
+
 import cantools
 import numpy as np
 

@@ -144,13 +144,13 @@ class TraceReader:
                 yield Frame(t_ns, channel, r["id"], r["extended"], bytes.fromhex(r["data"]), r["dlc"], bus,
                             r["error"])
             return
-        schema = self._schemas.get(self._schema_of.get(topic, 0))
-        name = schema.name if schema is not None else ""
-        if name == schemas.CAN_FRAMES_NAME and b"uint32[] gap_ns" in schema.data:  # one message per bus and window
+        if self._batched(topic):  # one message per bus and window
             unpack = can_batch.unpack
             for t_ns, data in records:
                 yield from unpack(data, t_ns, channel, bus)
             return
+        schema = self._schemas.get(self._schema_of.get(topic, 0))
+        name = schema.name if schema is not None else ""
         if name != schemas.CAN_FRAME_NAME:
             raise ValueError(f"{self.path}: {topic} has schema {name!r} in a layout this reader does not know "
                              f"(it reads {schemas.CAN_FRAMES_NAME} and {schemas.CAN_FRAME_NAME}): a newer trace?")
@@ -162,11 +162,15 @@ class TraceReader:
     def frame_columns(self, channel: str) -> FrameColumns:
         """One channel's frames by column (``FrameColumns``), for readers that take all of them at once."""
         topic = CAN_PREFIX + channel
-        schema = self._schemas.get(self._schema_of.get(topic, 0))
-        if schema is not None and schema.name == schemas.CAN_FRAMES_NAME and b"uint32[] gap_ns" in schema.data:
+        if self._batched(topic):
             return FrameColumns.joined([can_batch.unpack_columns(data, t_ns)
                                         for t_ns, data in self._messages.get(topic, ())])
         return FrameColumns.of(list(self._channel_frames(channel, "")))  # older layouts, frame by frame
+
+    def _batched(self, topic: str) -> bool:
+        """Whether a ``/can/`` topic holds one message per bus and window (``can_batch``)."""
+        schema = self._schemas.get(self._schema_of.get(topic, 0))
+        return schema is not None and schema.name == schemas.CAN_FRAMES_NAME and b"uint32[] gap_ns" in schema.data
 
     def sim_state(self) -> dict[str, np.ndarray]:
         """``/sim/state`` as arrays keyed by field, each shape (n,); {} if absent."""
