@@ -8,6 +8,7 @@ turned by roll and pitch only.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -26,18 +27,29 @@ class Sensed:
     rpy: np.ndarray  # (3,) roll, pitch, yaw
     gyro: np.ndarray  # (3,) body rates
 
-    @property
+    # The tick reads these several times from the same measurement: each is made once, read-only
+    # (a caller that changed one would change it for the others; feet_level hands out copies).
+    @cached_property
     def level_rotation(self) -> np.ndarray:
         """Body -> level frame (3, 3): measured roll and pitch."""
-        return rpy_matrix(self.rpy[0], self.rpy[1], 0.0)
+        return _read_only(rpy_matrix(self.rpy[0], self.rpy[1], 0.0))
+
+    @cached_property
+    def _feet_level(self) -> np.ndarray:
+        return _read_only(legs.feet_in_body(self.q) @ self.level_rotation.T)
 
     def feet_level(self) -> np.ndarray:
-        """Foot centres (m, (4, 3)) in the level frame."""
-        return legs.feet_in_body(self.q) @ self.level_rotation.T
+        """Foot centres (m, (4, 3)) in the level frame (a copy the caller may change)."""
+        return self._feet_level.copy()
 
     def upright_cos(self) -> float:
         """cos of the angle between the body's z and the world's up: 1 upright, -1 upside down."""
         return float(self.level_rotation[2, 2])
+
+
+def _read_only(array: np.ndarray) -> np.ndarray:
+    array.flags.writeable = False
+    return array
 
 
 def height_over_feet(feet_level: np.ndarray, stance) -> float:
