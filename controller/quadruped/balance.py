@@ -15,6 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from wheelleg.controller.bounds import within
 from wheelleg.controller.quadruped import constants as C
 from wheelleg.controller.quadruped import params as P
 from wheelleg.controller.quadruped import legs, stance
@@ -38,14 +39,20 @@ class Posture:
 
 def limited(posture: Posture) -> Posture:
     """``posture`` within the attitude limit and the height range."""
-    a = P.ATTITUDE_LIMIT
-    return Posture(*(float(np.clip(v, -a, a)) for v in (posture.roll, posture.pitch, posture.yaw)),
-                   float(np.clip(posture.height, *P.HEIGHT_RANGE)))
+    a, (low, high) = P.ATTITUDE_LIMIT, P.HEIGHT_RANGE
+    # bounds.within makes np.clip's comparisons on one float (NaN stays NaN), without numpy's per-call cost
+    return Posture(within(posture.roll, -a, a), within(posture.pitch, -a, a), within(posture.yaw, -a, a),
+                   within(posture.height, low, high))
 
 
 def slew(current: np.ndarray, target: np.ndarray, max_step: np.ndarray) -> np.ndarray:
     """``current`` moved toward ``target`` by at most ``max_step`` (elementwise)."""
     return current + np.clip(target - current, -max_step, max_step)
+
+
+def slew_scalar(current: float, target: float, max_step: float) -> float:
+    """``slew`` of one float (the same operations, in Python floats)."""
+    return current + within(target - current, -max_step, max_step)
 
 
 class BalanceStand:

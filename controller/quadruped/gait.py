@@ -20,10 +20,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from wheelleg.controller.bounds import within
 from wheelleg.controller.quadruped import constants as C
 from wheelleg.controller.quadruped import params as P
 from wheelleg.controller.quadruped import legs, stance
-from wheelleg.controller.quadruped.balance import slew
+from wheelleg.controller.quadruped.balance import slew, slew_scalar
 from wheelleg.controller.quadruped.getup import min_jerk
 from wheelleg.controller.quadruped.legs import JointCommands
 from wheelleg.controller.quadruped.rotations import rot_z, wrap
@@ -42,8 +43,9 @@ class Velocity:
 
     def limited(self) -> "Velocity":
         (vx_max, vy_max), w_max = P.VELOCITY_LIMIT, P.YAW_RATE_LIMIT
-        return Velocity(float(np.clip(self.vx, -vx_max, vx_max)), float(np.clip(self.vy, -vy_max, vy_max)),
-                        float(np.clip(self.yaw_rate, -w_max, w_max)))
+        # bounds.within makes np.clip's comparisons on one float (NaN stays NaN), without numpy's per-call cost
+        return Velocity(within(self.vx, -vx_max, vx_max), within(self.vy, -vy_max, vy_max),
+                        within(self.yaw_rate, -w_max, w_max))
 
 
 def leg_phases(clock: float) -> np.ndarray:
@@ -149,7 +151,7 @@ class Trot:
         target = Velocity() if stopping else asked.limited()
         limits = np.array([P.ACCELERATION, P.ACCELERATION, P.YAW_ACCELERATION]) * dt
         self.velocity_set = slew(self.velocity_set, np.array([target.vx, target.vy, target.yaw_rate]), limits)
-        self.height = float(slew(np.array([self.height]), np.array([height_m]), np.array([P.HEIGHT_RATE * dt]))[0])
+        self.height = slew_scalar(self.height, height_m, P.HEIGHT_RATE * dt)
         yaw_rate = self.feet_yaw_rate = self._yaw_rate(float(sensed.rpy[2]))
         self.clock = (self.clock + dt / P.GAIT_PERIOD) % 1.0
         phases = leg_phases(self.clock)
@@ -188,7 +190,7 @@ class Trot:
                               0.0])
         moved = rot_z(-yaw_rate * dt) @ foot - np.array([self.velocity_set[0], self.velocity_set[1], 0.0]) * dt
         ground = -(self.height - C.FOOT_RADIUS)
-        moved[2] = float(slew(np.array([foot[2]]), np.array([ground]), np.array([P.HEIGHT_RATE * dt]))[0])
+        moved[2] = slew_scalar(float(foot[2]), ground, P.HEIGHT_RATE * dt)
         self.feet[leg] = moved
         return velocity
 
