@@ -54,7 +54,10 @@ def _read_only(array: np.ndarray) -> np.ndarray:
 
 def height_over_feet(feet_level: np.ndarray, stance) -> float:
     """Body centre's height (m) over the ground under the stance feet (bool (4,)): their mean depth + the foot radius."""
-    stance = np.asarray(stance, dtype=bool)
-    if not stance.any():
+    # In Python floats: numpy's mean of four or fewer adds them left to right and divides by their
+    # count, as here (a numpy call costs more than the sum); sum's start 0 only changes a -0.0 sum
+    # to 0.0, which the added foot radius makes the same.
+    depths = [foot[2] for foot, down in zip(feet_level.tolist(), np.asarray(stance, dtype=bool).tolist()) if down]
+    if not depths:
         return float("nan")
-    return float(-feet_level[stance, 2].mean()) + C.FOOT_RADIUS
+    return -(sum(depths) / len(depths)) + C.FOOT_RADIUS
