@@ -16,17 +16,20 @@ from wheelleg.controller.quadruped import kinematics as K
 
 HIPS = np.array([C.hip_position(leg) for leg in range(4)])  # m, (4, 3): the abduction joints in the body frame
 LOWER = np.array([[C.joint_range(leg, j)[0] for j in range(3)] for leg in range(4)])  # rad, (4, 3)
+SIDES = tuple(C.SIDE[leg] for leg in range(4))  # +1 left, -1 right
 UPPER = np.array([[C.joint_range(leg, j)[1] for j in range(3)] for leg in range(4)])  # rad, (4, 3)
 
 
 def feet_in_body(q: np.ndarray, geo: K.LegGeometry = C.GEOMETRY) -> np.ndarray:
     """Foot centres (m, (4, 3), body frame) of joint angles ``q`` (rad, (4, 3))."""
-    return HIPS + np.array([K.forward(q[leg], C.SIDE[leg], geo) for leg in range(4)])
+    # rows as Python floats (tolist: their exact values), the four feet stacked by one numpy call
+    return HIPS + np.array([K.foot_point(row, side, geo) for row, side in zip(q.tolist(), SIDES)])
 
 
 def joints_for_feet(feet_body: np.ndarray, geo: K.LegGeometry = C.GEOMETRY) -> np.ndarray:
     """Joint angles (rad, (4, 3)) that put the feet at ``feet_body`` (m, (4, 3)), within the joint ranges."""
-    q = np.array([K.inverse(feet_body[leg] - HIPS[leg], C.SIDE[leg], geo) for leg in range(4)])
+    legs_p = (feet_body - HIPS).tolist()  # each foot from its hip, as Python floats
+    q = np.array([K.joint_angles(p, side, geo) for p, side in zip(legs_p, SIDES)])
     return np.clip(q, LOWER, UPPER)
 
 
