@@ -75,6 +75,12 @@ class JointCommands:
     def hold(cls, q: np.ndarray, kp, kd, tau: np.ndarray | None = None) -> "JointCommands":
         """Joint PD to ``q`` (rad, (4, 3)) at rest, gains scalar or (4, 3), feed-forward ``tau`` or none."""
         shape = (4, 3)
-        return cls(np.array(q, dtype=float), np.zeros(shape), np.broadcast_to(kp, shape).astype(float),
-                   np.broadcast_to(kd, shape).astype(float),
+        return cls(np.array(q, dtype=float), np.zeros(shape), _gains(kp, shape), _gains(kd, shape),
                    np.zeros(shape) if tau is None else np.array(tau, dtype=float))
+
+
+def _gains(gain, shape: tuple) -> np.ndarray:
+    """A gain, scalar or array, as a float array of ``shape`` (np.full for a number: cheaper than broadcasting)."""
+    if isinstance(gain, (int, float)):
+        return np.full(shape, float(gain))
+    return np.broadcast_to(gain, shape).astype(float)

@@ -19,6 +19,8 @@ tau = -J^T R (legs.torques_for_reactions, the sign trap).
 """
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from wheelleg.controller.quadruped import constants as C
@@ -63,6 +65,14 @@ def wrench_matrix(feet: np.ndarray) -> np.ndarray:
     return A.reshape(6, 3 * n)
 
 
+@functools.lru_cache(maxsize=16)
+def _regularisation(alpha: float, n: int) -> np.ndarray:
+    """alpha I (n, n), made once per (alpha, n): the same entries every tick (read-only)."""
+    matrix = alpha * np.eye(n)
+    matrix.flags.writeable = False
+    return matrix
+
+
 def distribute(feet_from_com: np.ndarray, wrench: np.ndarray, stance, regularisation: float,
                friction: float, fz_min_n: float = 0.0) -> np.ndarray:
     """Ground reactions (N, (4, 3)) on the stance feet that best make ``wrench`` (6,) about the centre of mass.
@@ -77,7 +87,7 @@ def distribute(feet_from_com: np.ndarray, wrench: np.ndarray, stance, regularisa
     if feet.size == 0:
         return reactions
     A = wrench_matrix(feet_from_com[feet])
-    f = np.linalg.solve(A.T @ A + regularisation * np.eye(A.shape[1]), A.T @ np.asarray(wrench, dtype=float))
+    f = np.linalg.solve(A.T @ A + _regularisation(regularisation, A.shape[1]), A.T @ np.asarray(wrench, dtype=float))
     reactions[feet] = f.reshape(-1, 3)
     return friction_cone(reactions, friction, fz_min_n) * stance[:, None]
 
