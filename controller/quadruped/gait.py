@@ -99,10 +99,20 @@ def odometry_velocity(sensed: Sensed, stance_mask: np.ndarray) -> np.ndarray | N
     """
     if not np.any(stance_mask):
         return None
-    feet = legs.feet_in_body(sensed.q)
-    relative = legs.foot_velocities(sensed.q, sensed.qd) + np.cross(sensed.gyro, feet)
+    relative = legs.foot_velocities(sensed.q, sensed.qd) + cross_rows(sensed.gyro, sensed.feet_body)
     body = -relative[stance_mask].mean(axis=0)
     return (sensed.level_rotation @ body)[:2]
+
+
+def cross_rows(w: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """w x p (shape (n, 3)) of one vector ``w`` (3,) and each row p of ``points`` (n, 3).
+
+    np.cross's own products and differences (a1 b2 - a2 b1, ...: each an IEEE
+    multiply, then a subtract), without its general-shape handling.
+    """
+    w0, w1, w2 = w.tolist()
+    x, y, z = points[:, 0], points[:, 1], points[:, 2]
+    return np.stack((w1 * z - w2 * y, w2 * x - w0 * z, w0 * y - w1 * x), axis=1)
 
 
 class Trot:

@@ -35,8 +35,13 @@ class Sensed:
         return _read_only(rpy_matrix(self.rpy[0], self.rpy[1], 0.0))
 
     @cached_property
+    def feet_body(self) -> np.ndarray:
+        """Foot centres (m, (4, 3)) in the body frame (read-only)."""
+        return _read_only(legs.feet_in_body(self.q))
+
+    @cached_property
     def _feet_level(self) -> np.ndarray:
-        return _read_only(legs.feet_in_body(self.q) @ self.level_rotation.T)
+        return _read_only(self.feet_body @ self.level_rotation.T)
 
     def feet_level(self) -> np.ndarray:
         """Foot centres (m, (4, 3)) in the level frame (a copy the caller may change)."""
