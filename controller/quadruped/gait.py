@@ -228,8 +228,7 @@ class Trot:
         feet_body = np.where(stance_mask[:, None], self.feet, self.feet @ tilt)
         body_velocities = np.where(stance_mask[:, None], velocities, velocities @ tilt)
         q = legs.joints_for_feet(feet_body)
-        qd = np.array([np.linalg.lstsq(legs.jacobian_of(q, leg), body_velocities[leg], rcond=None)[0]
-                       for leg in range(4)])
+        qd = np.array([np.linalg.lstsq(J, v, rcond=None)[0] for J, v in zip(legs.jacobians(q), body_velocities)])
         kp = np.where(stance_mask[:, None], P.STANCE_KP, P.SWING_KP) * np.ones((4, 3))
         kd = np.where(stance_mask[:, None], P.STANCE_KD, P.SWING_KD) * np.ones((4, 3))
         error = np.array([-sensed.rpy[0], -sensed.rpy[1], 0.0])

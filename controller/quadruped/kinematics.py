@@ -65,6 +65,11 @@ def foot_point(q, side: float, geo: LegGeometry) -> tuple[float, float, float]:
 
 def jacobian(q, side: float, geo: LegGeometry) -> np.ndarray:
     """d foot / d q (shape (3, 3), m/rad): column j is the foot's velocity per unit of joint j's rate."""
+    return np.array(jacobian_rows(q, side, geo))
+
+
+def jacobian_rows(q, side: float, geo: LegGeometry) -> tuple:
+    """``jacobian``'s three rows as tuples (for callers that stack four legs into one array)."""
     q1, q2, q3 = q
     l1, l2, l3 = side * geo.abad_m, geo.thigh_m, geo.calf_m
     s1, c1 = math.sin(q1), math.cos(q1)
@@ -75,11 +80,11 @@ def jacobian(q, side: float, geo: LegGeometry) -> np.ndarray:
     # thigh and calf turn the sagittal vector (dx, 0, -dh) which the abduction then rotates about x
     dx2, dh2 = -l2 * c2 - l3 * c23, -l2 * s2 - l3 * s23
     dx3, dh3 = -l3 * c23, -l3 * s23
-    return np.array([
-        [0.0, dx2, dx3],
-        [-z, dh2 * s1, dh3 * s1],
-        [y, -dh2 * c1, -dh3 * c1],
-    ])
+    return (
+        (0.0, dx2, dx3),
+        (-z, dh2 * s1, dh3 * s1),
+        (y, -dh2 * c1, -dh3 * c1),
+    )
 
 
 def inverse(p, side: float, geo: LegGeometry) -> np.ndarray:

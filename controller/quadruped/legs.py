@@ -35,7 +35,13 @@ def joints_for_feet(feet_body: np.ndarray, geo: K.LegGeometry = C.GEOMETRY) -> n
 
 def foot_velocities(q: np.ndarray, qd: np.ndarray, geo: K.LegGeometry = C.GEOMETRY) -> np.ndarray:
     """Foot velocities (m/s, (4, 3)) relative to the body, body axes, of joint rates ``qd`` (rad/s, (4, 3))."""
-    return np.array([K.foot_velocity(q[leg], qd[leg], C.SIDE[leg], geo) for leg in range(4)])
+    # kinematics.foot_velocity per leg: J @ qd with each J a C-ordered (3, 3), as the one it makes
+    return np.array([J @ rates for J, rates in zip(jacobians(q, geo), qd)])
+
+
+def jacobians(q: np.ndarray, geo: K.LegGeometry = C.GEOMETRY) -> np.ndarray:
+    """The four legs' Jacobians (m/rad, (4, 3, 3)) at joint angles ``q`` (rad, (4, 3)), made by one numpy call."""
+    return np.array([K.jacobian_rows(row, side, geo) for row, side in zip(q.tolist(), SIDES)])
 
 
 def jacobian_of(q: np.ndarray, leg: int, geo: K.LegGeometry = C.GEOMETRY) -> np.ndarray:
@@ -49,7 +55,9 @@ def torques_for_reactions(q: np.ndarray, reactions_body: np.ndarray,
 
     tau = -J^T R per leg (``kinematics.torques_for_reaction``: the sign trap).
     """
-    return np.array([K.torques_for_reaction(q[leg], C.SIDE[leg], geo, reactions_body[leg]) for leg in range(4)])
+    # the same -J^T @ R per leg (negated transpose, then the product) on the stacked Jacobians
+    reactions = np.asarray(reactions_body, dtype=float)
+    return np.array([-J.T @ reaction for J, reaction in zip(jacobians(q, geo), reactions)])
 
 
 @dataclass
