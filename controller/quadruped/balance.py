@@ -15,12 +15,25 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from wheelleg.controller.bounds import within
 from wheelleg.controller.quadruped import constants as C
 from wheelleg.controller.quadruped import params as P
 from wheelleg.controller.quadruped import legs, stance
 from wheelleg.controller.quadruped.legs import JointCommands
 from wheelleg.controller.quadruped.rotations import rpy_matrix, wrap
 from wheelleg.controller.quadruped.sensed import Sensed, height_over_feet
+
+
+def _read_only(array: np.ndarray) -> np.ndarray:
+    array.flags.writeable = False
+    return array
+
+
+# constant arrays of the parameters, made once (read-only)
+ATTITUDE_KP, ATTITUDE_KD = _read_only(np.array(P.ATTITUDE_KP)), _read_only(np.array(P.ATTITUDE_KD))
+TRIM_GAINS = _read_only(np.array([P.ATTITUDE_KI] * 3 + [P.HEIGHT_KI]))
+TRIM_LIMITS = _read_only(np.array([P.ATTITUDE_TRIM_LIMIT] * 3 + [P.HEIGHT_TRIM_LIMIT]))
+_ORIGIN_XY = _read_only(np.zeros(2))
 
 
 @dataclass(frozen=True)
@@ -38,14 +51,20 @@ class Posture:
 
 def limited(posture: Posture) -> Posture:
     """``posture`` within the attitude limit and the height range."""
-    a = P.ATTITUDE_LIMIT
-    return Posture(*(float(np.clip(v, -a, a)) for v in (posture.roll, posture.pitch, posture.yaw)),
-                   float(np.clip(posture.height, *P.HEIGHT_RANGE)))
+    a, (low, high) = P.ATTITUDE_LIMIT, P.HEIGHT_RANGE
+    # bounds.within makes np.clip's comparisons on one float (NaN stays NaN), without numpy's per-call cost
+    return Posture(within(posture.roll, -a, a), within(posture.pitch, -a, a), within(posture.yaw, -a, a),
+                   within(posture.height, low, high))
 
 
 def slew(current: np.ndarray, target: np.ndarray, max_step: np.ndarray) -> np.ndarray:
     """``current`` moved toward ``target`` by at most ``max_step`` (elementwise)."""
     return current + np.clip(target - current, -max_step, max_step)
+
+
+def slew_scalar(current: float, target: float, max_step: float) -> float:
+    """``slew`` of one float (the same operations, in Python floats)."""
+    return current + within(target - current, -max_step, max_step)
 
 
 class BalanceStand:
@@ -61,6 +80,10 @@ class BalanceStand:
         self.trim = np.zeros(4)
         self.yaw0 = 0.0
         self.measured = self.setpoint.copy()  # roll, pitch, yaw, height as last measured
+        # the step's constant arrays, made once (read-only: every step reads them)
+        self._rates = _read_only(np.array([P.ATTITUDE_RATE] * 3 + [P.HEIGHT_RATE]) * period_s)
+        self._xy_rates = _read_only(np.full(2, P.HEIGHT_RATE * period_s))
+        self._feet_rates = _read_only(np.full((4, 3), P.FOOT_SETTLE_RATE * period_s))
 
     def start(self, sensed: Sensed) -> None:
         """Take the feet where they are and the body's posture as the first set point."""
@@ -82,10 +105,9 @@ class BalanceStand:
 
     def step(self, sensed: Sensed, target: Posture) -> JointCommands:
         dt = self.period_s
-        rates = np.array([P.ATTITUDE_RATE] * 3 + [P.HEIGHT_RATE]) * dt
-        self.setpoint = slew(self.setpoint, limited(target).as_array(), rates)
-        self.body_xy = slew(self.body_xy, np.zeros(2), np.full(2, P.HEIGHT_RATE * dt))
-        self.feet_ground = slew(self.feet_ground, self.feet_goal, np.full((4, 3), P.FOOT_SETTLE_RATE * dt))
+        self.setpoint = slew(self.setpoint, limited(target).as_array(), self._rates)
+        self.body_xy = slew(self.body_xy, _ORIGIN_XY, self._xy_rates)
+        self.feet_ground = slew(self.feet_ground, self.feet_goal, self._feet_rates)
         feet_level = sensed.feet_level()
         self.down = self.down | (np.abs(self.feet_ground[:, 2] - C.FOOT_RADIUS) < 1e-9)
         down = self.down
@@ -96,8 +118,7 @@ class BalanceStand:
         pose = self.setpoint + self.trim
         body = np.array([self.body_xy[0], self.body_xy[1], pose[3]])
         q = legs.joints_for_feet(stance.feet_in_body_for_pose(self.feet_ground, body, rpy_matrix(*pose[:3])))
-        wrench = stance.attitude_wrench(C.MASS, error[:3], sensed.gyro, np.array(P.ATTITUDE_KP),
-                                        np.array(P.ATTITUDE_KD))
+        wrench = stance.attitude_wrench(C.MASS, error[:3], sensed.gyro, ATTITUDE_KP, ATTITUDE_KD)
         tau = stance.stance_torques(sensed.q, feet_level, sensed.level_rotation, wrench, down,
                                     P.DISTRIBUTION_REGULARISATION, P.FRICTION)
         return JointCommands.hold(q, P.STANCE_KP, P.STANCE_KD, tau)
@@ -105,6 +126,4 @@ class BalanceStand:
 
 def trimmed(trim: np.ndarray, error: np.ndarray, dt: float) -> np.ndarray:
     """The posture trims (roll, pitch, yaw rad; height m) after integrating ``error`` for ``dt`` s."""
-    gains = np.array([P.ATTITUDE_KI] * 3 + [P.HEIGHT_KI])
-    limits = np.array([P.ATTITUDE_TRIM_LIMIT] * 3 + [P.HEIGHT_TRIM_LIMIT])
-    return np.clip(trim + gains * error * dt, -limits, limits)
+    return np.clip(trim + TRIM_GAINS * error * dt, -TRIM_LIMITS, TRIM_LIMITS)

@@ -20,10 +20,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from wheelleg.controller.bounds import within
 from wheelleg.controller.quadruped import constants as C
 from wheelleg.controller.quadruped import params as P
 from wheelleg.controller.quadruped import legs, stance
-from wheelleg.controller.quadruped.balance import slew
+from wheelleg.controller.quadruped.balance import slew, slew_scalar
 from wheelleg.controller.quadruped.getup import min_jerk
 from wheelleg.controller.quadruped.legs import JointCommands
 from wheelleg.controller.quadruped.rotations import rot_z, wrap
@@ -42,8 +43,9 @@ class Velocity:
 
     def limited(self) -> "Velocity":
         (vx_max, vy_max), w_max = P.VELOCITY_LIMIT, P.YAW_RATE_LIMIT
-        return Velocity(float(np.clip(self.vx, -vx_max, vx_max)), float(np.clip(self.vy, -vy_max, vy_max)),
-                        float(np.clip(self.yaw_rate, -w_max, w_max)))
+        # bounds.within makes np.clip's comparisons on one float (NaN stays NaN), without numpy's per-call cost
+        return Velocity(within(self.vx, -vx_max, vx_max), within(self.vy, -vy_max, vy_max),
+                        within(self.yaw_rate, -w_max, w_max))
 
 
 def leg_phases(clock: float) -> np.ndarray:
@@ -97,10 +99,20 @@ def odometry_velocity(sensed: Sensed, stance_mask: np.ndarray) -> np.ndarray | N
     """
     if not np.any(stance_mask):
         return None
-    feet = legs.feet_in_body(sensed.q)
-    relative = legs.foot_velocities(sensed.q, sensed.qd) + np.cross(sensed.gyro, feet)
+    relative = legs.foot_velocities(sensed.q, sensed.qd) + cross_rows(sensed.gyro, sensed.feet_body)
     body = -relative[stance_mask].mean(axis=0)
     return (sensed.level_rotation @ body)[:2]
+
+
+def cross_rows(w: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """w x p (shape (n, 3)) of one vector ``w`` (3,) and each row p of ``points`` (n, 3).
+
+    np.cross's own products and differences (a1 b2 - a2 b1, ...: each an IEEE
+    multiply, then a subtract), without its general-shape handling.
+    """
+    w0, w1, w2 = w.tolist()
+    x, y, z = points[:, 0], points[:, 1], points[:, 2]
+    return np.stack((w1 * z - w2 * y, w2 * x - w0 * z, w0 * y - w1 * x), axis=1)
 
 
 class Trot:
@@ -149,7 +161,7 @@ class Trot:
         target = Velocity() if stopping else asked.limited()
         limits = np.array([P.ACCELERATION, P.ACCELERATION, P.YAW_ACCELERATION]) * dt
         self.velocity_set = slew(self.velocity_set, np.array([target.vx, target.vy, target.yaw_rate]), limits)
-        self.height = float(slew(np.array([self.height]), np.array([height_m]), np.array([P.HEIGHT_RATE * dt]))[0])
+        self.height = slew_scalar(self.height, height_m, P.HEIGHT_RATE * dt)
         yaw_rate = self.feet_yaw_rate = self._yaw_rate(float(sensed.rpy[2]))
         self.clock = (self.clock + dt / P.GAIT_PERIOD) % 1.0
         phases = leg_phases(self.clock)
@@ -188,7 +200,7 @@ class Trot:
                               0.0])
         moved = rot_z(-yaw_rate * dt) @ foot - np.array([self.velocity_set[0], self.velocity_set[1], 0.0]) * dt
         ground = -(self.height - C.FOOT_RADIUS)
-        moved[2] = float(slew(np.array([foot[2]]), np.array([ground]), np.array([P.HEIGHT_RATE * dt]))[0])
+        moved[2] = slew_scalar(float(foot[2]), ground, P.HEIGHT_RATE * dt)
         self.feet[leg] = moved
         return velocity
 
@@ -216,8 +228,7 @@ class Trot:
         feet_body = np.where(stance_mask[:, None], self.feet, self.feet @ tilt)
         body_velocities = np.where(stance_mask[:, None], velocities, velocities @ tilt)
         q = legs.joints_for_feet(feet_body)
-        qd = np.array([np.linalg.lstsq(legs.jacobian_of(q, leg), body_velocities[leg], rcond=None)[0]
-                       for leg in range(4)])
+        qd = np.array([np.linalg.lstsq(J, v, rcond=None)[0] for J, v in zip(legs.jacobians(q), body_velocities)])
         kp = np.where(stance_mask[:, None], P.STANCE_KP, P.SWING_KP) * np.ones((4, 3))
         kd = np.where(stance_mask[:, None], P.STANCE_KD, P.SWING_KD) * np.ones((4, 3))
         error = np.array([-sensed.rpy[0], -sensed.rpy[1], 0.0])

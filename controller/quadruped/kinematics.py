@@ -50,16 +50,26 @@ class LegGeometry:
 
 def forward(q, side: float, geo: LegGeometry) -> np.ndarray:
     """Foot position (m, shape (3,)) of joint angles ``q`` (rad, shape (3,))."""
+    return np.array(foot_point(q, side, geo))
+
+
+def foot_point(q, side: float, geo: LegGeometry) -> tuple[float, float, float]:
+    """``forward`` as a tuple (for callers that stack four legs into one array: one numpy call, not five)."""
     q1, q2, q3 = q
     l1, l2, l3 = side * geo.abad_m, geo.thigh_m, geo.calf_m
     h = l2 * math.cos(q2) + l3 * math.cos(q2 + q3)
     x = -l2 * math.sin(q2) - l3 * math.sin(q2 + q3)
     s1, c1 = math.sin(q1), math.cos(q1)
-    return np.array([x, l1 * c1 + h * s1, l1 * s1 - h * c1])
+    return x, l1 * c1 + h * s1, l1 * s1 - h * c1
 
 
 def jacobian(q, side: float, geo: LegGeometry) -> np.ndarray:
     """d foot / d q (shape (3, 3), m/rad): column j is the foot's velocity per unit of joint j's rate."""
+    return np.array(jacobian_rows(q, side, geo))
+
+
+def jacobian_rows(q, side: float, geo: LegGeometry) -> tuple:
+    """``jacobian``'s three rows as tuples (for callers that stack four legs into one array)."""
     q1, q2, q3 = q
     l1, l2, l3 = side * geo.abad_m, geo.thigh_m, geo.calf_m
     s1, c1 = math.sin(q1), math.cos(q1)
@@ -70,15 +80,21 @@ def jacobian(q, side: float, geo: LegGeometry) -> np.ndarray:
     # thigh and calf turn the sagittal vector (dx, 0, -dh) which the abduction then rotates about x
     dx2, dh2 = -l2 * c2 - l3 * c23, -l2 * s2 - l3 * s23
     dx3, dh3 = -l3 * c23, -l3 * s23
-    return np.array([
-        [0.0, dx2, dx3],
-        [-z, dh2 * s1, dh3 * s1],
-        [y, -dh2 * c1, -dh3 * c1],
-    ])
+    return (
+        (0.0, dx2, dx3),
+        (-z, dh2 * s1, dh3 * s1),
+        (y, -dh2 * c1, -dh3 * c1),
+    )
 
 
 def inverse(p, side: float, geo: LegGeometry) -> np.ndarray:
-    """Joint angles (rad, shape (3,)) that put the foot at ``p`` (m, shape (3,)), knee bent backward.
+    """Joint angles (rad, shape (3,)) that put the foot at ``p`` (m, shape (3,)), knee bent backward
+    (``joint_angles``)."""
+    return np.array(joint_angles(p, side, geo))
+
+
+def joint_angles(p, side: float, geo: LegGeometry) -> tuple[float, float, float]:
+    """``inverse`` as a tuple (for callers that stack four legs into one array).
 
     The branch with the foot below the thigh axis (h > 0) and the calf angle
     in [-pi, 0]. A point out of reach gives the angles of the nearest reach
@@ -95,7 +111,7 @@ def inverse(p, side: float, geo: LegGeometry) -> np.ndarray:
     q3 = -math.acos(min(1.0, max(-1.0, cos_knee)))
     # thigh: (h, -x) is (l2 + l3 cos q3, l3 sin q3) turned by q2
     q2 = math.atan2(-x, h) - math.atan2(l3 * math.sin(q3), l2 + l3 * math.cos(q3))
-    return np.array([q1, q2, q3])
+    return q1, q2, q3
 
 
 def torques_for_reaction(q, side: float, geo: LegGeometry, reaction_n) -> np.ndarray:

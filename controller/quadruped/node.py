@@ -15,7 +15,9 @@ enable) instead of commands.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
+from itertools import chain
 
 import can
 import numpy as np
@@ -41,6 +43,9 @@ MOTOR_NAMES = {C.motor_id(leg, j): f"{C.LEGS[leg]}_{C.JOINTS[j]}" for leg in ran
 RULES = tuple([detect.DeviceRule(name, 0.020, 4, True) for name in MOTOR_NAMES.values()]
               + [detect.DeviceRule("imu", 0.010, 5, True), detect.DeviceRule("remote", 0.100, 2, True)])
 IMU_BIT, REMOTE_BIT = 12, 13  # their bits in detect's mask (after the 12 motors)
+# (leg, joint, motor id, bus) of every motor in the (4, 3) arrays' order, and the ids in that order: made once
+MOTORS = tuple((leg, j, C.motor_id(leg, j), BUS_OF_LEG[leg]) for leg in range(4) for j in range(3))
+MOTOR_ORDER = tuple(motor for _, _, motor, _ in MOTORS)
 
 
 def heartbeat_mask(detect_mask: int) -> int:
@@ -63,6 +68,13 @@ class QuadTickResult:
     report: detect.Report | None = None
     debug: dict = field(default_factory=dict)
     commands: JointCommands | None = None
+
+
+def command_rows(commands: JointCommands) -> tuple:
+    """The five command arrays (q, qd, kp, kd, tau) as flat lists of Python floats in MOTOR_ORDER
+    (``tolist`` gives each float64's exact value: cheaper to read than numpy scalars one at a time)."""
+    return (commands.q.ravel().tolist(), commands.qd.ravel().tolist(), commands.kp.ravel().tolist(),
+            commands.kd.ravel().tolist(), commands.tau.ravel().tolist())
 
 
 class QuadController:
@@ -92,10 +104,11 @@ class QuadController:
 
     def sensed(self) -> Sensed:
         """Joint feedback as (4, 3) arrays and the IMU's attitude and rates."""
-        def array(attribute: str) -> np.ndarray:
-            return np.array([[getattr(self.bus.motors[C.motor_id(leg, j)], attribute) for j in range(3)]
-                             for leg in range(4)], dtype=float)
-        return Sensed(array("position"), array("speed"), array("torque"), np.array(euler_zyx(self.bus.imu.quat)),
+        feedback = [self.bus.motors[motor] for motor in MOTOR_ORDER]
+        def array(values: list) -> np.ndarray:  # the 12 values in MOTOR_ORDER as (4, 3)
+            return np.array(values, dtype=float).reshape(4, 3)
+        return Sensed(array([fb.position for fb in feedback]), array([fb.speed for fb in feedback]),
+                      array([fb.torque for fb in feedback]), np.array(euler_zyx(self.bus.imu.quat)),
                       np.array(self.bus.imu.gyro, dtype=float))
 
     def tick(self, tick: int, now_s: float) -> QuadTickResult:
@@ -113,9 +126,11 @@ class QuadController:
             self._start_motors(result, now_s)
         else:
             result.commands = self._commands(previous, sensed)
-            if not all(np.all(np.isfinite(a)) for a in vars(result.commands).values()):
+            rows = command_rows(result.commands)
+            if not all(map(math.isfinite, chain.from_iterable(rows))):
                 result.commands = JointCommands.damped(P.PASSIVE_KD)  # a fault of the controller's own
-            self._send_commands(result, result.commands, now_s)
+                rows = command_rows(result.commands)
+            self._send_commands(result, rows, now_s)
         if self.record_debug:
             result.debug = debug_record(self._summary(sensed))
         hb = messages.heartbeat(
@@ -162,13 +177,14 @@ class QuadController:
         stopping = requested_mode(op.mode) != Mode.LOCOMOTION  # finish the swing, then stand
         return self.trot.step(sensed, Velocity(op.vx, op.vy, op.yaw_rate), op.height, stopping)
 
-    def _send_commands(self, result: QuadTickResult, commands: JointCommands, now_s: float) -> None:
-        tau = np.clip(commands.tau, -C.TORQUE_LIMIT, C.TORQUE_LIMIT)
-        for leg in range(4):
-            for j in range(3):
-                result.frames[BUS_OF_LEG[leg]].append(messages.joint_mit(
-                    C.motor_id(leg, j), commands.q[leg, j], commands.qd[leg, j], commands.kp[leg, j],
-                    commands.kd[leg, j], tau[leg, j], now_s))
+    def _send_commands(self, result: QuadTickResult, rows: tuple, now_s: float) -> None:
+        """One MIT frame per motor from ``command_rows``' (q, qd, kp, kd, tau) of each, tau within its limit."""
+        frames, joint_mit, limit = result.frames, messages.joint_mit, C.TORQUE_LIMIT
+        for (_, _, motor, bus), (q, qd, kp, kd, tau) in zip(MOTORS, zip(*rows)):
+            # np.clip's order: max(tau, -limit) then min(., limit); a NaN never gets here (checked before)
+            tau = -limit if tau < -limit else tau
+            tau = limit if tau > limit else tau
+            frames[bus].append(joint_mit(motor, q, qd, kp, kd, tau, now_s))
 
     def _summary(self, sensed: Sensed) -> dict:
         balance, trot = self.balance, self.trot

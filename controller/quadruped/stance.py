@@ -19,6 +19,8 @@ tau = -J^T R (legs.torques_for_reactions, the sign trap).
 """
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from wheelleg.controller.quadruped import constants as C
@@ -47,6 +49,30 @@ def cross_matrix(v) -> np.ndarray:
     return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
 
 
+def wrench_matrix(feet: np.ndarray) -> np.ndarray:
+    """A (6, 3 n) = [I ...; [r_k]x ...] of the n feet ``feet`` (m, (n, 3)): the wrench A @ f of their reactions f.
+
+    The same entries as ``cross_matrix`` per foot (zeros, each coordinate and its
+    negation), written column by column for all feet at once.
+    """
+    n = len(feet)
+    A = np.zeros((6, n, 3))
+    A[:3] = np.eye(3)[:, None, :]  # row i, foot k, column j: 1 where i == j
+    x, y, z = feet[:, 0], feet[:, 1], feet[:, 2]
+    A[3, :, 1], A[3, :, 2] = -z, y
+    A[4, :, 0], A[4, :, 2] = z, -x
+    A[5, :, 0], A[5, :, 1] = -y, x
+    return A.reshape(6, 3 * n)
+
+
+@functools.lru_cache(maxsize=16)
+def _regularisation(alpha: float, n: int) -> np.ndarray:
+    """alpha I (n, n), made once per (alpha, n): the same entries every tick (read-only)."""
+    matrix = alpha * np.eye(n)
+    matrix.flags.writeable = False
+    return matrix
+
+
 def distribute(feet_from_com: np.ndarray, wrench: np.ndarray, stance, regularisation: float,
                friction: float, fz_min_n: float = 0.0) -> np.ndarray:
     """Ground reactions (N, (4, 3)) on the stance feet that best make ``wrench`` (6,) about the centre of mass.
@@ -60,11 +86,8 @@ def distribute(feet_from_com: np.ndarray, wrench: np.ndarray, stance, regularisa
     feet = np.flatnonzero(stance)
     if feet.size == 0:
         return reactions
-    A = np.zeros((6, 3 * feet.size))
-    for k, leg in enumerate(feet):
-        A[:3, 3 * k:3 * k + 3] = np.eye(3)
-        A[3:, 3 * k:3 * k + 3] = cross_matrix(feet_from_com[leg])
-    f = np.linalg.solve(A.T @ A + regularisation * np.eye(A.shape[1]), A.T @ np.asarray(wrench, dtype=float))
+    A = wrench_matrix(feet_from_com[feet])
+    f = np.linalg.solve(A.T @ A + _regularisation(regularisation, A.shape[1]), A.T @ np.asarray(wrench, dtype=float))
     reactions[feet] = f.reshape(-1, 3)
     return friction_cone(reactions, friction, fz_min_n) * stance[:, None]
 

@@ -56,6 +56,11 @@ class QuadBusState:
     frames: int = 0
     imu_frames: ImuFrames = field(default_factory=ImuFrames)
 
+    def __post_init__(self):
+        # each bus's motors (id -> its JointFeedback, updated in place), made once: a feedback frame
+        # may only update a motor on the bus it came from
+        self._motors_on = {bus: {i: self.motors[i] for i in MOTORS_ON[bus]} for bus in MOTORS_ON}
+
     def update(self, msg: can.Message, bus: str, now_s: float) -> int | None:
         """Take one received frame; returns the SYNC tick when it is a SYNC."""
         self.frames += 1
@@ -63,8 +68,7 @@ class QuadBusState:
             if msg.is_error_frame or msg.is_remote_frame or bus not in DATABASES:
                 return None
             if msg.is_extended_id:
-                on_bus = {i: self.motors[i] for i in MOTORS_ON[bus]}
-                take_cybergear(msg, now_s, on_bus, C.CG_HOST_ID, DATABASES[bus])
+                take_cybergear(msg, now_s, self._motors_on[bus], C.CG_HOST_ID, DATABASES[bus])
                 return None
             if msg.arbitration_id == _SYNC_ID:
                 return checked_decode(DATABASES[bus], msg)["Tick"]
