@@ -21,20 +21,11 @@ def default_out(trace: Path) -> Path:
 
 def run(args: argparse.Namespace) -> int:
     from wheelleg.hil.analyze.export import export_decoded
-    from wheelleg.hil.record.sources import TraceError, copy_refusal
+    from wheelleg.hil.record.sources import checked_copy
 
-    out = args.out or default_out(args.trace)
-    try:
-        refusal = copy_refusal(args.trace, out)
-        if refusal:
-            print(f"export: {refusal}", file=sys.stderr)
-            return 2
-        done = export_decoded(args.trace, out)
-    except TraceError as exc:
-        print(f"export: {exc}", file=sys.stderr)
-        return 2
-    except OSError as exc:
-        print(f"export: {exc.filename or args.trace}: {exc.strerror or exc}", file=sys.stderr)
+    done, refused = checked_copy(args.trace, args.out or default_out(args.trace), export_decoded)
+    if refused:
+        print(f"export: {refused}", file=sys.stderr)
         return 2
     cut = " (cut off: a killed run's trace)" if done.truncated else ""
     print(f"export: {args.trace}{cut} -> {done.out}: {done.frames} frames, {done.decoded} /decoded/ messages, "

@@ -21,17 +21,11 @@ def default_out(trace: Path) -> Path:
 
 def run(args: argparse.Namespace) -> int:
     from wheelleg.hil.analyze.recover import recover
-    from wheelleg.hil.record.sources import copy_refusal
+    from wheelleg.hil.record.sources import checked_copy
 
-    out = args.out or default_out(args.trace)
-    try:
-        refusal = copy_refusal(args.trace, out)
-        if refusal:
-            print(f"recover: {refusal}", file=sys.stderr)
-            return 2
-        done = recover(args.trace, out)
-    except OSError as exc:
-        print(f"recover: {exc.filename or args.trace}: {exc.strerror or exc}", file=sys.stderr)
+    done, refused = checked_copy(args.trace, args.out or default_out(args.trace), recover)
+    if refused:
+        print(f"recover: {refused}", file=sys.stderr)
         return 2
     state = "complete" if done.was_complete else f"cut off ({done.stopped_at or 'ends mid-record'})"
     print(f"recover: {args.trace} ({state}) -> {done.out}: {done.messages} messages on {done.channels} "

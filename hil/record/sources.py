@@ -46,9 +46,22 @@ SYNC = DBS[CAN1].get_message_by_name("SYNC")
 MCAP_MAGIC = b"\x89MCAP"
 
 
-def copy_refusal(trace: Path, out: Path) -> str | None:
-    """Why a copy of ``trace`` to ``out`` (``wheelleg export``, ``recover``) must not be made:
-    not an MCAP file, or ``out`` would overwrite it; None when it may. OSError if unreadable."""
+def checked_copy(trace: Path, out: Path, copy):
+    """``copy(trace, out)`` (``wheelleg export``, ``recover``) once the copy may be made: (its result,
+    None), or (None, why not) when ``trace`` is no MCAP file, ``out`` would overwrite it, or either
+    cannot be read or written (``TraceError``, ``OSError``)."""
+    try:
+        refusal = _copy_refusal(trace, out)
+        return (None, refusal) if refusal else (copy(trace, out), None)
+    except TraceError as exc:
+        return None, str(exc)
+    except OSError as exc:
+        return None, f"{exc.filename or trace}: {exc.strerror or exc}"
+
+
+def _copy_refusal(trace: Path, out: Path) -> str | None:
+    """Why a copy of ``trace`` to ``out`` must not be made: not an MCAP file, or ``out`` would
+    overwrite it; None when it may. OSError if unreadable."""
     with open(trace, "rb") as f:
         if f.read(len(MCAP_MAGIC)) != MCAP_MAGIC:
             return f"{trace}: not an MCAP trace"
