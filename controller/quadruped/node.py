@@ -24,6 +24,7 @@ import numpy as np
 
 from wheelleg.controller import detect, messages
 from wheelleg.controller.attitude import euler_zyx
+from wheelleg.controller.bounds import within
 from wheelleg.controller.can_node import CanNode
 from wheelleg.controller.quadruped import constants as C
 from wheelleg.controller.quadruped import params as P
@@ -181,10 +182,8 @@ class QuadController:
         """One MIT frame per motor from ``command_rows``' (q, qd, kp, kd, tau) of each, tau within its limit."""
         frames, joint_mit, limit = result.frames, messages.joint_mit, C.TORQUE_LIMIT
         for (_, _, motor, bus), (q, qd, kp, kd, tau) in zip(MOTORS, zip(*rows)):
-            # np.clip's order: max(tau, -limit) then min(., limit); a NaN never gets here (checked before)
-            tau = -limit if tau < -limit else tau
-            tau = limit if tau > limit else tau
-            frames[bus].append(joint_mit(motor, q, qd, kp, kd, tau, now_s))
+            # within: np.clip's comparisons in its order (a NaN never gets here: checked before)
+            frames[bus].append(joint_mit(motor, q, qd, kp, kd, within(tau, -limit, limit), now_s))
 
     def _summary(self, sensed: Sensed) -> dict:
         balance, trot = self.balance, self.trot
