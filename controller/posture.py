@@ -49,6 +49,5 @@ def body_clearance(roll: float, pitch: float, legs) -> float:
     < 0 means the box would be below that ground: it rests on something."""
     row = _height_row(roll, pitch)
     ground = min([_height_in(row, axle_in_body(*leg)) for leg in legs]) - C.WHEEL_RADIUS
-    r0, r1, r2 = row  # ``_height_in`` of each corner written out (eight a tick)
-    lowest = min([r0 * x + r1 * y + r2 * z for x, y, z in _CORNERS])
+    lowest = min([_height_in(row, corner) for corner in _CORNERS])
     return lowest - ground
