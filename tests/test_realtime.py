@@ -136,6 +136,41 @@ def test_a_plant_that_cannot_keep_pace_reports_overruns_instead_of_stretching_ti
     events = [e for e in TraceReader(outcome.trace_path).events() if e["kind"] == "plant_overrun"]
     assert len(events) == plant["overruns"]
     assert all(e["steps"] > 1 for e in events)
+    # the plant's own work made them: long steps, each after an advance of >= 1.5 ms
+    long_steps = [e for e in events if e["cause"] == "long step"]
+    assert len(long_steps) > 10 and all(e["previous_busy_s"] >= 0.0015 for e in long_steps)
+    assert plant["late_wakes"] == sum(e["cause"] == "late wake" for e in events)
+
+
+class _StubTrace:
+    def __init__(self):
+        self.events = []
+
+    def event(self, t_ns, kind, **fields):
+        self.events.append(dict(fields, kind=kind, t_ns=t_ns))
+
+    def housekeeping(self) -> bool:
+        return False
+
+
+def test_an_overrun_after_a_late_wake_up_is_the_machines(monkeypatch):
+    """The loop goes to sleep in time and the OS wakes it 4 ms late: the overrun that
+    follows is a late wake, told apart from the plant's own long steps."""
+    schedule = realtime.Realtime(0.002, 0.001)
+    trace = _StubTrace()
+    schedule.rig = type("StubRig", (), {"trace": trace})()
+    monkeypatch.setattr(schedule, "_advance", lambda first, count: None)  # no work at all
+    sleeps = []
+    real_sleep = time.sleep
+
+    def sleep(s):
+        sleeps.append(s)
+        real_sleep(s + (0.004 if len(sleeps) == 20 else 0.0))
+    monkeypatch.setattr(realtime.time, "sleep", sleep)
+    schedule._loop(60, time.monotonic())
+    late = [e for e in trace.events if e["cause"] == "late wake"]
+    assert any(e["lag_s"] >= 0.004 and e["steps"] > 1 for e in late)
+    assert schedule.late_wakes == len(late)
 
 
 def test_batches_are_bounded(tmp_path):
@@ -269,3 +304,58 @@ def test_write_behind_writes_the_bytes_the_loop_would_have(tmp_path):
     behind = _write_trace(tmp_path / "behind.mcap", write_behind=True)
     assert behind == inline
     assert len(TraceReader(tmp_path / "behind.mcap").sim_state()["t"]) == 50
+
+
+def _chunk_count(path) -> int:
+    from mcap.reader import make_reader
+
+    with open(path, "rb") as f:
+        return make_reader(f).get_summary().statistics.chunk_count
+
+
+def _deferred_trace(path, *, chunk_size: int, ask_every: int | None) -> int:
+    """2000 frames 50 us apart in /can/ windows of 10 ms, /sim/state every 40; ``housekeeping``
+    every ``ask_every`` frames (None: never). Returns how many pieces it did."""
+    from wheelleg.hil.record.frame import Frame
+    from wheelleg.hil.record.trace import TraceWriter
+
+    trace = TraceWriter(path, metadata={"run": {"scenario": "test"}}, flush_interval_s=None,
+                        chunk_span_s=0.02, chunk_size=chunk_size, can_window_s=0.01, defer_close=True)
+    pieces = 0
+    with trace:
+        assert not trace.housekeeping()  # nothing open yet
+        for k in range(2000):
+            t_ns = k * 50_000
+            trace.frame(Frame(t_ns, "vcan0", 0x201, False, k.to_bytes(8, "little"), 8))
+            if k % 40 == 0:
+                trace.sim_state(t_ns, {name: k * 0.5 for name in trace._sim_fields})
+            if ask_every and k % ask_every == ask_every - 1:
+                pieces += trace.housekeeping()
+    return pieces
+
+
+def test_deferred_housekeeping_waits_for_the_loop_and_loses_nothing(tmp_path):
+    """Real time packs finished /can/ windows and closes chunks in the slack between steps:
+    a window (10 ms here) is packed and a chunk due to close (every 20 ms of log time) closes
+    only when the loop asks, one piece at a time, and every frame and record is kept in order."""
+    path = tmp_path / "deferred.mcap"
+    pieces = _deferred_trace(path, chunk_size=512 * 1024, ask_every=50)  # asked every 2.5 ms
+    chunks = _chunk_count(path)
+    # chunks due every 20 ms of 100 ms: 4 closed when asked, the open one at finish; the
+    # other pieces were finished windows (9 in all, some packed by a close that came first)
+    assert chunks == 5
+    assert chunks - 1 < pieces <= chunks - 1 + 9
+    reader = TraceReader(path)
+    assert [f.t_ns for f in reader.frames("vcan0")] == [k * 50_000 for k in range(2000)]
+    assert len(reader.sim_state()["t"]) == 50
+    never = tmp_path / "never.mcap"
+    assert _deferred_trace(never, chunk_size=512 * 1024, ask_every=None) == 0
+    assert _chunk_count(never) == 1  # never asked, never closed: one chunk at finish
+    assert [f.t_ns for f in TraceReader(never).frames("vcan0")] == [k * 50_000 for k in range(2000)]
+
+
+def test_a_deferred_chunk_that_grows_to_twice_its_size_closes_anyway(tmp_path):
+    path = tmp_path / "grown.mcap"
+    assert _deferred_trace(path, chunk_size=2048, ask_every=None) == 0
+    assert _chunk_count(path) > 3  # ~50 kB of records: closed at 4 kB each without being asked
+    assert [f.t_ns for f in TraceReader(path).frames("vcan0")] == [k * 50_000 for k in range(2000)]

@@ -28,6 +28,12 @@ outside chunks, and ``finish``, wait for the worker first. A killed process then
 loses the open chunk and the one being written. Only work that mostly releases the GIL
 belongs there: Python work on the worker holds the GIL the loop waits for between its
 steps (docs/measurements.md, Real time: packing the ``/can/`` windows there doubled the jitter).
+
+Deferred closes (``defer_close=True``, real-time runs): a chunk that is due to close (by size,
+span or the wall-clock flush) is only marked (``close_due``) and closed when the owner calls
+``close_if_due``, which a real-time loop does in the slack after a step (hil/run/realtime.py):
+the close (the held ``/can/`` windows packed, the chunk handed over) then does not land on top
+of a step. A chunk that grows to twice ``chunk_size`` closes at once all the same.
 """
 from __future__ import annotations
 
@@ -75,7 +81,8 @@ class ChunkedMcapWriter:
 
     def __init__(self, stream: BinaryIO, *, chunk_size: int = 512 * 1024,
                  chunk_span_ns: int = 500_000_000, flush_interval_s: float | None = 1.0,
-                 compression: str = "zstd", before_close=None, write_behind: bool = False):
+                 compression: str = "zstd", before_close=None, write_behind: bool = False,
+                 defer_close: bool = False):
         if compression not in ("zstd", ""):
             raise ValueError(f"compression must be 'zstd' or '', not {compression!r}")
         if compression == "zstd" and zstandard is None:
@@ -106,6 +113,8 @@ class ChunkedMcapWriter:
         self._finished = False
         self._worker = ThreadPoolExecutor(1, thread_name_prefix="mcap-chunks") if write_behind else None
         self._written: Future | None = None  # the worker's last chunk
+        self._defer_close = defer_close
+        self.close_due = False  # a deferred close waits for ``close_if_due``
 
     # -- lifecycle ------------------------------------------------------------
     def start(self, profile: str = "", library: str = LIBRARY) -> None:
@@ -113,6 +122,8 @@ class ChunkedMcapWriter:
         self._stream.write(_record_bytes(Header(profile=profile, library=library)))
         self._stream.flush()
         self._arm_flush_timer()
+        if self._worker is not None:  # its thread starts now, not at the first chunk (~0.5 ms)
+            self._worker.submit(int).result()
 
     def finish(self) -> None:
         """Close the open chunk, write the summary section and the footer."""
@@ -209,7 +220,7 @@ class ChunkedMcapWriter:
         self._size += _MESSAGE_HEAD.size + len(data)
         if (self._size >= self._chunk_size or log_time - self._chunk_t0 >= self._chunk_span_ns
                 or time.monotonic() >= self._flush_deadline):
-            self.flush()
+            self._close_when_due(self._size)
 
     def add_messages(self, channel_id: int, log_times: list[int], payloads: list[bytes]) -> None:
         """Append a batch of one channel's messages to the open chunk, all of them (no chunk closes)."""
@@ -237,7 +248,21 @@ class ChunkedMcapWriter:
             return
         if (self._size + held_bytes >= self._chunk_size or time.monotonic() >= self._flush_deadline
                 or (self._chunk_t0 is not None and log_time - self._chunk_t0 >= self._chunk_span_ns)):
+            self._close_when_due(self._size + held_bytes)
+
+    def _close_when_due(self, size: int) -> None:
+        """The open chunk is due to close: now, or (``defer_close``) at ``close_if_due``."""
+        if self._defer_close and size < 2 * self._chunk_size:
+            self.close_due = True
+        else:
             self.flush()
+
+    def close_if_due(self) -> bool:
+        """Close the open chunk if a deferred close is due; True if it did."""
+        if not self.close_due:
+            return False
+        self.flush()
+        return True
 
     def _open_run(self, channel_id: int, log_time: int) -> tuple[bytearray, list[int]]:
         """The open chunk's buffer and index of a channel's first message in it."""
@@ -248,6 +273,7 @@ class ChunkedMcapWriter:
 
     def flush(self) -> None:
         """Close the open chunk (if it holds messages) and push it to the OS."""
+        self.close_due = False
         if self._before_close is not None:
             self._before_close()
         if self._runs:

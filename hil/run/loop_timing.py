@@ -65,11 +65,15 @@ def describe(timing: dict) -> str:
             f"max {ms['max_jitter_s']:.3f} ms, {timing['missed_deadlines']} missed deadlines")
 
 
-def plant_timing(batches, lags_s, dt_s: float, sim_s: float, wall_s: float) -> dict:
+def plant_timing(batches, lags_s, dt_s: float, sim_s: float, wall_s: float, busy_s=(), idle_work_s=()) -> dict:
     """The real-time plant's pacing: ``batches`` (n,) physics steps taken at once,
-    ``lags_s`` (n,) how late each batch started after its first step was due (s)."""
+    ``lags_s`` (n,) how late each batch started after its first step was due (s),
+    ``busy_s`` (m,) wall s of each batch's work (the headroom: against ``dt_s``),
+    ``idle_work_s`` (k,) wall s of each piece of housekeeping done in the slack."""
     batches = np.asarray(batches, dtype=np.int64)
     lags = np.asarray(lags_s, dtype=float)
+    busy = np.asarray(busy_s, dtype=float)
+    idle = np.asarray(idle_work_s, dtype=float)
     return {
         "physics_dt_s": float(dt_s),
         "steps": int(batches.sum()),
@@ -78,6 +82,10 @@ def plant_timing(batches, lags_s, dt_s: float, sim_s: float, wall_s: float) -> d
         "max_batch": int(batches.max()) if batches.size else 0,
         "p99_lag_s": float(np.percentile(lags, 99)) if lags.size else 0.0,
         "max_lag_s": float(lags.max()) if lags.size else 0.0,
+        "p99_busy_s": float(np.percentile(busy, 99)) if busy.size else 0.0,
+        "max_busy_s": float(busy.max()) if busy.size else 0.0,
+        "idle_work": int(idle.size),
+        "max_idle_work_s": float(idle.max()) if idle.size else 0.0,
         "sim_s": float(sim_s),
         "wall_s": float(wall_s),
         "stretched_s": float(max(0.0, wall_s - sim_s)),  # wall time the plant fell behind for good
@@ -89,12 +97,17 @@ STRETCH_TOLERANCE_S = 0.01  # s of wall time the plant may end behind before the
 
 def describe_plant(plant: dict) -> str:
     """The run summary's plant lines (``plant_timing``'s dict), in ms; says when it was not real time."""
-    text = (f"plant: {plant['steps']} physics steps, {plant['overruns']} overruns "
+    late = f", {plant['late_wakes']} of them after a late wake-up" if "late_wakes" in plant else ""
+    text = (f"plant: {plant['steps']} physics steps, {plant['overruns']} overruns{late} "
             f"({plant['steps_caught_up']} steps caught up in batches, largest {plant['max_batch']}), "
             f"lag p99 {1e3 * plant['p99_lag_s']:.3f} ms, max {1e3 * plant['max_lag_s']:.3f} ms, "
             f"{plant['sim_s']:.2f} s simulated in {plant['wall_s']:.2f} s wall")
     if plant.get("host_steal_s") is not None:
         text += f"; the hypervisor stole {1e3 * plant['host_steal_s']:.0f} ms of CPU meanwhile"
+    if "p99_busy_s" in plant:  # older traces' metadata has no busy figures
+        text += (f"\n  plant busy a step: p99 {1e3 * plant['p99_busy_s']:.3f} ms, max {1e3 * plant['max_busy_s']:.3f} ms "
+                 f"of {1e3 * plant['physics_dt_s']:g} ms; {plant['idle_work']} pieces of the trace's housekeeping in the slack, "
+                 f"max {1e3 * plant['max_idle_work_s']:.3f} ms")
     if plant["stretched_s"] > STRETCH_TOLERANCE_S:
         text += (f"\n  NOT REAL TIME: the plant fell {plant['stretched_s']:.2f} s behind the wall clock "
                  "(simulated time stretched; the controller saw a slow world)")

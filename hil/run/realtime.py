@@ -11,8 +11,19 @@ When the plant cannot keep pace (the machine is slow or busy), it does not
 stretch simulated time: it takes the physics steps that are due in one batch
 (up to ``MAX_BATCH_S`` of them), serving the buses only around the batch, and
 reports each such catch-up as a plant overrun (events ``plant_overrun``, and
-totals in the summary). Only when even a full batch is not enough does
+totals in the summary), with its cause: a late wake (the loop went to sleep in
+time and the OS woke it a step or more late: the machine's stall) or a long
+step (the work before it ran past the next step). Only when even a full batch is not enough does
 simulated time fall behind wall time; that is reported as ``stretched_s``.
+The wall time of each advance (``busy``: the plant's work for its steps) is
+the headroom figure: its p99 and max against the physics step.
+
+Housekeeping goes into the slack: the trace's lumps of work (``TraceWriter``
+with ``defer_close``: each bus's finished ``/can/`` window packed, 0.1-0.3 ms
+every 100 ms; a chunk closed, 0.2-0.5 ms every 0.5 s) wait until the plant has
+finished a step with at least ``IDLE_WORK_MIN_S`` left before the next and the
+controller's period grid has no start in that slack, one piece a slack,
+instead of landing on top of a step.
 
 The controller's ticks are timed from its ``tick_log``; periods in which it
 ran no tick are deadline misses (``deadline_miss`` events, which the
@@ -23,6 +34,7 @@ scenarios' ``no_deadline_miss`` check counts). Per-tick timing goes to
 from __future__ import annotations
 
 import gc
+import math
 import os
 import sys
 import threading
@@ -36,6 +48,7 @@ from wheelleg.hil.run.loop_timing import loop_timing, per_tick, plant_timing
 from wheelleg.hil.run.schedule import HeartbeatWatch
 
 MAX_BATCH_S = 0.05  # s of physics the plant takes in one batch when behind (then it stretches time)
+IDLE_WORK_MIN_S = 0.0006  # slack before the next step (s) in which the plant may do the trace's housekeeping
 SWITCH_INTERVAL_S = 0.0002  # Python's GIL hand-over bound while two loops share the process
 FIFO_PRIORITY = 10  # SCHED_FIFO priority of the controller thread, when the OS allows it (as on the robot)
 # The controller's period grid starts this many physics steps after the plant's clock, so
@@ -138,6 +151,10 @@ class Realtime:
         self.max_batch = max(1, round(MAX_BATCH_S / physics_dt_s))
         self.batches: list[int] = []
         self.lags: list[float] = []
+        self.busy: list[float] = []  # wall s of each advance on the clock
+        self.late_wakes = 0  # overruns that came from a wake-up the OS made late
+        self.idle_work: list[float] = []  # wall s of each piece of housekeeping done in the slack
+        self.controller_phase_s: float | None = None  # where the in-process controller's grid starts
         self.rig = None
 
     def bus_end(self, bus: str, end):
@@ -157,7 +174,8 @@ class Realtime:
             wall0 = time.monotonic() - done * self.dt  # the clock starts with that step done
             try:
                 if controller is not None:
-                    controller.start(wall0 + CONTROLLER_PHASE_STEPS * self.dt)
+                    self.controller_phase_s = CONTROLLER_PHASE_STEPS * self.dt
+                    controller.start(wall0 + self.controller_phase_s)
                 self._loop(total, wall0, done)
             finally:
                 wall_s = time.monotonic() - wall0
@@ -166,8 +184,9 @@ class Realtime:
         sim_s = total * self.dt
         steal1 = host_steal_s()
         stolen = None if steal0 is None or steal1 is None else steal1 - steal0
-        timing = {"plant": dict(plant_timing(self.batches, self.lags, self.dt, sim_s, wall_s),
-                                scheduler=plant_scheduler, host_steal_s=stolen)}
+        timing = {"plant": dict(plant_timing(self.batches, self.lags, self.dt, sim_s, wall_s,
+                                             self.busy, self.idle_work),
+                                late_wakes=self.late_wakes, scheduler=plant_scheduler, host_steal_s=stolen)}
         if controller is not None:
             timing["controller"] = self._record_controller(controller, wall0, ticks)
         self._record_plant(timing["plant"])
@@ -189,20 +208,51 @@ class Realtime:
         return 1
 
     def _loop(self, total: int, wall0: float, step: int = 0) -> None:
+        slept = False  # the loop slept since its last piece of work
         while step < total:
             now = time.monotonic() - wall0
             due = min(int(now / self.dt), total)  # steps that should be done by now
             if due <= step:
-                time.sleep(max(0.0, (step + 1) * self.dt - now))
+                wake = (step + 1) * self.dt
+                if self._slack_is_free(now, wake) and self.rig.trace.housekeeping():
+                    self.idle_work.append(time.monotonic() - wall0 - now)
+                    slept = False
+                    continue
+                time.sleep(max(0.0, wake - now))
+                slept = True
                 continue
             batch = min(due - step, self.max_batch)
             self.batches.append(batch)
-            self.lags.append(now - (step + 1) * self.dt)
+            lag = now - (step + 1) * self.dt
+            self.lags.append(lag)
             if batch > 1:
-                self.rig.trace.event(round(step * self.dt * 1e9), "plant_overrun", steps=batch,
-                                     lag_s=now - (step + 1) * self.dt)
+                self._overrun(step, batch, lag, slept)
             self._advance(step, batch)
+            self.busy.append(time.monotonic() - wall0 - now)
+            slept = False
             step += batch
+
+    def _overrun(self, step: int, batch: int, lag_s: float, slept: bool) -> None:
+        """A ``plant_overrun`` event, with its cause: a late wake (the loop slept in time
+        and the OS woke it ``lag_s`` late: the machine's stall, not the plant's work), or
+        a long step (the work before it, ``previous_busy_s``, ran past the next step)."""
+        if slept:
+            self.late_wakes += 1
+        self.rig.trace.event(round(step * self.dt * 1e9), "plant_overrun", steps=batch, lag_s=lag_s,
+                             cause="late wake" if slept else "long step",
+                             previous_busy_s=self.busy[-1] if self.busy else 0.0)
+
+    def _slack_is_free(self, now: float, wake: float) -> bool:
+        """Housekeeping may run from ``now`` to the next step at ``wake`` (s on the plant's
+        clock): at least ``IDLE_WORK_MIN_S`` of slack, and no start of the in-process
+        controller's period in it (it would wait for the GIL the housekeeping holds)."""
+        if wake - now < IDLE_WORK_MIN_S:
+            return False
+        phase = self.controller_phase_s
+        if phase is None:
+            return True
+        next_tick = phase + math.ceil((now - phase) / self.period_s) * self.period_s
+        return next_tick >= wake
 
     def _advance(self, first: int, count: int) -> None:
         """Physics steps ``first`` .. ``first + count - 1``, the buses served around them."""

@@ -119,7 +119,8 @@ class Rig:
                                  decode=config.decode, sim_state_fields=robot.sim_state_fields,
                                  flush_interval_s=config.trace_flush_s,
                                  decode_batch=1 if config.realtime else 256,  # a real-time loop must not stall
-                                 write_behind=config.realtime)
+                                 write_behind=config.realtime,
+                                 defer_close=config.realtime)  # closed in the slack between steps
         self.log = CandumpWriter(self.log_path, epoch_ns=config.epoch_ns)
         self.recorder = Recorder([self.trace, self.log], self.clock, list(self.names.values()), load_to=self.trace,
                                  batch=1 if config.realtime else 1024)  # a real-time loop must not stall
