@@ -359,3 +359,19 @@ def test_a_deferred_chunk_that_grows_to_twice_its_size_closes_anyway(tmp_path):
     assert _deferred_trace(path, chunk_size=2048, ask_every=None) == 0
     assert _chunk_count(path) > 3  # ~50 kB of records: closed at 4 kB each without being asked
     assert [f.t_ns for f in TraceReader(path).frames("vcan0")] == [k * 50_000 for k in range(2000)]
+
+
+def test_the_floor_loop_counts_the_wake_ups_the_os_made_a_step_late(monkeypatch):
+    """tools.realtime_floor: the plant's sleep-to-the-next-step loop and nothing else."""
+    from tools import realtime_floor
+
+    sleeps = []
+    real_sleep = time.sleep
+
+    def sleep(s):
+        sleeps.append(s)
+        real_sleep(s + (0.0035 if len(sleeps) == 10 else 0.0))
+    monkeypatch.setattr(realtime_floor.time, "sleep", sleep)
+    late = realtime_floor.late_wakes(0.05, 0.001)
+    assert any(lag >= 0.0035 for lag in late)  # the 3.5 ms oversleep, and any the machine added
+    assert realtime_floor.main(["--seconds", "0.01", "--runs", "1"]) == 0

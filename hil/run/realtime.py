@@ -77,7 +77,7 @@ class ControllerThread:
         self.start_at_s: float | None = None  # monotonic s at which its first period starts
 
     def _run(self) -> None:
-        self.scheduler = _realtime_priority()
+        self.scheduler = realtime_priority()
         if self.start_at_s is not None:
             time.sleep(max(0.0, self.start_at_s - time.monotonic()))
         try:
@@ -99,7 +99,7 @@ class ControllerThread:
             bus.shutdown()
 
 
-def _realtime_priority(priority: int = FIFO_PRIORITY) -> str:
+def realtime_priority(priority: int = FIFO_PRIORITY) -> str:
     """Ask for SCHED_FIFO for the calling thread: without it a busy machine delays the
     controller's wake-ups by whole scheduler slices. Returns what it got."""
     try:
@@ -119,7 +119,7 @@ def _realtime_process():
     sys.setswitchinterval(SWITCH_INTERVAL_S)
     gc.disable()
     try:
-        yield _realtime_priority(PLANT_FIFO_PRIORITY)
+        yield realtime_priority(PLANT_FIFO_PRIORITY)
     finally:
         sys.setswitchinterval(switch)
         if policy is not None:
