@@ -9,7 +9,7 @@ import pytest
 
 from wheelleg.hil.cli import main
 from wheelleg.hil.run.progress import RunProgress
-from wheelleg.hil.run.scenario import Check, RunData
+from wheelleg.hil.run.scenario import NOT_JUDGED, Check, RunData
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -113,3 +113,17 @@ def test_progress_line_on_a_terminal_and_quiet_elsewhere():
     RunProgress("balance", 10.0, stream=pipe)(2.5)
     RunProgress("balance", 10.0, enabled=False, stream=quiet)(2.5)
     assert pipe.getvalue() == quiet.getvalue() == ""
+
+
+@pytest.mark.parametrize(("robot", "short_run"), [("wheel-legged", "balance"), ("quadruped", "quadruped/quad-balance-stand")])
+def test_every_check_on_a_run_too_short_for_it_says_not_judged_never_raises(rig_run, robot, short_run):
+    """`wheelleg run NAME --duration S` shorter than a check's window, or ended before its
+    fault: every scenario's checks, on a 0.2 s run, either judge it or say why they cannot."""
+    from wheelleg.hil import scenarios
+
+    run = rig_run(short_run, duration=0.2, seed=1)
+    results = [check(run) for scenario in scenarios.all_scenarios(robot).values() for check in scenario.checks]
+    assert len(results) > 20
+    raised = [f"{r.name}: {r.detail}" for r in results if r.detail.startswith("check raised")]
+    assert raised == []
+    assert sum(r.detail.startswith(NOT_JUDGED) for r in results) > 10  # the windows after 0.2 s, the faults at 1 s

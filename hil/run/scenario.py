@@ -45,6 +45,16 @@ class Check:
         return CheckResult(self.name, bool(passed), detail)
 
 
+def in_window(t, values, t0: float, t1: float, what: str) -> np.ndarray:
+    """``values`` (n,) at the times ``t`` (n,) s with t0 <= t < t1; ``NotJudged`` naming
+    ``what`` when there is none (a check's window the run did not reach)."""
+    inside = values[(t >= t0) & (t < t1)]
+    if not len(inside):
+        span = f"after {t0:g} s" if t1 == np.inf else f"over {t0:g}-{t1:g} s"
+        raise NotJudged(f"no samples in {what} {span}")
+    return inside
+
+
 def _run_length(run) -> str:
     t = run.state.get("t", ())
     return f"the run ends at {float(t[-1]):.2f} s" if len(t) else "the run recorded no state"
@@ -86,9 +96,9 @@ class RunData:
     joint_gains: dict = field(default_factory=dict)  # motor id -> (t (n,) s, Kp (n,) N m/rad, Kd (n,) N m s/rad)
 
     def window(self, key: str, t0: float, t1: float = np.inf) -> np.ndarray:
-        """Values of a /sim/state field with t0 <= t < t1 (s), shape (n,)."""
-        t = self.state["t"]
-        return self.state[key][(t >= t0) & (t < t1)]
+        """Values of a /sim/state field with t0 <= t < t1 (s), shape (n,); ``NotJudged`` when
+        there is none (the run ended before ``t0``)."""
+        return in_window(self.state["t"], self.state[key], t0, t1, key)
 
     def events_of(self, kind: str) -> list:
         return [e for e in self.events if e.get("kind") == kind]

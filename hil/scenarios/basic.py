@@ -6,7 +6,7 @@ import math
 import numpy as np
 
 from wheelleg.emulators.physics import TerrainFeature
-from wheelleg.hil.run.scenario import Check, RunData, Scenario
+from wheelleg.hil.run.scenario import Check, RunData, Scenario, in_window
 from wheelleg.hil.scenarios.common import (DEG, drift_below, never_tips, no_deadline_miss, pitch_below,
                                   pitch_steady, remote, stand)
 
@@ -39,8 +39,7 @@ def forward_position(run: RunData) -> np.ndarray:
 
 def speed_tracks(target: float, t0: float, t1: float, limit: float = 0.1) -> Check:
     def fn(run: RunData):
-        t = run.state["t"]
-        err = forward_speed(run)[(t >= t0) & (t < t1)] - target
+        err = in_window(run.state["t"], forward_speed(run), t0, t1, "forward speed") - target
         worst = float(np.max(np.abs(err)))
         return worst < limit, f"max speed error {worst:.3f} m/s over {t0:g}-{t1:g} s (limit {limit:g})"
 
@@ -50,8 +49,8 @@ def speed_tracks(target: float, t0: float, t1: float, limit: float = 0.1) -> Che
 def stops_within(t_stop: float, limit_m: float, direction: float) -> Check:
     def fn(run: RunData):
         t, pos = run.state["t"], forward_position(run)
+        after = in_window(t, pos, t_stop, np.inf, "travel")
         at_stop = np.interp(t_stop, t, pos)
-        after = pos[t >= t_stop]
         travel = float(np.max(direction * (after - at_stop)))
         return travel < limit_m, f"travelled {travel:.3f} m after the stop command (limit {limit_m:g})"
 
@@ -61,7 +60,7 @@ def stops_within(t_stop: float, limit_m: float, direction: float) -> Check:
 def yaw_reaches(target_rad: float, tol_rad: float, after_s: float) -> Check:
     def fn(run: RunData):
         yaw = np.unwrap(run.state["yaw"])
-        turned = yaw[run.state["t"] >= after_s] - yaw[0]
+        turned = in_window(run.state["t"], yaw, after_s, np.inf, "yaw") - yaw[0]
         worst = float(np.max(np.abs(turned - target_rad)))
         return worst < tol_rad, f"yaw {np.degrees(turned[-1]):.1f} deg, worst error {np.degrees(worst):.1f} deg after {after_s:g} s"
 

@@ -15,7 +15,7 @@ from wheelleg.controller import detect
 from wheelleg.controller import params as P
 from wheelleg.controller.modes import Mode
 from wheelleg.hil.run import faults
-from wheelleg.hil.run.scenario import Check, NotJudged, RunData, Scenario
+from wheelleg.hil.run.scenario import Check, NotJudged, RunData, Scenario, in_window
 from wheelleg.hil.scenarios.basic import standing
 from wheelleg.hil.scenarios.common import DEG, pitch_below, push, remote, stand
 
@@ -32,7 +32,7 @@ def fault_time(run: RunData, kind: str) -> float:
     """When the first ``kind`` fault event happened (s)."""
     hits = run.events_of(kind)
     if not hits:
-        raise ValueError(f"no {kind} event in the trace")
+        raise NotJudged(f"no {kind} event in the trace")
     return float(hits[0]["t"])
 
 
@@ -134,7 +134,10 @@ def back_online_but_disabled(kind: str) -> Check:
     """After the fault ends: the offline mask clears, and the motors stay off until Reenable."""
 
     def fn(run: RunData):
-        t_end = min(e["t"] for e in run.events_of("fault_end") if e.get("fault") == kind.removeprefix("fault_"))
+        ends = [e["t"] for e in run.events_of("fault_end") if e.get("fault") == kind.removeprefix("fault_")]
+        if not ends:
+            raise NotJudged(f"no fault_end event of {kind} in the trace")
+        t_end = min(ends)
         press = reenable_time(run, t_end)
         hb = run.heartbeat
         sel = (hb["t"] > t_end) & (hb["t"] < press)
@@ -220,7 +223,7 @@ def mode_never(mode: Mode, after_s: float) -> Check:
     def fn(run: RunData):
         hb = run.heartbeat
         n = int(np.count_nonzero((hb["t"] >= after_s) & (hb["Mode"] == int(mode))))
-        worst = int(np.max(hb["OfflineCount"][hb["t"] >= after_s]))
+        worst = int(np.max(in_window(hb["t"], hb["OfflineCount"], after_s, np.inf, "the heartbeats")))
         return n == 0 and worst == 0, f"{n} heartbeats in {mode.name}, at most {worst} devices offline after {after_s:g} s"
 
     return Check(f"never {mode.name}, nothing offline after {after_s:g} s", fn)
