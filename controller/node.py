@@ -84,6 +84,10 @@ class Controller:
         """Take one received frame; returns the SYNC tick counter if it is a SYNC."""
         return self.bus.update(msg, bus, now_s)
 
+    def prepare(self) -> None:
+        """What the first frames would build (their layouts), built now: before a free-running loop."""
+        self.bus.prepare()
+
     def last_seen(self) -> dict[str, float]:
         seen = {_DEVICE_OF_JOINT[i]: fb.received_s for i, fb in self.bus.joints.items()}
         seen.update({_DEVICE_OF_WHEEL[i]: fb.received_s for i, fb in self.bus.wheels.items()})

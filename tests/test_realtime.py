@@ -149,6 +149,9 @@ class _StubTrace:
     def event(self, t_ns, kind, **fields):
         self.events.append(dict(fields, kind=kind, t_ns=t_ns))
 
+    def housekeeping_pending(self) -> bool:
+        return False
+
     def housekeeping(self) -> bool:
         return False
 
@@ -375,3 +378,54 @@ def test_the_floor_loop_counts_the_wake_ups_the_os_made_a_step_late(monkeypatch)
     late = realtime_floor.late_wakes(0.05, 0.001)
     assert any(lag >= 0.0035 for lag in late)  # the 3.5 ms oversleep, and any the machine added
     assert realtime_floor.main(["--seconds", "0.01", "--runs", "1"]) == 0
+
+
+def test_housekeeping_takes_a_slack_without_the_controllers_tick_unless_it_waited_too_long():
+    schedule = realtime.Realtime(0.002, 0.001)
+    schedule.controller_phase_s = 0.00175  # ticks at 1.75, 3.75, ... ms
+    fresh, overdue = 0.0, realtime.HOUSEKEEPING_OVERDUE_S
+    assert schedule._slack_is_free(0.0102, 0.011, fresh)  # 0.8 ms, no tick before 11.75 ms
+    assert not schedule._slack_is_free(0.0112, 0.012, fresh)  # 0.8 ms, but the tick at 11.75 ms
+    assert not schedule._slack_is_free(0.0105, 0.011, fresh)  # 0.5 ms: too little
+    assert schedule._slack_is_free(0.0112, 0.012, overdue)  # waited: the tick's slack will do
+    assert schedule._slack_is_free(0.0106, 0.011, overdue)  # and 0.4 ms of it
+    assert not schedule._slack_is_free(0.0108, 0.011, overdue)  # but not 0.2 ms
+    schedule.controller_phase_s = None  # an external controller: any slack long enough
+    assert schedule._slack_is_free(0.0112, 0.012, fresh)
+
+
+@pytest.mark.parametrize("robot", ["wheel-legged", "quadruped"])
+def test_a_free_running_program_builds_its_frame_layouts_before_its_loop(robot):
+    """Built at each message's first frame they cost its first ticks ~2 ms (late, and in real
+    time a plant step waiting for the GIL): ``CanNode.prepare`` builds them all first."""
+    import can
+
+    from wheelleg.controller.node import ControllerNode
+    from wheelleg.controller.quadruped.node import QuadrupedNode
+    from wheelleg.controller.quadruped.state import DATABASES
+    from wheelleg.dbc import CAN1, CAN2, load_bus
+    from wheelleg.dbc.codec import MessageCodec
+
+    kind = ControllerNode if robot == "wheel-legged" else QuadrupedNode
+    dbs = [load_bus(CAN1), load_bus(CAN2)] if robot == "wheel-legged" else list(DATABASES.values())
+    buses = [can.Bus(interface="virtual", channel=f"prepare-{robot}-{i}") for i in range(2)]
+    try:
+        kind(*buses, sync=False, period_s=PERIOD_S).prepare()
+    finally:
+        for bus in buses:
+            bus.shutdown()
+    compiled = misses = 0
+    for db in dbs:
+        for message in db.messages:
+            try:
+                db.get_message_by_frame_id(message.frame_id)
+            except KeyError:  # an id the database's lookup does not give: never decoded by the program
+                continue
+            before = MessageCodec.of.cache_info().misses
+            try:
+                MessageCodec.of(message)
+            except ValueError:  # a layout the codec does not compile: cantools decodes it
+                continue
+            compiled += 1
+            misses += MessageCodec.of.cache_info().misses - before
+    assert compiled > 10 and misses == 0

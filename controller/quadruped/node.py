@@ -97,6 +97,10 @@ class QuadController:
         """Take one received frame; returns the SYNC tick counter if it is a SYNC."""
         return self.bus.update(msg, bus, now_s)
 
+    def prepare(self) -> None:
+        """What the first frames would build (their layouts), built now: before a free-running loop."""
+        self.bus.prepare()
+
     def last_seen(self) -> dict[str, float]:
         seen = {MOTOR_NAMES[i]: fb.received_s for i, fb in self.bus.motors.items()}
         seen["imu"] = self.bus.imu.received_s

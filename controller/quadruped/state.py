@@ -17,7 +17,8 @@ import can
 
 from wheelleg.controller.quadruped import constants as C
 from wheelleg.controller.quadruped import params as P
-from wheelleg.controller.state import IMU_PARTS, ImuFrames, ImuReading, JointFeedback, checked_decode, take_cybergear
+from wheelleg.controller.state import (IMU_PARTS, ImuFrames, ImuReading, JointFeedback, checked_decode,
+                                      prepare_layouts, take_cybergear)
 from wheelleg.dbc import CAN1, CAN2, load_bus
 
 DATABASES = {CAN1: load_bus(CAN1, robot="quadruped"), CAN2: load_bus(CAN2, robot="quadruped")}
@@ -55,6 +56,11 @@ class QuadBusState:
     bad_frames: int = 0
     frames: int = 0
     imu_frames: ImuFrames = field(default_factory=ImuFrames)
+
+    @staticmethod
+    def prepare() -> None:
+        """Every frame layout compiled now (``prepare_layouts``), before a free-running loop starts."""
+        prepare_layouts(*DATABASES.values())
 
     def __post_init__(self):
         # each bus's motors (id -> its JointFeedback, updated in place), made once: a feedback frame

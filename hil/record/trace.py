@@ -150,6 +150,11 @@ class TraceWriter:
 
     close = stop = finish  # stop: as a recorder sink
 
+    def housekeeping_pending(self) -> bool:
+        """Whether ``housekeeping`` has work: a finished window to pack, or a chunk due to close."""
+        mcap = self._mcap
+        return bool(self._done_windows) or (mcap is not None and mcap.close_due)
+
     def housekeeping(self) -> bool:
         """One piece of the work ``defer_close`` put off: the oldest finished ``/can/`` window
         packed, else the chunk closed if it is due. True if there was one."""

@@ -108,6 +108,8 @@ def describe_plant(plant: dict) -> str:
         text += (f"\n  plant busy a step: p99 {1e3 * plant['p99_busy_s']:.3f} ms, max {1e3 * plant['max_busy_s']:.3f} ms "
                  f"of {1e3 * plant['physics_dt_s']:g} ms; {plant['idle_work']} pieces of the trace's housekeeping in the slack, "
                  f"max {1e3 * plant['max_idle_work_s']:.3f} ms")
+        if "memory" in plant:
+            text += f"; memory {plant['memory']}"
     if plant["stretched_s"] > STRETCH_TOLERANCE_S:
         text += (f"\n  NOT REAL TIME: the plant fell {plant['stretched_s']:.2f} s behind the wall clock "
                  "(simulated time stretched; the controller saw a slow world)")

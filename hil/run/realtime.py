@@ -23,7 +23,8 @@ with ``defer_close``: each bus's finished ``/can/`` window packed, 0.1-0.3 ms
 every 100 ms; a chunk closed, 0.2-0.5 ms every 0.5 s) wait until the plant has
 finished a step with at least ``IDLE_WORK_MIN_S`` left before the next and the
 controller's period grid has no start in that slack, one piece a slack,
-instead of landing on top of a step.
+instead of landing on top of a step; work that has waited ``HOUSEKEEPING_OVERDUE_S``
+takes any slack of ``IDLE_WORK_OVERDUE_MIN_S``.
 
 The controller's ticks are timed from its ``tick_log``; periods in which it
 ran no tick are deadline misses (``deadline_miss`` events, which the
@@ -33,6 +34,8 @@ scenarios' ``no_deadline_miss`` check counts). Per-tick timing goes to
 """
 from __future__ import annotations
 
+import ctypes
+import ctypes.util
 import gc
 import math
 import os
@@ -49,6 +52,8 @@ from wheelleg.hil.run.schedule import HeartbeatWatch
 
 MAX_BATCH_S = 0.05  # s of physics the plant takes in one batch when behind (then it stretches time)
 IDLE_WORK_MIN_S = 0.0006  # slack before the next step (s) in which the plant may do the trace's housekeeping
+HOUSEKEEPING_OVERDUE_S = 0.02  # housekeeping that waited this long (s) takes any slack of at least:
+IDLE_WORK_OVERDUE_MIN_S = 0.0003  # s (a window packs in 0.1-0.3 ms)
 SWITCH_INTERVAL_S = 0.0002  # Python's GIL hand-over bound while two loops share the process
 FIFO_PRIORITY = 10  # SCHED_FIFO priority of the controller thread, when the OS allows it (as on the robot)
 # The controller's period grid starts this many physics steps after the plant's clock, so
@@ -57,6 +62,7 @@ FIFO_PRIORITY = 10  # SCHED_FIFO priority of the controller thread, when the OS 
 # the idle 2-core machine, control-loop jitter p99 / plant overruns: at 1.0 (in phase)
 # 0.28-0.33 ms / 3-7, at 1.25 0.27-0.32 / 5-9, 1.5 0.14-0.25 / 0-6, 1.65-1.85 0.07-0.28 / 0-7.
 CONTROLLER_PHASE_STEPS = 1.75
+_MCL_CURRENT = 1  # mlockall(2): lock the pages mapped now
 PLANT_FIFO_PRIORITY = 5  # the plant's, below the controller's: other processes must not preempt the
 # plant while it holds the GIL the controller waits for (priority inversion through the GIL)
 
@@ -69,6 +75,7 @@ class ControllerThread:
         self.node = robot.build_controller({role: open_bus(interface, name) for role, name in channels.items()},
                                            False, period_s)
         self.node.tick_log = []
+        self.node.prepare()  # its first-use work before the clock, not in its first ticks (run repeats it: cached)
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name="controller", daemon=True)
         self.error: BaseException | None = None
@@ -112,20 +119,39 @@ def realtime_priority(priority: int = FIFO_PRIORITY) -> str:
 @contextmanager
 def _realtime_process():
     """For the run: a short GIL hand-over, no cyclic GC (a collection stalls both loops
-    for milliseconds), SCHED_FIFO for the calling (plant) thread; all restored after.
-    Yields the scheduler the plant got."""
+    for milliseconds), SCHED_FIFO for the calling (plant) thread, the process's pages
+    locked in RAM; all restored after. Yields (the scheduler the plant got, the memory lock)."""
     switch, gc_was_on = sys.getswitchinterval(), gc.isenabled()
     policy = (os.sched_getscheduler(0), os.sched_getparam(0)) if hasattr(os, "sched_getscheduler") else None
     sys.setswitchinterval(SWITCH_INTERVAL_S)
     gc.disable()
+    libc, memory = _lock_memory()
     try:
-        yield realtime_priority(PLANT_FIFO_PRIORITY)
+        yield realtime_priority(PLANT_FIFO_PRIORITY), memory
     finally:
+        if libc is not None:
+            libc.munlockall()
         sys.setswitchinterval(switch)
         if policy is not None:
             os.sched_setscheduler(0, *policy)
         if gc_was_on:
             gc.enable()
+
+
+def _lock_memory():
+    """``mlockall(MCL_CURRENT)``: every page mapped now (the interpreter's, the libraries' and
+    MuJoCo's code, the model, the heap so far; ~200-300 MB, ~50 ms) stays in RAM. Without it
+    the OS may take mapped pages back mid-run (this VM's kernel pages out cold memory), and
+    touching them again cost a step 10-12 ms of page faults (docs/measurements.md, Real
+    time). Later allocations are not locked (MCL_FUTURE made every allocation fault its
+    pages in at once: slower steps). Returns (libc or None, what happened)."""
+    try:
+        libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6", use_errno=True)
+        if libc.mlockall(_MCL_CURRENT) != 0:
+            return None, f"not locked ({os.strerror(ctypes.get_errno())})"
+    except (OSError, AttributeError) as exc:  # no libc with mlockall (not Linux)
+        return None, f"not locked ({exc})"
+    return libc, "locked"
 
 
 def host_steal_s() -> float | None:
@@ -169,7 +195,7 @@ class Realtime:
         if cfg.in_process_controller:
             controller = ControllerThread(rig.robot, cfg.interface, rig.names, cfg.period_s)
         steal0 = host_steal_s()
-        with _realtime_process() as plant_scheduler:
+        with _realtime_process() as (plant_scheduler, memory):
             done = self._first_step() if total else 0
             wall0 = time.monotonic() - done * self.dt  # the clock starts with that step done
             try:
@@ -186,7 +212,8 @@ class Realtime:
         stolen = None if steal0 is None or steal1 is None else steal1 - steal0
         timing = {"plant": dict(plant_timing(self.batches, self.lags, self.dt, sim_s, wall_s,
                                              self.busy, self.idle_work),
-                                late_wakes=self.late_wakes, scheduler=plant_scheduler, host_steal_s=stolen)}
+                                late_wakes=self.late_wakes, scheduler=plant_scheduler, memory=memory,
+                                host_steal_s=stolen)}
         if controller is not None:
             timing["controller"] = self._record_controller(controller, wall0, ticks)
         self._record_plant(timing["plant"])
@@ -209,12 +236,18 @@ class Realtime:
 
     def _loop(self, total: int, wall0: float, step: int = 0) -> None:
         slept = False  # the loop slept since its last piece of work
+        pending_since = None  # plant clock s since when the trace's housekeeping has waited
         while step < total:
             now = time.monotonic() - wall0
             due = min(int(now / self.dt), total)  # steps that should be done by now
             if due <= step:
                 wake = (step + 1) * self.dt
-                if self._slack_is_free(now, wake) and self.rig.trace.housekeeping():
+                if not self.rig.trace.housekeeping_pending():
+                    pending_since = None
+                elif pending_since is None:
+                    pending_since = now
+                if (pending_since is not None and self._slack_is_free(now, wake, now - pending_since)
+                        and self.rig.trace.housekeeping()):
                     self.idle_work.append(time.monotonic() - wall0 - now)
                     slept = False
                     continue
@@ -242,11 +275,16 @@ class Realtime:
                              cause="late wake" if slept else "long step",
                              previous_busy_s=self.busy[-1] if self.busy else 0.0)
 
-    def _slack_is_free(self, now: float, wake: float) -> bool:
+    def _slack_is_free(self, now: float, wake: float, waited_s: float) -> bool:
         """Housekeeping may run from ``now`` to the next step at ``wake`` (s on the plant's
         clock): at least ``IDLE_WORK_MIN_S`` of slack, and no start of the in-process
-        controller's period in it (it would wait for the GIL the housekeeping holds)."""
-        if wake - now < IDLE_WORK_MIN_S:
+        controller's period in it (it would wait for the GIL the housekeeping holds). Work
+        that has ``waited_s`` ``HOUSEKEEPING_OVERDUE_S`` takes any slack of ``IDLE_WORK_OVERDUE_MIN_S``:
+        a slower machine then still packs its windows as they come, not in a pile at a forced close."""
+        slack = wake - now
+        if waited_s >= HOUSEKEEPING_OVERDUE_S:
+            return slack >= IDLE_WORK_OVERDUE_MIN_S
+        if slack < IDLE_WORK_MIN_S:
             return False
         phase = self.controller_phase_s
         if phase is None:
