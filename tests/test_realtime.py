@@ -76,6 +76,10 @@ def test_plant_timing_counts_catch_up_batches():
     late = plant_timing([50, 50], [0.5, 0.9], 0.001, sim_s=0.1, wall_s=1.0)
     assert late["stretched_s"] == pytest.approx(0.9)
     assert "NOT REAL TIME: the plant fell 0.90 s behind" in describe_plant(late)
+    assert "STALL" not in describe_plant(p)
+    stalled = dict(p, max_lag_s=0.0101, worst_overrun_at_s=0.958, worst_overrun_cause="late wake")
+    assert ("STALL: the plant caught up 10.1 ms at 0.958 s (late wake: the machine woke it late); "
+            "the emulated devices sent nothing that long") in describe_plant(stalled)
 
 
 # -- a real-time run ----------------------------------------------------------------------------
@@ -174,6 +178,8 @@ def test_an_overrun_after_a_late_wake_up_is_the_machines(monkeypatch):
     late = [e for e in trace.events if e["cause"] == "late wake"]
     assert any(e["lag_s"] >= 0.004 and e["steps"] > 1 for e in late)
     assert schedule.late_wakes == len(late)
+    lag, _, cause = schedule.worst_overrun  # the summary's STALL line names the longest catch-up
+    assert lag >= 0.004 and cause == "late wake"
 
 
 def test_batches_are_bounded(tmp_path):

@@ -93,6 +93,7 @@ def plant_timing(batches, lags_s, dt_s: float, sim_s: float, wall_s: float, busy
 
 
 STRETCH_TOLERANCE_S = 0.01  # s of wall time the plant may end behind before the run is not real time
+STALL_NOTE_S = 0.005  # a catch-up this long (s) is told apart: the devices were silent that long
 
 
 def describe_plant(plant: dict) -> str:
@@ -110,6 +111,10 @@ def describe_plant(plant: dict) -> str:
                  f"max {1e3 * plant['max_idle_work_s']:.3f} ms")
         if "memory" in plant:
             text += f"; memory {plant['memory']}"
+    if plant["max_lag_s"] >= STALL_NOTE_S and plant.get("worst_overrun_cause"):
+        text += (f"\n  STALL: the plant caught up {1e3 * plant['max_lag_s']:.1f} ms at {plant['worst_overrun_at_s']:.3f} s "
+                 f"({plant['worst_overrun_cause']}{': the machine woke it late' if plant['worst_overrun_cause'] == 'late wake' else ''}); "
+                 "the emulated devices sent nothing that long, an outage to the controller")
     if plant["stretched_s"] > STRETCH_TOLERANCE_S:
         text += (f"\n  NOT REAL TIME: the plant fell {plant['stretched_s']:.2f} s behind the wall clock "
                  "(simulated time stretched; the controller saw a slow world)")

@@ -179,6 +179,7 @@ class Realtime:
         self.lags: list[float] = []
         self.busy: list[float] = []  # wall s of each advance on the clock
         self.late_wakes = 0  # overruns that came from a wake-up the OS made late
+        self.worst_overrun = (0.0, 0.0, "")  # (lag s, plant clock s, cause) of the longest catch-up
         self.idle_work: list[float] = []  # wall s of each piece of housekeeping done in the slack
         self.controller_phase_s: float | None = None  # where the in-process controller's grid starts
         self.rig = None
@@ -212,7 +213,8 @@ class Realtime:
         stolen = None if steal0 is None or steal1 is None else steal1 - steal0
         timing = {"plant": dict(plant_timing(self.batches, self.lags, self.dt, sim_s, wall_s,
                                              self.busy, self.idle_work),
-                                late_wakes=self.late_wakes, scheduler=plant_scheduler, memory=memory,
+                                late_wakes=self.late_wakes, worst_overrun_at_s=self.worst_overrun[1],
+                                worst_overrun_cause=self.worst_overrun[2], scheduler=plant_scheduler, memory=memory,
                                 host_steal_s=stolen)}
         if controller is not None:
             timing["controller"] = self._record_controller(controller, wall0, ticks)
@@ -271,6 +273,8 @@ class Realtime:
         a long step (the work before it, ``previous_busy_s``, ran past the next step)."""
         if slept:
             self.late_wakes += 1
+        if lag_s > self.worst_overrun[0]:
+            self.worst_overrun = (lag_s, step * self.dt, "late wake" if slept else "long step")
         self.rig.trace.event(round(step * self.dt * 1e9), "plant_overrun", steps=batch, lag_s=lag_s,
                              cause="late wake" if slept else "long step",
                              previous_busy_s=self.busy[-1] if self.busy else 0.0)
