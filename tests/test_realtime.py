@@ -160,6 +160,17 @@ class _StubTrace:
         return False
 
 
+def _oversleep_once(monkeypatch, call: int, extra_s: float) -> None:
+    """``time.sleep`` sleeps ``extra_s`` longer at its ``call``-th call: the OS waking a loop late."""
+    calls = []
+    real_sleep = time.sleep
+
+    def sleep(s):
+        calls.append(s)
+        real_sleep(s + (extra_s if len(calls) == call else 0.0))
+    monkeypatch.setattr(time, "sleep", sleep)
+
+
 def test_an_overrun_after_a_late_wake_up_is_the_machines(monkeypatch):
     """The loop goes to sleep in time and the OS wakes it 4 ms late: the overrun that
     follows is a late wake, told apart from the plant's own long steps."""
@@ -167,13 +178,7 @@ def test_an_overrun_after_a_late_wake_up_is_the_machines(monkeypatch):
     trace = _StubTrace()
     schedule.rig = type("StubRig", (), {"trace": trace})()
     monkeypatch.setattr(schedule, "_advance", lambda first, count: None)  # no work at all
-    sleeps = []
-    real_sleep = time.sleep
-
-    def sleep(s):
-        sleeps.append(s)
-        real_sleep(s + (0.004 if len(sleeps) == 20 else 0.0))
-    monkeypatch.setattr(realtime.time, "sleep", sleep)
+    _oversleep_once(monkeypatch, call=20, extra_s=0.004)
     schedule._loop(60, time.monotonic())
     late = [e for e in trace.events if e["cause"] == "late wake"]
     assert any(e["lag_s"] >= 0.004 and e["steps"] > 1 for e in late)
@@ -374,13 +379,7 @@ def test_the_floor_loop_counts_the_wake_ups_the_os_made_a_step_late(monkeypatch)
     """tools.realtime_floor: the plant's sleep-to-the-next-step loop and nothing else."""
     from tools import realtime_floor
 
-    sleeps = []
-    real_sleep = time.sleep
-
-    def sleep(s):
-        sleeps.append(s)
-        real_sleep(s + (0.0035 if len(sleeps) == 10 else 0.0))
-    monkeypatch.setattr(realtime_floor.time, "sleep", sleep)
+    _oversleep_once(monkeypatch, call=10, extra_s=0.0035)
     late = realtime_floor.late_wakes(0.05, 0.001)
     assert any(lag >= 0.0035 for lag in late)  # the 3.5 ms oversleep, and any the machine added
     assert realtime_floor.main(["--seconds", "0.01", "--runs", "1"]) == 0
