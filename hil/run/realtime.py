@@ -181,6 +181,7 @@ class Realtime:
         self.late_wakes = 0  # overruns that came from a wake-up the OS made late
         self.worst_overrun = (0.0, 0.0, "")  # (lag s, plant clock s, cause) of the longest catch-up
         self.idle_work: list[float] = []  # wall s of each piece of housekeeping done in the slack
+        self._pending_since: float | None = None  # plant clock s since when housekeeping has waited
         self.controller_phase_s: float | None = None  # where the in-process controller's grid starts
         self.rig = None
 
@@ -238,19 +239,12 @@ class Realtime:
 
     def _loop(self, total: int, wall0: float, step: int = 0) -> None:
         slept = False  # the loop slept since its last piece of work
-        pending_since = None  # plant clock s since when the trace's housekeeping has waited
         while step < total:
             now = time.monotonic() - wall0
             due = min(int(now / self.dt), total)  # steps that should be done by now
             if due <= step:
                 wake = (step + 1) * self.dt
-                if not self.rig.trace.housekeeping_pending():
-                    pending_since = None
-                elif pending_since is None:
-                    pending_since = now
-                if (pending_since is not None and self._slack_is_free(now, wake, now - pending_since)
-                        and self.rig.trace.housekeeping()):
-                    self.idle_work.append(time.monotonic() - wall0 - now)
+                if self._housekeep(now, wake, wall0):
                     slept = False
                     continue
                 time.sleep(max(0.0, wake - now))
@@ -266,6 +260,20 @@ class Realtime:
             self.busy.append(time.monotonic() - wall0 - now)
             slept = False
             step += batch
+
+    def _housekeep(self, now: float, wake: float, wall0: float) -> bool:
+        """One piece of the trace's housekeeping, if it has some and the slack from ``now`` to
+        ``wake`` (s on the plant's clock) takes it; True if one was done."""
+        trace = self.rig.trace
+        if not trace.housekeeping_pending():
+            self._pending_since = None
+            return False
+        if self._pending_since is None:
+            self._pending_since = now
+        if not (self._slack_is_free(now, wake, now - self._pending_since) and trace.housekeeping()):
+            return False
+        self.idle_work.append(time.monotonic() - wall0 - now)
+        return True
 
     def _overrun(self, step: int, batch: int, lag_s: float, slept: bool) -> None:
         """A ``plant_overrun`` event, with its cause: a late wake (the loop slept in time
