@@ -153,13 +153,6 @@ class _StubTrace:
     def event(self, t_ns, kind, **fields):
         self.events.append(dict(fields, kind=kind, t_ns=t_ns))
 
-
-class _StubRig:
-    """A rig whose record has no housekeeping: only the loop's own timing is left."""
-
-    def __init__(self):
-        self.trace = _StubTrace()
-
     def housekeeping_pending(self) -> bool:
         return False
 
@@ -182,8 +175,8 @@ def test_an_overrun_after_a_late_wake_up_is_the_machines(monkeypatch):
     """The loop goes to sleep in time and the OS wakes it 4 ms late: the overrun that
     follows is a late wake, told apart from the plant's own long steps."""
     schedule = realtime.Realtime(0.002, 0.001)
-    schedule.rig = _StubRig()
-    trace = schedule.rig.trace
+    trace = _StubTrace()
+    schedule.rig = type("StubRig", (), {"trace": trace})()
     monkeypatch.setattr(schedule, "_advance", lambda first, count: None)  # no work at all
     _oversleep_once(monkeypatch, call=20, extra_s=0.004)
     schedule._loop(60, time.monotonic())

@@ -104,10 +104,6 @@ class Recorder:
             self.settle()
         return handle
 
-    def pending(self) -> bool:
-        """Whether frames are noted and not settled yet."""
-        return bool(self._noted)
-
     def settle(self) -> None:
         """Every noted frame on its wire, in the order noted; what is settled handed to the sinks.
 

@@ -122,10 +122,8 @@ class Rig:
                                  write_behind=config.realtime,
                                  defer_close=config.realtime)  # closed in the slack between steps
         self.log = CandumpWriter(self.log_path, epoch_ns=config.epoch_ns)
-        # real time settles the noted frames in the slack between steps (``housekeeping``);
-        # 512 bounds what one forced settle takes should no slack come
         self.recorder = Recorder([self.trace, self.log], self.clock, list(self.names.values()), load_to=self.trace,
-                                 batch=512 if config.realtime else 1024)
+                                 batch=1 if config.realtime else 1024)  # a real-time loop must not stall
         self.bus_faults = {k: BusFaults(self.clock) for k in self._raw}
         self.plant_buses = {}
         for k, raw in self._raw.items():
@@ -199,19 +197,6 @@ class Rig:
             self.controller_died = True
             self.trace.event(self.clock.now_ns, "controller_exception", tick=self.tick,
                              error=f"{type(exc).__name__}: {exc}")
-
-    def housekeeping_pending(self) -> bool:
-        """Whether the record has work ``housekeeping`` would do."""
-        return self.recorder.pending() or self.trace.housekeeping_pending()
-
-    def housekeeping(self) -> bool:
-        """One piece of the record's work that real time does in the slack between steps:
-        the frames noted since the last (the wire model, the log lines, the trace's windows),
-        else the trace's own (``TraceWriter.housekeeping``). True if there was one."""
-        if self.recorder.pending():
-            self.recorder.settle()
-            return True
-        return self.trace.housekeeping()
 
     def record_debug(self) -> None:
         schema = self.robot.debug_schema
