@@ -153,6 +153,13 @@ class _StubTrace:
     def event(self, t_ns, kind, **fields):
         self.events.append(dict(fields, kind=kind, t_ns=t_ns))
 
+
+class _StubRig:
+    """A rig whose record has no housekeeping: only the loop's own timing is left."""
+
+    def __init__(self):
+        self.trace = _StubTrace()
+
     def housekeeping_pending(self) -> bool:
         return False
 
@@ -175,8 +182,8 @@ def test_an_overrun_after_a_late_wake_up_is_the_machines(monkeypatch):
     """The loop goes to sleep in time and the OS wakes it 4 ms late: the overrun that
     follows is a late wake, told apart from the plant's own long steps."""
     schedule = realtime.Realtime(0.002, 0.001)
-    trace = _StubTrace()
-    schedule.rig = type("StubRig", (), {"trace": trace})()
+    schedule.rig = _StubRig()
+    trace = schedule.rig.trace
     monkeypatch.setattr(schedule, "_advance", lambda first, count: None)  # no work at all
     _oversleep_once(monkeypatch, call=20, extra_s=0.004)
     schedule._loop(60, time.monotonic())
@@ -434,3 +441,43 @@ def test_a_free_running_program_builds_its_frame_layouts_before_its_loop(robot):
             compiled += 1
             misses += MessageCodec.of.cache_info().misses - before
     assert compiled > 10 and misses == 0
+
+
+def _recorded(slice_: int | None) -> list:
+    """What a recorder's sink gets for 50 ticks of SYNC, a controller command, its reply and a
+    device frame, settled at the end (None) or ``slice_`` frames at a time after each tick."""
+    import can
+
+    from wheelleg.hil.bus.plant_bus import SimClock
+    from wheelleg.hil.bus.recorder import SYNC_ID, Recorder
+
+    got = []
+
+    class Sink:
+        def on_frames(self, frames):
+            got.extend((f.t_ns, f.channel, f.arbitration_id, bytes(f.data)) for f in frames)
+
+        def stop(self):
+            pass
+
+    clock = SimClock()
+    recorder = Recorder([Sink()], clock, ["vcan0", "vcan1"], batch=10_000)
+    for tick in range(50):
+        clock.set_s(tick * 0.002)
+        for channel in ("vcan0", "vcan1"):
+            recorder.sent(channel, can.Message(arbitration_id=SYNC_ID, data=[tick % 256, 0], is_extended_id=False))
+        command = recorder.received("vcan1", can.Message(arbitration_id=0x0300FD01, data=bytes(8)))
+        recorder.sent("vcan1", can.Message(arbitration_id=0x02000101, data=[tick % 256] * 8), answers=command)
+        recorder.sent("vcan0", can.Message(arbitration_id=0x201, data=[tick % 256] * 8, is_extended_id=False))
+        if slice_ is not None:
+            recorder.settle(slice_)
+    recorder.stop()
+    return got
+
+
+def test_settling_in_slices_records_what_one_settle_does():
+    """Real time settles the noted frames a slice at a time in the slack between steps."""
+    whole = _recorded(None)
+    assert len(whole) == 250 and whole == sorted(whole, key=lambda f: f[0])
+    assert _recorded(3) == whole
+    assert _recorded(1) == whole

@@ -72,11 +72,12 @@ class Recorder:
     """
 
     def __init__(self, sinks: Sequence[FrameSink], clock, channels: Sequence[str], *, load_to=None,
-                 bitrate: int = 1_000_000, batch: int = 1024):
+                 bitrate: int = 1_000_000, batch: int = 1024, slice_: int | None = None):
         self.sinks = list(sinks)
         self.sim_clock = clock
         self.bitrate = bitrate
         self.batch = max(1, int(batch))
+        self.slice = slice_  # what reaching ``batch`` settles (None: every noted frame)
         self.wires: dict[str, BusWire] = {channel: BusWire(bitrate) for channel in channels}
         self.frames = 0
         self.load = LoadMeter(self.wires, load_to)  # /bus/load every 100 ms of bus time
@@ -93,7 +94,7 @@ class Recorder:
         """A frame the plant side put on ``channel``; ``answers``: the received frame it replies to."""
         self._noted.append((self.sim_clock.now_ns, channel, _frame(channel, msg), answers, None))
         if len(self._noted) >= self.batch:
-            self.settle()
+            self.settle(self.slice)
 
     def received(self, channel: str, msg: can.Message) -> Queued:
         """A frame the plant side took off ``channel`` (the controller's); its place on the wire."""
@@ -101,11 +102,17 @@ class Recorder:
         handle = Queued(frame)  # filled in when it is settled
         self._noted.append((self.sim_clock.now_ns, channel, frame, None, handle))
         if len(self._noted) >= self.batch:
-            self.settle()
+            self.settle(self.slice)
         return handle
 
-    def settle(self) -> None:
-        """Every noted frame on its wire, in the order noted; what is settled handed to the sinks.
+    def pending(self) -> bool:
+        """Whether frames are noted and not settled yet."""
+        return bool(self._noted)
+
+    def settle(self, limit: int | None = None) -> None:
+        """Every noted frame (``limit``: the oldest that many) on its wire, in the order noted;
+        what is settled handed to the sinks. Slices give the record one settle would: each
+        frame is taken in order with the clock time it was noted at.
 
         Each frame first closes the load window its time reached (the frames
         before it counted); the rig's SYNC is its bus's barrier; a controller's
@@ -113,6 +120,8 @@ class Recorder:
         the clock has moved the wires run up to it.
         """
         noted, self._noted = self._noted, []
+        if limit is not None and len(noted) > limit:  # the oldest ``limit``: the rest as if noted after
+            noted, self._noted = noted[:limit], noted[limit:]
         if not noted:
             return
         durations = wire_ns_batch([n[2] for n in noted], self.bitrate)

@@ -107,7 +107,7 @@ def describe_plant(plant: dict) -> str:
         text += f"; the hypervisor stole {1e3 * plant['host_steal_s']:.0f} ms of CPU meanwhile"
     if "p99_busy_s" in plant:  # older traces' metadata has no busy figures
         text += (f"\n  plant busy a step: p99 {1e3 * plant['p99_busy_s']:.3f} ms, max {1e3 * plant['max_busy_s']:.3f} ms "
-                 f"of {1e3 * plant['physics_dt_s']:g} ms; {plant['idle_work']} pieces of the trace's housekeeping in the slack, "
+                 f"of {1e3 * plant['physics_dt_s']:g} ms; {plant['idle_work']} pieces of the record's housekeeping in the slack, "
                  f"max {1e3 * plant['max_idle_work_s']:.3f} ms")
         if "memory" in plant:
             text += f"; memory {plant['memory']}"

@@ -18,9 +18,11 @@ simulated time fall behind wall time; that is reported as ``stretched_s``.
 The wall time of each advance (``busy``: the plant's work for its steps) is
 the headroom figure: its p99 and max against the physics step.
 
-Housekeeping goes into the slack: the trace's lumps of work (``TraceWriter``
-with ``defer_close``: each bus's finished ``/can/`` window packed, 0.1-0.3 ms
-every 100 ms; a chunk closed, 0.2-0.5 ms every 0.5 s) wait until the plant has
+Housekeeping goes into the slack: the record's work (``Rig.housekeeping``: the
+frames noted since the last piece settled on the wire model and handed to the log
+and the trace; the trace's lumps with ``defer_close``, each bus's finished
+``/can/`` window packed, 0.1-0.3 ms every 100 ms, and a chunk closed, 0.2-0.5 ms
+every 0.5 s) waits until the plant has
 finished a step with at least ``IDLE_WORK_MIN_S`` left before the next and the
 controller's period grid has no start in that slack, one piece a slack,
 instead of landing on top of a step; work that has waited ``HOUSEKEEPING_OVERDUE_S``
@@ -51,7 +53,7 @@ from wheelleg.hil.run.loop_timing import loop_timing, per_tick, plant_timing
 from wheelleg.hil.run.schedule import HeartbeatWatch
 
 MAX_BATCH_S = 0.05  # s of physics the plant takes in one batch when behind (then it stretches time)
-IDLE_WORK_MIN_S = 0.0006  # slack before the next step (s) in which the plant may do the trace's housekeeping
+IDLE_WORK_MIN_S = 0.0006  # slack before the next step (s) in which the plant may do the record's housekeeping
 HOUSEKEEPING_OVERDUE_S = 0.02  # housekeeping that waited this long (s) takes any slack of at least:
 IDLE_WORK_OVERDUE_MIN_S = 0.0003  # s (a window packs in 0.1-0.3 ms)
 SWITCH_INTERVAL_S = 0.0002  # Python's GIL hand-over bound while two loops share the process
@@ -262,17 +264,18 @@ class Realtime:
             step += batch
 
     def _housekeep(self, now: float, wake: float, wall0: float) -> bool:
-        """One piece of the trace's housekeeping, if it has some and the slack from ``now`` to
-        ``wake`` (s on the plant's clock) takes it; True if one was done."""
-        trace = self.rig.trace
-        if not trace.housekeeping_pending():
+        """One piece of the record's housekeeping (``Rig.housekeeping``), if it has some and the
+        slack from ``now`` to ``wake`` (s on the plant's clock) takes it; True if one was done."""
+        rig = self.rig
+        if not rig.housekeeping_pending():
             self._pending_since = None
             return False
         if self._pending_since is None:
             self._pending_since = now
-        if not (self._slack_is_free(now, wake, now - self._pending_since) and trace.housekeeping()):
+        if not (self._slack_is_free(now, wake, now - self._pending_since) and rig.housekeeping()):
             return False
         self.idle_work.append(time.monotonic() - wall0 - now)
+        self._pending_since = None  # what is left waits from now: overdue only when no piece fits for long
         return True
 
     def _overrun(self, step: int, batch: int, lag_s: float, slept: bool) -> None:

@@ -35,6 +35,8 @@ from wheelleg.hil.run.schedule import HeldLockstep, Lockstep
 _SYNC = load_file("rig.dbc").get_message_by_name("SYNC")  # every robot's lockstep frame
 _SYNC_CODEC = MessageCodec.of(_SYNC)  # compiled: cantools' encode costs ~10 us a tick
 _SYNC_ID = _SYNC.frame_id  # read once: a cantools property
+SETTLE_SLICE = 32  # noted frames one real-time housekeeping piece settles (~0.1 ms)
+REALTIME_BACKLOG = 128  # noted frames (~10 ms of them) past which real time settles a slice per frame noted
 
 @dataclass
 class RigConfig:
@@ -122,8 +124,11 @@ class Rig:
                                  write_behind=config.realtime,
                                  defer_close=config.realtime)  # closed in the slack between steps
         self.log = CandumpWriter(self.log_path, epoch_ns=config.epoch_ns)
+        # real time settles the noted frames in slices in the slack between steps (``housekeeping``);
+        # past REALTIME_BACKLOG noted frames (no slack came) a slice settles at each frame noted
         self.recorder = Recorder([self.trace, self.log], self.clock, list(self.names.values()), load_to=self.trace,
-                                 batch=1 if config.realtime else 1024)  # a real-time loop must not stall
+                                 batch=REALTIME_BACKLOG if config.realtime else 1024,
+                                 slice_=SETTLE_SLICE if config.realtime else None)
         self.bus_faults = {k: BusFaults(self.clock) for k in self._raw}
         self.plant_buses = {}
         for k, raw in self._raw.items():
@@ -197,6 +202,24 @@ class Rig:
             self.controller_died = True
             self.trace.event(self.clock.now_ns, "controller_exception", tick=self.tick,
                              error=f"{type(exc).__name__}: {exc}")
+
+    def housekeeping_pending(self) -> bool:
+        """Whether the record has work ``housekeeping`` would do."""
+        return self.recorder.pending() or self.trace.housekeeping_pending()
+
+    def housekeeping(self) -> bool:
+        """One piece of the record's work that real time does in the slack between steps:
+        the trace's own (``TraceWriter.housekeeping``: a finished window, a due chunk close),
+        else the oldest ``SETTLE_SLICE`` frames noted (the wire model, the log lines, the
+        trace's windows). The trace's first: the recorder has new frames after every step
+        and would starve them until a close forced by size; slices: a settle of everything
+        after a hiccup was a lump of its own. True if there was one."""
+        if self.trace.housekeeping():
+            return True
+        if self.recorder.pending():
+            self.recorder.settle(SETTLE_SLICE)
+            return True
+        return False
 
     def record_debug(self) -> None:
         schema = self.robot.debug_schema
