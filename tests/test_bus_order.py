@@ -157,7 +157,7 @@ def test_each_bus_is_in_the_order_arbitration_gives(balance_log):
 class HandlingOrder:
     """The recorder as it was: each frame stamped with the rig's clock, in the order the rig handles it."""
 
-    def __init__(self, sinks, clock, channels, load_to=None, batch=None):
+    def __init__(self, sinks, clock, channels, load_to=None, batch=None, slice_size=None):
         self.sinks, self.clock = sinks, clock
 
     def sent(self, channel, msg, answers=None):

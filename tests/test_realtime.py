@@ -443,9 +443,9 @@ def test_a_free_running_program_builds_its_frame_layouts_before_its_loop(robot):
     assert compiled > 10 and misses == 0
 
 
-def _recorded(slice_: int | None) -> list:
+def _recorded(slice_size: int | None) -> list:
     """What a recorder's sink gets for 50 ticks of SYNC, a controller command, its reply and a
-    device frame, settled at the end (None) or ``slice_`` frames at a time after each tick."""
+    device frame, settled at the end (None) or ``slice_size`` frames at a time after each tick."""
     import can
 
     from wheelleg.hil.bus.plant_bus import SimClock
@@ -469,8 +469,8 @@ def _recorded(slice_: int | None) -> list:
         command = recorder.received("vcan1", can.Message(arbitration_id=0x0300FD01, data=bytes(8)))
         recorder.sent("vcan1", can.Message(arbitration_id=0x02000101, data=[tick % 256] * 8), answers=command)
         recorder.sent("vcan0", can.Message(arbitration_id=0x201, data=[tick % 256] * 8, is_extended_id=False))
-        if slice_ is not None:
-            recorder.settle(slice_)
+        if slice_size is not None:
+            recorder.settle(slice_size)
     recorder.stop()
     return got
 

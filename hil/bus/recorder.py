@@ -68,16 +68,18 @@ class Recorder:
     takes the rest), in the order they were noted: the same calls in the same
     order as frame by frame, so the same record, with each frame's wire time
     computed for the whole batch at once (``busload.wire_ns_batch``) and the
-    sinks handed a list. Nothing the run does waits for the record.
+    sinks handed a list. Nothing the run does waits for the record. Real time
+    settles ``slice_size`` at a time between its steps (``Rig.housekeeping``);
+    reaching ``batch`` then settles one slice, not the lot.
     """
 
     def __init__(self, sinks: Sequence[FrameSink], clock, channels: Sequence[str], *, load_to=None,
-                 bitrate: int = 1_000_000, batch: int = 1024, slice_: int | None = None):
+                 bitrate: int = 1_000_000, batch: int = 1024, slice_size: int | None = None):
         self.sinks = list(sinks)
         self.sim_clock = clock
         self.bitrate = bitrate
         self.batch = max(1, int(batch))
-        self.slice = slice_  # what reaching ``batch`` settles (None: every noted frame)
+        self.slice_size = slice_size  # what reaching ``batch`` settles (None: every noted frame)
         self.wires: dict[str, BusWire] = {channel: BusWire(bitrate) for channel in channels}
         self.frames = 0
         self.load = LoadMeter(self.wires, load_to)  # /bus/load every 100 ms of bus time
@@ -94,7 +96,7 @@ class Recorder:
         """A frame the plant side put on ``channel``; ``answers``: the received frame it replies to."""
         self._noted.append((self.sim_clock.now_ns, channel, _frame(channel, msg), answers, None))
         if len(self._noted) >= self.batch:
-            self.settle(self.slice)
+            self.settle(self.slice_size)
 
     def received(self, channel: str, msg: can.Message) -> Queued:
         """A frame the plant side took off ``channel`` (the controller's); its place on the wire."""
@@ -102,7 +104,7 @@ class Recorder:
         handle = Queued(frame)  # filled in when it is settled
         self._noted.append((self.sim_clock.now_ns, channel, frame, None, handle))
         if len(self._noted) >= self.batch:
-            self.settle(self.slice)
+            self.settle(self.slice_size)
         return handle
 
     def pending(self) -> bool:

@@ -128,7 +128,7 @@ class Rig:
         # past REALTIME_BACKLOG noted frames (no slack came) a slice settles at each frame noted
         self.recorder = Recorder([self.trace, self.log], self.clock, list(self.names.values()), load_to=self.trace,
                                  batch=REALTIME_BACKLOG if config.realtime else 1024,
-                                 slice_=SETTLE_SLICE if config.realtime else None)
+                                 slice_size=SETTLE_SLICE if config.realtime else None)
         self.bus_faults = {k: BusFaults(self.clock) for k in self._raw}
         self.plant_buses = {}
         for k, raw in self._raw.items():
