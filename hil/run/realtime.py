@@ -19,14 +19,14 @@ The wall time of each advance (``busy``: the plant's work for its steps) is
 the headroom figure: its p99 and max against the physics step.
 
 Housekeeping goes into the slack: the record's work (``Rig.housekeeping``: the
-frames noted since the last piece settled on the wire model and handed to the log
-and the trace; the trace's lumps with ``defer_close``, each bus's finished
-``/can/`` window packed, 0.1-0.3 ms every 100 ms, and a chunk closed, 0.2-0.5 ms
-every 0.5 s) waits until the plant has
-finished a step with at least ``IDLE_WORK_MIN_S`` left before the next and the
-controller's period grid has no start in that slack, one piece a slack,
-instead of landing on top of a step; work that has waited ``HOUSEKEEPING_OVERDUE_S``
-takes any slack of ``IDLE_WORK_OVERDUE_MIN_S``.
+trace's lumps with ``defer_close``, each bus's finished ``/can/`` window packed,
+0.1-0.3 ms every 100 ms, and a chunk closed, 0.2-0.5 ms every 0.5 s; then the
+frames noted during the steps, settled on the wire model and handed to the log
+and the trace a slice at a time, ~0.1 ms) waits until the plant has finished a
+step with at least ``IDLE_WORK_MIN_S`` left before the next and the controller's
+period grid has no start in that slack, instead of landing on top of a step;
+pieces follow each other while the slack lasts, and work that has waited
+``HOUSEKEEPING_OVERDUE_S`` for one takes any slack of ``IDLE_WORK_OVERDUE_MIN_S``.
 
 The controller's ticks are timed from its ``tick_log``; periods in which it
 ran no tick are deadline misses (``deadline_miss`` events, which the
