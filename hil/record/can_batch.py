@@ -82,6 +82,19 @@ def pack(frames: list[Frame]) -> bytes:
     return b"".join(parts)
 
 
+def _byte_columns(n: int) -> tuple[int, int, int, int]:
+    """Where the flags, dlc and length columns (n bytes each) and the payloads of an ``n``-frame
+    record start: each column after the head and its count, 4-aligned as ``pack`` lays them
+    out (file offsets: the CDR body + 4)."""
+    at = 4 + 8 + 8 * n + 4  # the flags: past the head and their count
+    starts = [at]
+    for _ in range(3):  # dlc, length, then the payloads' count
+        at += n
+        at += -(at - 4) % 4 + 4
+        starts.append(at)
+    return tuple(starts)
+
+
 def unpack(record: bytes, log_time_ns: int, channel: str, bus: str = "") -> list[Frame]:
     """The frames of one ``/can/`` record logged at ``log_time_ns``, on ``channel`` with the role ``bus``."""
     if record[:4] != CDR_LE:
@@ -89,17 +102,9 @@ def unpack(record: bytes, log_time_ns: int, channel: str, bus: str = "") -> list
     (n,) = _COUNT.unpack_from(record, 4)
     values = _head(n).unpack_from(record)
     times, ids = list(accumulate(values[2:2 + n], initial=log_time_ns))[1:], values[3 + n:]
-    at = 4 + 8 + 8 * n + 4  # the flags: past the head and their count (file offsets: the body + 4)
-    flags = record[at:at + n]
-    columns = []
-    for _ in range(2):  # dlc, length
-        at += n
-        at += -(at - 4) % 4 + 4
-        columns.append(record[at:at + n])
-    at += n
-    at += -(at - 4) % 4 + 4
-    dlcs, lengths = columns
-    out, start = [], at
+    flags_at, dlcs_at, lengths_at, data_at = _byte_columns(n)
+    flags, dlcs, lengths = (record[at:at + n] for at in (flags_at, dlcs_at, lengths_at))
+    out, start = [], data_at
     for t_ns, can_id, flag, dlc, size in zip(times, ids, flags, dlcs, lengths):
         out.append(Frame(t_ns, channel, can_id, bool(flag & EXTENDED), record[start:start + size], dlc, bus,
                          bool(flag & ERROR), bool(flag & REMOTE), bool(flag & FD), flag >> _FD_SHIFT))
@@ -114,17 +119,12 @@ def unpack_columns(record: bytes, log_time_ns: int) -> FrameColumns:
     (n,) = _COUNT.unpack_from(record, 4)
     gaps = np.frombuffer(record, dtype="<u4", count=n, offset=8)
     ids = np.frombuffer(record, dtype="<u4", count=n, offset=12 + 4 * n)
-    at = 4 + 8 + 8 * n + 4  # the flags, as in ``unpack``
-    flags = np.frombuffer(record, dtype=np.uint8, count=n, offset=at)
-    for _ in range(2):  # dlc, length
-        at += n
-        at += -(at - 4) % 4 + 4
-    lengths = record[at:at + n]
-    at += n
-    at += -(at - 4) % 4 + 4
+    flags_at, _, lengths_at, data_at = _byte_columns(n)
+    flags = np.frombuffer(record, dtype=np.uint8, count=n, offset=flags_at)
+    lengths = record[lengths_at:lengths_at + n]
     if len(flags) != n or len(lengths) != n:
         raise ValueError(f"/can/: a record of {n} frames is cut short")
-    data, start = [], at
+    data, start = [], data_at
     for size in lengths:
         data.append(record[start:start + size])
         start += size
