@@ -69,6 +69,34 @@ class PlantConfig:
                                              for b, axis in zip(n.gyro_bias_rad_s, "xyz")))
 
 
+def motors_in_order(motors: Mapping[str, object], physics) -> tuple:
+    """The motor devices of ``motors`` (name -> device) in the physics' ``MOTORS`` order, which
+    their names must be in (the per-step path sets and reads the motors by position)."""
+    if tuple(motors) != physics.MOTORS:
+        raise ValueError(f"the plant's motors {tuple(motors)} are not the physics' {physics.MOTORS}")
+    return tuple(motors.values())
+
+
+def step_motors(physics, motors, imu, now_s: float, dt_s: float) -> None:
+    """One physics step of a plant from ``now_s`` (s), ``dt_s`` long: each motor device's torque
+    in (``motors``, in the physics' ``MOTORS`` order), the step, the devices advanced to its end,
+    their shafts and the IMU's truth read back (``sync_shafts``)."""
+    physics.set_motor_torques([dev.output_torque(now_s) for dev in motors])
+    physics.step()
+    end_s = now_s + dt_s
+    for dev in motors:
+        dev.advance(dt_s, end_s)
+    sync_shafts(physics, motors, imu)
+
+
+def sync_shafts(physics, motors, imu) -> None:
+    """Each motor device's shaft (angle, speed) and the IMU's truth from the physics' state."""
+    for dev, (angle, speed) in zip(motors, physics.motor_states()):
+        shaft = dev.shaft
+        shaft.angle, shaft.speed = angle, speed
+    imu.set_truth(*physics.imu_truth())
+
+
 class Plant:
     """Emulated devices on two buses, backed by ``physics``."""
 
@@ -90,11 +118,9 @@ class Plant:
             CAN1: DeviceNode(buses[CAN1], [*self.wheels.values(), self.imu, self.remote], **delays),
             CAN2: DeviceNode(buses[CAN2], list(self.joints.values()), **delays),
         }
-        self._motors = (*self.joints.values(), *self.wheels.values())  # in the physics' MOTORS order
-        if (*self.joints, *self.wheels) != physics.MOTORS:
-            raise ValueError(f"the plant's motors {(*self.joints, *self.wheels)} are not the physics' {physics.MOTORS}")
+        self._motors = motors_in_order({**self.joints, **self.wheels}, physics)
         self._dt = physics.model.opt.timestep  # s, one physics step
-        self._sync_shafts()
+        sync_shafts(self.physics, self._motors, self.imu)
 
     @property
     def devices(self) -> dict:
@@ -102,17 +128,4 @@ class Plant:
 
     def step(self, now_s: float) -> None:
         """One physics step from ``now_s``: device torques in, new state out."""
-        motors = self._motors
-        self.physics.set_motor_torques([dev.output_torque(now_s) for dev in motors])
-        self.physics.step()
-        dt = self._dt
-        end_s = now_s + dt
-        for dev in motors:
-            dev.advance(dt, end_s)
-        self._sync_shafts()
-
-    def _sync_shafts(self) -> None:
-        for dev, (angle, speed) in zip(self._motors, self.physics.motor_states()):
-            shaft = dev.shaft
-            shaft.angle, shaft.speed = angle, speed
-        self.imu.set_truth(*self.physics.imu_truth())
+        step_motors(self.physics, self._motors, self.imu, now_s, self._dt)

@@ -22,7 +22,7 @@ from wheelleg.dbc import CAN1, CAN2, load_bus
 from wheelleg.emulators.cybergear import CyberGear
 from wheelleg.emulators.imu import Imu
 from wheelleg.emulators.node import DeviceNode
-from wheelleg.emulators.plant import PlantConfig
+from wheelleg.emulators.plant import PlantConfig, motors_in_order, step_motors, sync_shafts
 from wheelleg.emulators.quadruped import description as D
 from wheelleg.emulators.quadruped.physics import QuadrupedPhysics
 from wheelleg.emulators.remote import Remote
@@ -51,10 +51,8 @@ class QuadrupedPlant:
             CAN1: DeviceNode(buses[CAN1], [*motors[0], self.imu, self.remote], **delays),
             CAN2: DeviceNode(buses[CAN2], motors[1], **delays),
         }
-        self._motors = tuple(self.joints.values())  # in the physics' MOTORS order
-        if tuple(self.joints) != physics.MOTORS:
-            raise ValueError(f"the plant's motors {tuple(self.joints)} are not the physics' {physics.MOTORS}")
-        self._sync_shafts()
+        self._motors = motors_in_order(self.joints, physics)
+        sync_shafts(self.physics, self._motors, self.imu)
 
     @property
     def devices(self) -> dict:
@@ -62,17 +60,4 @@ class QuadrupedPlant:
 
     def step(self, now_s: float) -> None:
         """One physics step from ``now_s``: device torques in, new state out."""
-        motors = self._motors
-        self.physics.set_motor_torques([dev.output_torque(now_s) for dev in motors])
-        self.physics.step()
-        dt = self.physics.model.opt.timestep
-        end_s = now_s + dt
-        for dev in motors:
-            dev.advance(dt, end_s)
-        self._sync_shafts()
-
-    def _sync_shafts(self) -> None:
-        for dev, (angle, speed) in zip(self._motors, self.physics.motor_states()):
-            shaft = dev.shaft
-            shaft.angle, shaft.speed = angle, speed
-        self.imu.set_truth(*self.physics.imu_truth())
+        step_motors(self.physics, self._motors, self.imu, now_s, self.physics.model.opt.timestep)
