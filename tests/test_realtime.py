@@ -303,18 +303,27 @@ def test_a_free_running_node_starts_its_period_grid_when_its_loop_starts():
     assert node.tick_log and node.tick_log[0][0] < 50
 
 
-def _write_trace(path, write_behind: bool) -> bytes:
+_FED_TIMES_NS = [k * 50_000 for k in range(2000)]  # the frames ``_feed`` gives, 50 us apart
+
+
+def _feed(trace, k: int) -> None:
+    """Frame ``k`` of the test traces on vcan0, and /sim/state with every 40th."""
     from wheelleg.hil.record.frame import Frame
+
+    t_ns = _FED_TIMES_NS[k]
+    trace.frame(Frame(t_ns, "vcan0", 0x201, False, k.to_bytes(8, "little"), 8))
+    if k % 40 == 0:
+        trace.sim_state(t_ns, {name: k * 0.5 for name in trace._sim_fields})
+
+
+def _write_trace(path, write_behind: bool) -> bytes:
     from wheelleg.hil.record.trace import TraceWriter
 
     trace = TraceWriter(path, metadata={"run": {"scenario": "test"}}, flush_interval_s=None,
                         chunk_span_s=0.01, write_behind=write_behind)
     with trace:
         for k in range(2000):  # 20 chunks of 10 ms
-            t_ns = k * 50_000
-            trace.frame(Frame(t_ns, "vcan0", 0x201, False, k.to_bytes(8, "little"), 8))
-            if k % 40 == 0:
-                trace.sim_state(t_ns, {name: k * 0.5 for name in trace._sim_fields})
+            _feed(trace, k)
         trace.add_metadata("late", {"after": "the chunks"})
     return path.read_bytes()
 
@@ -337,7 +346,6 @@ def _chunk_count(path) -> int:
 def _deferred_trace(path, *, chunk_size: int, ask_every: int | None) -> int:
     """2000 frames 50 us apart in /can/ windows of 10 ms, /sim/state every 40; ``housekeeping``
     every ``ask_every`` frames (None: never). Returns how many pieces it did."""
-    from wheelleg.hil.record.frame import Frame
     from wheelleg.hil.record.trace import TraceWriter
 
     trace = TraceWriter(path, metadata={"run": {"scenario": "test"}}, flush_interval_s=None,
@@ -346,10 +354,7 @@ def _deferred_trace(path, *, chunk_size: int, ask_every: int | None) -> int:
     with trace:
         assert not trace.housekeeping()  # nothing open yet
         for k in range(2000):
-            t_ns = k * 50_000
-            trace.frame(Frame(t_ns, "vcan0", 0x201, False, k.to_bytes(8, "little"), 8))
-            if k % 40 == 0:
-                trace.sim_state(t_ns, {name: k * 0.5 for name in trace._sim_fields})
+            _feed(trace, k)
             if ask_every and k % ask_every == ask_every - 1:
                 pieces += trace.housekeeping()
     return pieces
@@ -367,19 +372,19 @@ def test_deferred_housekeeping_waits_for_the_loop_and_loses_nothing(tmp_path):
     assert chunks == 5
     assert chunks - 1 < pieces <= chunks - 1 + 9
     reader = TraceReader(path)
-    assert [f.t_ns for f in reader.frames("vcan0")] == [k * 50_000 for k in range(2000)]
+    assert [f.t_ns for f in reader.frames("vcan0")] == _FED_TIMES_NS
     assert len(reader.sim_state()["t"]) == 50
     never = tmp_path / "never.mcap"
     assert _deferred_trace(never, chunk_size=512 * 1024, ask_every=None) == 0
     assert _chunk_count(never) == 1  # never asked, never closed: one chunk at finish
-    assert [f.t_ns for f in TraceReader(never).frames("vcan0")] == [k * 50_000 for k in range(2000)]
+    assert [f.t_ns for f in TraceReader(never).frames("vcan0")] == _FED_TIMES_NS
 
 
 def test_a_deferred_chunk_that_grows_to_twice_its_size_closes_anyway(tmp_path):
     path = tmp_path / "grown.mcap"
     assert _deferred_trace(path, chunk_size=2048, ask_every=None) == 0
     assert _chunk_count(path) > 3  # ~50 kB of records: closed at 4 kB each without being asked
-    assert [f.t_ns for f in TraceReader(path).frames("vcan0")] == [k * 50_000 for k in range(2000)]
+    assert [f.t_ns for f in TraceReader(path).frames("vcan0")] == _FED_TIMES_NS
 
 
 def test_the_floor_loop_counts_the_wake_ups_the_os_made_a_step_late(monkeypatch):

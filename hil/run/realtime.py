@@ -282,13 +282,13 @@ class Realtime:
         """A ``plant_overrun`` event, with its cause: a late wake (the loop slept in time
         and the OS woke it ``lag_s`` late: the machine's stall, not the plant's work), or
         a long step (the work before it, ``previous_busy_s``, ran past the next step)."""
+        cause = "late wake" if slept else "long step"
         if slept:
             self.late_wakes += 1
         if lag_s > self.worst_overrun[0]:
-            self.worst_overrun = (lag_s, step * self.dt, "late wake" if slept else "long step")
+            self.worst_overrun = (lag_s, step * self.dt, cause)
         self.rig.trace.event(round(step * self.dt * 1e9), "plant_overrun", steps=batch, lag_s=lag_s,
-                             cause="late wake" if slept else "long step",
-                             previous_busy_s=self.busy[-1] if self.busy else 0.0)
+                             cause=cause, previous_busy_s=self.busy[-1] if self.busy else 0.0)
 
     def _slack_is_free(self, now: float, wake: float, waited_s: float) -> bool:
         """Housekeeping may run from ``now`` to the next step at ``wake`` (s on the plant's

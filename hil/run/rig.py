@@ -210,14 +210,15 @@ class Rig:
     def housekeeping(self) -> bool:
         """One piece of the record's work that real time does in the slack between steps:
         the trace's own (``TraceWriter.housekeeping``: a finished window, a due chunk close),
-        else the oldest ``SETTLE_SLICE`` frames noted (the wire model, the log lines, the
+        else the oldest slice of the frames noted (``Recorder.slice_size``: ``SETTLE_SLICE`` in
+        real time; the wire model, the log lines, the
         trace's windows). The trace's first: the recorder has new frames after every step
         and would starve them until a close forced by size; slices: a settle of everything
         after a hiccup was a lump of its own. True if there was one."""
         if self.trace.housekeeping():
             return True
         if self.recorder.pending():
-            self.recorder.settle(SETTLE_SLICE)
+            self.recorder.settle(self.recorder.slice_size)
             return True
         return False
 
