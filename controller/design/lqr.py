@@ -49,9 +49,9 @@ from __future__ import annotations
 
 import argparse
 import functools
-import importlib.util
 import math
 import sys
+import types
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -319,10 +319,15 @@ def render(d: Design) -> str:
 
 
 def load_table(path: Path | None = None):
-    """The gain module at ``path`` (default GAINS_PATH), loaded fresh from the file."""
-    spec = importlib.util.spec_from_file_location("_lqr_gains_on_disk", path or GAINS_PATH)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
+    """The gain module at ``path`` (default GAINS_PATH), loaded fresh from the file.
+
+    Compiled from the text, not imported: an import may take a cached ``__pycache__``
+    copy, stale when the file was rewritten within the same second at the same size.
+    """
+    path = Path(path or GAINS_PATH)
+    module = types.ModuleType("_lqr_gains_on_disk")
+    module.__file__ = str(path)
+    exec(compile(path.read_text(), str(path), "exec"), module.__dict__)
     return module
 
 
