@@ -23,6 +23,20 @@ def test_version_prints_the_installed_version(capsys):
     assert capsys.readouterr().out.strip() == f"wheelleg {version('wheelleg-hil')}"
 
 
+def test_a_command_imports_its_own_module_only_and_a_wrong_name_still_lists_them_all():
+    from wheelleg.hil.cli import SUBCOMMANDS, named_command
+
+    assert named_command(["--version", "decode", "run"]) == "decode"
+    assert named_command(["-h"]) is None and named_command(["nosuch", "run"]) is None
+    code = ("import sys; from wheelleg.hil import cli; cli.build_parser('decode').parse_args(['decode', 'x.log']); "
+            "print(sorted(m for m in ('mujoco', 'wheelleg.hil.run.rig', 'wheelleg.emulators.plant') if m in sys.modules))")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=REPO, timeout=120)
+    assert done.returncode == 0 and done.stdout.strip() == "[]", done.stderr
+    proc = subprocess.run([sys.executable, "-m", "wheelleg.hil.cli", "nosuch"], capture_output=True, text=True,
+                          cwd=REPO, timeout=120)
+    assert proc.returncode == 2 and all(repr(name) in proc.stderr for name in SUBCOMMANDS)
+
+
 @pytest.mark.parametrize("command", ["run", "controller"])
 def test_run_and_controller_take_the_interface_from_canrc(tmp_path, monkeypatch, command):
     """No -i: python-can's ~/.canrc names the interface (an unknown one here, so the error shows it)."""
