@@ -16,3 +16,17 @@ def test_a_capture_replays_identically_and_a_changed_output_fails(tmp_path, caps
     path.write_bytes(pickle.dumps(captured))
     assert controller_replay.main(["replay", str(path), "--reps", "1"]) == 1
     assert "OUTPUTS DIFFER in 1 ticks" in capsys.readouterr().out
+
+
+def test_the_ceiling_runs_the_program_on_its_buses_to_the_captured_outputs():
+    from tools import lockstep_ceiling
+    from wheelleg.hil import robots
+
+    captured = controller_replay.capture_events("balance", 0.1)
+    robot = robots.get("wheel-legged")
+    seconds, differ = lockstep_ceiling.on_buses(captured, robot, robot.control_period_s, reps=1)
+    assert differ == 0 and seconds > 0
+    ticks = [i for i, event in enumerate(captured["events"]) if event[0] == "tick"]
+    syncs = [i for i, event in enumerate(captured["events"][:ticks[25]]) if event[0] == "frame" and event[1][1] == 0x080]
+    del captured["events"][syncs[-1]]  # one bus's SYNC the player no longer sends: tick 25 cannot run
+    assert lockstep_ceiling.on_buses(captured, robot, robot.control_period_s, reps=1)[1] > 0

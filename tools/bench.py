@@ -33,8 +33,7 @@ from pathlib import Path
 
 import mujoco
 
-from wheelleg.emulators.physics import Physics
-from wheelleg.hil import scenarios
+from wheelleg.hil import robots, scenarios
 from wheelleg.hil.record.rundata import load_run
 from wheelleg.hil.run.rig import Rig, RigConfig
 
@@ -116,7 +115,7 @@ def timed_run(scenario, decode: bool, out: Path) -> dict:
 
 def mujoco_only(scenario, sim_s: float) -> dict:
     """MuJoCo stepping the scenario's model (same terrain, same timestep) for ``sim_s``, nothing else."""
-    physics = Physics(terrain=scenario.terrain, timestep_s=RigConfig.physics_dt_s)
+    physics = robots.get(scenario.robot).build_physics(scenario.terrain, RigConfig.physics_dt_s, {})
     scenario.start(physics)
     model, data = physics.model, physics.data
     steps = round(sim_s / model.opt.timestep)

@@ -32,7 +32,7 @@ import can
 from tools.loop_instructions import callgrind
 
 
-def _outputs(result) -> tuple:
+def tick_outputs(result) -> tuple:
     """A tick's outputs as comparable values: mode, each bus's frames (id, extended, data, time), debug."""
     frames = tuple((bus, tuple((m.arbitration_id, m.is_extended_id, bytes(m.data), m.timestamp) for m in msgs))
                    for bus, msgs in sorted(result.frames.items()))
@@ -41,6 +41,15 @@ def _outputs(result) -> tuple:
 
 def capture(scenario_name: str, out: Path, duration_s: float | None) -> int:
     """Run the scenario; write its controller's inputs and outputs to ``out``. Returns the ticks kept."""
+    captured = capture_events(scenario_name, duration_s)
+    with open(out, "wb") as f:
+        pickle.dump(captured, f)
+    return sum(e[0] == "tick" for e in captured["events"])
+
+
+def capture_events(scenario_name: str, duration_s: float | None) -> dict:
+    """Run the scenario in lockstep: {"program": "module:Class" of its controller, "events": its
+    inputs and outputs in order, ("frame", fields, bus, now s) and ("tick", number, now s, outputs)}."""
     from wheelleg.hil import scenarios  # noqa: PLC0415 (replay needs none of the rig)
     from wheelleg.hil.run.rig import Rig, RigConfig  # noqa: PLC0415
 
@@ -60,38 +69,51 @@ def capture(scenario_name: str, out: Path, duration_s: float | None) -> int:
 
         def kept_tick(number: int, now_s: float):
             result = tick(number, now_s)
-            events.append(("tick", number, now_s, _outputs(result)))
+            events.append(("tick", number, now_s, tick_outputs(result)))
             return result
 
         program.on_frame, program.tick = kept_frame, kept_tick
         rig.schedule.run(rig, round(scenario.duration_s / rig.config.period_s))
         rig.close()
     kind = type(program)
-    with open(out, "wb") as f:
-        pickle.dump({"program": f"{kind.__module__}:{kind.__qualname__}", "events": events}, f)
-    return sum(e[0] == "tick" for e in events)
+    return {"program": f"{kind.__module__}:{kind.__qualname__}", "events": events}
+
+
+def program_class(captured: dict):
+    """The captured controller's class, imported."""
+    module, _, name = captured["program"].partition(":")
+    return getattr(importlib.import_module(module), name)
+
+
+def message(fields: tuple) -> can.Message:
+    """A captured frame's fields (time s, id, extended, remote, error, dlc, data) as a frame."""
+    t, can_id, extended, remote, error, dlc, data = fields
+    return can.Message(timestamp=t, arbitration_id=can_id, is_extended_id=extended, is_remote_frame=remote,
+                       is_error_frame=error, dlc=dlc, data=data)
 
 
 def replay(path: Path, reps: int, counting: bool = False) -> tuple[int, float, int]:
     """Feed the captured inputs to fresh controllers ``reps`` times: (ticks, best s a tick, ticks that differ)."""
     with open(path, "rb") as f:
         captured = pickle.load(f)
-    module, _, name = captured["program"].partition(":")
-    program_class = getattr(importlib.import_module(module), name)
+    return replay_events(captured, reps, counting)
+
+
+def replay_events(captured: dict, reps: int, counting: bool = False) -> tuple[int, float, int]:
+    """``replay`` of what ``capture_events`` returned."""
     inputs, expected = [], []  # (is a frame, frame or tick number, bus or now s, now s or None)
     for kind, *fields in captured["events"]:
         if kind == "frame":
-            (t, can_id, extended, remote, error, dlc, data), bus, now_s = fields
-            inputs.append((True, can.Message(timestamp=t, arbitration_id=can_id, is_extended_id=extended,
-                                             is_remote_frame=remote, is_error_frame=error, dlc=dlc, data=data),
-                           bus, now_s))
+            frame, bus, now_s = fields
+            inputs.append((True, message(frame), bus, now_s))
         else:
             number, now_s, outputs = fields
             inputs.append((False, number, now_s, None))
             expected.append(outputs)
     best, differ = float("inf"), 0
+    make_program = program_class(captured)
     for _ in range(reps):
-        program = program_class()
+        program = make_program()
         on_frame, tick, results = program.on_frame, program.tick, []
         if counting:
             callgrind("on")
@@ -104,7 +126,7 @@ def replay(path: Path, reps: int, counting: bool = False) -> tuple[int, float, i
         best = min(best, time.perf_counter() - start)
         if counting:
             callgrind("off")
-        differ = sum(_outputs(r) != e for r, e in zip(results, expected)) + abs(len(results) - len(expected))
+        differ = sum(tick_outputs(r) != e for r, e in zip(results, expected)) + abs(len(results) - len(expected))
     return len(expected), best / max(1, len(expected)), differ
 
 
