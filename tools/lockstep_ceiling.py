@@ -40,7 +40,7 @@ def on_buses(captured: dict, robot, period_s: float, reps: int) -> tuple[float, 
     ticks = [e for e in captured["events"] if e[0] == "tick"]
     best, differ = float("inf"), 0
     for rep in range(reps):
-        names = {bus: f"ceiling-{rep}-{bus}" for bus in ("can1", "can2")}
+        names = {role: f"ceiling-{rep}-{role}" for role in robot.roles}
         player = {bus: open_bus("virtual", name) for bus, name in names.items()}
         node = robot.build_controller({bus: open_bus("virtual", name) for bus, name in names.items()}, True, period_s)
         for end in player.values():
