@@ -1,4 +1,7 @@
-"""tools/bench.py's reference check: it names the first line where a candump log differs."""
+"""tools/bench.py's reference check: it names the first line where a candump log differs; the tools' scenario argument."""
+import pytest
+
+from tools import known_scenario, lockstep_ceiling
 from tools.bench import first_difference
 
 
@@ -13,3 +16,11 @@ def test_the_first_differing_line_is_named_with_both_texts():
 
 def test_a_shorter_log_differs_where_it_ends():
     assert first_difference([b"a"], [b"a", b"b"]) == "line 2: expected 2 lines, got 1"
+
+
+def test_a_tool_told_an_unknown_scenario_exits_2_with_the_known_ones(capsys):
+    assert known_scenario("quadruped/quad-trot") == "quadruped/quad-trot"
+    with pytest.raises(SystemExit) as exc:
+        lockstep_ceiling.main(["nosuch"])
+    assert exc.value.code == 2
+    assert "no scenario 'nosuch'; known: balance" in capsys.readouterr().err

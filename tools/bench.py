@@ -33,6 +33,7 @@ from pathlib import Path
 
 import mujoco
 
+from tools import known_scenario
 from wheelleg.hil import robots, scenarios
 from wheelleg.hil.record.rundata import load_run
 from wheelleg.hil.run.rig import Rig, RigConfig
@@ -181,7 +182,7 @@ def report_profile(profiler: cProfile.Profile) -> None:
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("scenario", nargs="?", default="balance")
+    parser.add_argument("scenario", nargs="?", default="balance", type=known_scenario)
     parser.add_argument("--duration", type=float, default=5.0, help="simulated seconds (default 5)")
     parser.add_argument("--decoded", action="store_true", help="also record /decoded/ live (RigConfig.decode)")
     parser.add_argument("--no-profile", action="store_true", help="skip the cProfile run")

@@ -29,6 +29,7 @@ from pathlib import Path
 
 import can
 
+from tools import known_scenario
 from tools.loop_instructions import callgrind
 
 
@@ -134,7 +135,7 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True)
     cap = sub.add_parser("capture", help="run a scenario, keep its controller's inputs and outputs")
-    cap.add_argument("scenario")
+    cap.add_argument("scenario", type=known_scenario)
     cap.add_argument("out", type=Path)
     cap.add_argument("--duration", type=float, help="simulated seconds (default: the scenario's)")
     rep = sub.add_parser("replay", help="feed them to a fresh controller; compare its outputs")

@@ -27,6 +27,7 @@ import argparse
 import time
 from dataclasses import replace
 
+from tools import known_scenario
 from tools.bench import mujoco_only
 from tools.controller_replay import capture_events, message, program_class, replay_events, tick_outputs
 from wheelleg.hil import robots, scenarios
@@ -67,7 +68,7 @@ def on_buses(captured: dict, robot, period_s: float, reps: int) -> tuple[float, 
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("scenario", nargs="?", default="balance")
+    parser.add_argument("scenario", nargs="?", default="balance", type=known_scenario)
     parser.add_argument("--duration", type=float, default=5.0, help="simulated seconds (default 5)")
     parser.add_argument("--reps", type=int, default=3, help="repetitions, the best kept (default 3)")
     args = parser.parse_args(argv)

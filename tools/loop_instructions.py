@@ -22,10 +22,12 @@ import tempfile
 from dataclasses import replace
 from pathlib import Path
 
+from tools import known_scenario
+
 
 def count_loop(scenario_name: str, duration_s: float, decode: bool, out: Path) -> int:
     """Inside valgrind: build the rig, count the instructions of its ticks; returns the ticks counted."""
-    from wheelleg.hil import scenarios  # noqa: PLC0415 (the outer process needs none of the rig)
+    from wheelleg.hil import scenarios  # noqa: PLC0415 (the outer process runs none of the rig)
     from wheelleg.hil.run.rig import Rig, RigConfig  # noqa: PLC0415
 
     scenario = replace(scenarios.get(scenario_name), duration_s=duration_s)
@@ -47,7 +49,7 @@ def callgrind(state: str) -> None:
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("scenario", nargs="?", default="balance")
+    parser.add_argument("scenario", nargs="?", default="balance", type=known_scenario)
     parser.add_argument("--duration", type=float, default=0.6, help="simulated seconds (default 0.6)")
     parser.add_argument("--decoded", action="store_true", help="also record /decoded/ live (RigConfig.decode)")
     parser.add_argument("--inside", action="store_true", help=argparse.SUPPRESS)  # the run under valgrind
