@@ -113,9 +113,14 @@ def describe_plant(plant: dict) -> str:
             text += f"; memory {plant['memory']}"
     if plant["max_lag_s"] >= STALL_NOTE_S and plant.get("worst_overrun_cause"):
         text += (f"\n  STALL: the plant caught up {1e3 * plant['max_lag_s']:.1f} ms at {plant['worst_overrun_at_s']:.3f} s "
-                 f"({plant['worst_overrun_cause']}{': the machine woke it late' if plant['worst_overrun_cause'] == 'late wake' else ''}); "
+                 f"({_stall_cause(plant['worst_overrun_cause'])}); "
                  "the emulated devices sent nothing that long, an outage to the controller")
     if plant["stretched_s"] > STRETCH_TOLERANCE_S:
         text += (f"\n  NOT REAL TIME: the plant fell {plant['stretched_s']:.2f} s behind the wall clock "
                  "(simulated time stretched; the controller saw a slow world)")
     return text
+
+
+def _stall_cause(cause: str) -> str:
+    """An overrun's cause as the STALL line says it: whose the late wake-up was."""
+    return f"{cause}: the machine woke it late" if cause == "late wake" else cause
