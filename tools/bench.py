@@ -1,6 +1,6 @@
 """Benchmark (not a test): how fast a lockstep run goes, against MuJoCo alone, and where the time goes.
 
-    python -m tools.bench [SCENARIO] [--duration S] [--decoded] [--no-profile] [--no-check]
+    python -m tools.bench [SCENARIO] [--duration S] [--decoded] [--no-profile] [--no-check] [--no-ceiling]
 
 Printed, all from one process in one go (the machine is shared: compare the
 ratios, which share the load, more than the absolute figures):
@@ -14,9 +14,12 @@ ratios, which share the load, more than the absolute figures):
    plant's physics step; recording happens inside them, as frames pass);
    the trace's size per simulated second and the CPU time the checks take
    to read it back (``load_run``);
-4. under cProfile, each part of the rig's share of the run (profiling slows
+4. the ceiling: the fastest any rig could run this scenario around its
+   program (``tools.lockstep_ceiling``: the program on its buses plus MuJoCo
+   alone), and the rig's share of it;
+5. under cProfile, each part of the rig's share of the run (profiling slows
    everything, so only shares are reported from it);
-5. the candump log of each reference run (``REFERENCES``: the logs committed
+6. the candump log of each reference run (``REFERENCES``: the logs committed
    in tests/traces/) made again and compared byte for byte: the bench exits 1
    and prints the first differing line when a speed change changed behaviour.
 """
@@ -31,10 +34,9 @@ import time
 from dataclasses import replace
 from pathlib import Path
 
-import mujoco
-
 from tools import known_scenario
-from wheelleg.hil import robots, scenarios
+from tools.lockstep_ceiling import measure, mujoco_only
+from wheelleg.hil import scenarios
 from wheelleg.hil.record.rundata import load_run
 from wheelleg.hil.run.rig import Rig, RigConfig
 
@@ -114,19 +116,6 @@ def timed_run(scenario, decode: bool, out: Path) -> dict:
             "read_cpu_s": time.process_time() - read0}
 
 
-def mujoco_only(scenario, sim_s: float) -> dict:
-    """MuJoCo stepping the scenario's model (same terrain, same timestep) for ``sim_s``, nothing else."""
-    physics = robots.get(scenario.robot).build_physics(scenario.terrain, RigConfig.physics_dt_s, {})
-    scenario.start(physics)
-    model, data = physics.model, physics.data
-    steps = round(sim_s / model.opt.timestep)
-    wall0, cpu0 = time.perf_counter(), time.process_time()
-    for _ in range(steps):
-        mujoco.mj_step(model, data)
-    return {"sim_s": sim_s, "wall_s": time.perf_counter() - wall0, "cpu_s": time.process_time() - cpu0,
-            "us_per_step": 1e6 * (time.perf_counter() - wall0) / steps}
-
-
 def first_difference(new: list[bytes], ref: list[bytes]) -> str | None:
     """'line N: expected ... got ...' for the first line where two logs differ, None when equal."""
     for n, (a, b) in enumerate(zip(ref, new), start=1):
@@ -170,6 +159,15 @@ def report_speed(scenario, run: dict, alone: dict) -> None:
           f"{run['read_cpu_s']:.2f} s CPU ({run['read_cpu_s'] / run['sim_s']:.3f} s per simulated s)")
 
 
+def report_ceiling(name: str, run: dict) -> None:
+    """The ceiling any rig could reach around this program (``tools.lockstep_ceiling``, best of 2) and the rig's share."""
+    ceiling = measure(name, run["sim_s"], reps=2)
+    rtf = run["sim_s"] / run["wall_s"]
+    print(f"ceiling (the program on its buses {1e6 * ceiling.bused_s:.1f} us + MuJoCo {1e6 * ceiling.physics_s:.1f} us "
+          f"a tick): {ceiling.factor:.1f}x for any rig around this program; the rig runs at "
+          f"{100 * rtf / ceiling.factor:.0f} % of it" + ("" if ceiling.identical else " (OUTPUTS DIFFER: see tools.lockstep_ceiling)"))
+
+
 def report_profile(profiler: cProfile.Profile) -> None:
     shares: dict[str, float] = {}
     for (filename, _, _), row in pstats.Stats(profiler).stats.items():
@@ -187,11 +185,14 @@ def main(argv=None) -> int:
     parser.add_argument("--decoded", action="store_true", help="also record /decoded/ live (RigConfig.decode)")
     parser.add_argument("--no-profile", action="store_true", help="skip the cProfile run")
     parser.add_argument("--no-check", action="store_true", help="skip the candump reference check")
+    parser.add_argument("--no-ceiling", action="store_true", help="skip the ceiling (tools.lockstep_ceiling)")
     args = parser.parse_args(argv)
     scenario = replace(scenarios.get(args.scenario), duration_s=args.duration)
     with tempfile.TemporaryDirectory() as tmp:
         run = timed_run(scenario, args.decoded, Path(tmp) / "plain")
         report_speed(scenario, run, mujoco_only(scenario, run["sim_s"]))
+        if not args.no_ceiling:
+            report_ceiling(args.scenario, run)
         if not args.no_profile:
             profiler = cProfile.Profile()
             profiler.enable()

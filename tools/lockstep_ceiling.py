@@ -25,14 +25,28 @@ from __future__ import annotations
 
 import argparse
 import time
-from dataclasses import replace
+from dataclasses import dataclass, replace
+
+import mujoco
 
 from tools import known_scenario
-from tools.bench import mujoco_only
 from tools.controller_replay import capture_events, message, program_class, replay_events, tick_outputs
 from wheelleg.hil import robots, scenarios
 from wheelleg.hil.bus.transport import open_bus
 from wheelleg.hil.run.rig import RigConfig
+
+
+def mujoco_only(scenario, sim_s: float) -> dict:
+    """MuJoCo stepping the scenario's model (same terrain, same timestep) for ``sim_s``, nothing else."""
+    physics = robots.get(scenario.robot).build_physics(scenario.terrain, RigConfig.physics_dt_s, {})
+    scenario.start(physics)
+    model, data = physics.model, physics.data
+    steps = round(sim_s / model.opt.timestep)
+    wall0, cpu0 = time.perf_counter(), time.process_time()
+    for _ in range(steps):
+        mujoco.mj_step(model, data)
+    return {"sim_s": sim_s, "wall_s": time.perf_counter() - wall0, "cpu_s": time.process_time() - cpu0,
+            "us_per_step": 1e6 * (time.perf_counter() - wall0) / steps}
 
 
 def on_buses(captured: dict, robot, period_s: float, reps: int) -> tuple[float, int]:
@@ -66,32 +80,56 @@ def on_buses(captured: dict, robot, period_s: float, reps: int) -> tuple[float, 
     return best / max(1, len(ticks)), differ
 
 
+@dataclass(frozen=True)
+class Ceiling:
+    """A scenario's tick at its least, best of the repetitions: s a tick of each part."""
+
+    name: str
+    ticks: int
+    period_s: float
+    alone_s: float  # the program alone
+    bused_s: float  # the program on its buses
+    physics_s: float  # MuJoCo alone for the period
+    identical: bool  # every tick's outputs as in the captured run, both ways
+
+    @property
+    def factor(self) -> float:
+        """The real-time factor of a rig that costs nothing."""
+        return self.period_s / (self.bused_s + self.physics_s)
+
+
+def measure(name: str, duration_s: float, reps: int) -> Ceiling:
+    """Capture ``name`` for ``duration_s`` (s), then time the program alone, on its buses and MuJoCo."""
+    scenario = replace(scenarios.get(name), duration_s=duration_s)
+    robot = robots.get(scenario.robot)
+    period_s = robot.control_period_s
+    captured = capture_events(name, duration_s)
+    ticks, alone_s, differ_alone = replay_events(captured, reps)
+    bused_s, differ_bused = on_buses(captured, robot, period_s, reps)
+    physics = min((mujoco_only(scenario, duration_s) for _ in range(reps)), key=lambda r: r["wall_s"])
+    return Ceiling(scenario.name, ticks, period_s, alone_s, bused_s, physics["wall_s"] / ticks,
+                   not differ_alone and not differ_bused)
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("scenario", nargs="?", default="balance", type=known_scenario)
     parser.add_argument("--duration", type=float, default=5.0, help="simulated seconds (default 5)")
     parser.add_argument("--reps", type=int, default=3, help="repetitions, the best kept (default 3)")
     args = parser.parse_args(argv)
-    scenario = replace(scenarios.get(args.scenario), duration_s=args.duration)
-    robot = robots.get(scenario.robot)
-    period_s = robot.control_period_s
-    captured = capture_events(args.scenario, args.duration)
-    ticks, alone_s, differ_alone = replay_events(captured, args.reps)
-    bused_s, differ_bused = on_buses(captured, robot, period_s, args.reps)
-    physics = min((mujoco_only(scenario, args.duration) for _ in range(args.reps)), key=lambda r: r["wall_s"])
-    physics_s = physics["wall_s"] / ticks
-    floor_s = bused_s + physics_s
-    print(f"{scenario.name}: {ticks} ticks of {1e3 * period_s:g} ms, best of {args.reps}, wall us a tick:")
-    print(f"  the program alone              {1e6 * alone_s:8.1f}")
-    print(f"  the program on its buses       {1e6 * bused_s:8.1f}  (python-can frames both ways)")
-    print(f"  MuJoCo alone, the period       {1e6 * physics_s:8.1f}")
-    print(f"ceiling: {period_s / floor_s:.1f}x real time for any rig around this program "
+    c = measure(args.scenario, args.duration, max(1, args.reps))
+    floor_s = c.bused_s + c.physics_s
+    print(f"{c.name}: {c.ticks} ticks of {1e3 * c.period_s:g} ms, best of {args.reps}, wall us a tick:")
+    print(f"  the program alone              {1e6 * c.alone_s:8.1f}")
+    print(f"  the program on its buses       {1e6 * c.bused_s:8.1f}  (python-can frames both ways)")
+    print(f"  MuJoCo alone, the period       {1e6 * c.physics_s:8.1f}")
+    print(f"ceiling: {c.factor:.1f}x real time for any rig around this program "
           f"({1e6 * floor_s:.1f} us a tick before the rig does anything)")
-    budget_s = period_s / 10 - floor_s
+    budget_s = c.period_s / 10 - floor_s
     print(f"at 10x the rig's devices, bus, wire model and record would have {1e6 * budget_s:.1f} us a tick"
           + ("" if budget_s > 0 else ": none, 10x is out of reach for this program"))
-    if differ_alone or differ_bused:
-        print(f"OUTPUTS DIFFER from the captured run: {differ_alone} ticks alone, {differ_bused} on the buses")
+    if not c.identical:
+        print("OUTPUTS DIFFER from the captured run (the program alone or on its buses)")
         return 1
     return 0
 
