@@ -30,7 +30,7 @@ from dataclasses import dataclass, replace
 import mujoco
 
 from tools import known_scenario
-from tools.controller_replay import capture_events, message, program_class, replay_events, tick_outputs
+from tools.controller_replay import capture_events, message, replay_events, tick_outputs
 from wheelleg.hil import robots, scenarios
 from wheelleg.hil.bus.transport import open_bus
 from wheelleg.hil.run.rig import RigConfig
