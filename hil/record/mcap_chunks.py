@@ -51,15 +51,17 @@ from mcap.writer import MCAP0_MAGIC
 
 try:
     import zstandard
-except ImportError:  # mcap lists it as optional; fall back to no compression
+except ImportError:  # mcap lists it as optional: no compression then (mcap_read reads such files with mcap's own code)
     zstandard = None
 
-# Message record head: opcode, record length, channel id, sequence, log time, publish time.
-_MESSAGE_HEAD = struct.Struct("<BQHIQQ")
-_MESSAGE_FIELDS_LEN = 2 + 4 + 8 + 8
+# The MCAP Message record (this writer's and ``mcap_read``'s): a record head (opcode, record
+# length), then these fields (channel id, sequence, log time, publish time), then the data.
+RECORD_HEAD = struct.Struct("<BQ")
+MESSAGE_FIELDS = struct.Struct("<HIQQ")
+_MESSAGE_HEAD = struct.Struct(RECORD_HEAD.format + MESSAGE_FIELDS.format[1:])
 _INDEX_HEAD = struct.Struct("<BQHI")  # opcode, record length, channel id, entries byte length
 _FOOTER_CRC_PREFIX = struct.Struct("<BQQQ")  # opcode, length, summary start, summary offset start
-_OP_MESSAGE, _OP_MESSAGE_INDEX = int(Opcode.MESSAGE), int(Opcode.MESSAGE_INDEX)  # plain ints pack 2x faster
+OP_MESSAGE, _OP_MESSAGE_INDEX = int(Opcode.MESSAGE), int(Opcode.MESSAGE_INDEX)  # plain ints pack 2x faster
 LIBRARY = "wheelleg-hil mcap_chunks (mcap-python records)"
 
 
@@ -208,7 +210,7 @@ class ChunkedMcapWriter:
     # -- the hot path ------------------------------------------------------------
     def add_message(self, channel_id: int, log_time: int, data: bytes) -> None:
         """Append one message (log time = publish time, ns) to the open chunk."""
-        head = _MESSAGE_HEAD.pack(_OP_MESSAGE, _MESSAGE_FIELDS_LEN + len(data), channel_id, 0, log_time, log_time)
+        head = _MESSAGE_HEAD.pack(OP_MESSAGE, MESSAGE_FIELDS.size + len(data), channel_id, 0, log_time, log_time)
         run = self._runs.get(channel_id)  # after the pack: a bad time raises before anything is kept
         if run is None:
             run = self._open_run(channel_id, log_time)
@@ -226,8 +228,8 @@ class ChunkedMcapWriter:
         """Append a batch of one channel's messages to the open chunk, all of them (no chunk closes)."""
         if not log_times:
             return
-        head, message = _MESSAGE_HEAD.pack, _OP_MESSAGE
-        heads = [head(message, _MESSAGE_FIELDS_LEN + len(data), channel_id, 0, log_time, log_time)
+        head, message, fields_len = _MESSAGE_HEAD.pack, OP_MESSAGE, MESSAGE_FIELDS.size
+        heads = [head(message, fields_len + len(data), channel_id, 0, log_time, log_time)
                  for log_time, data in zip(log_times, payloads)]  # a bad time raises before anything is kept
         run = self._runs.get(channel_id)
         buf, index = run if run is not None else self._open_run(channel_id, log_times[0])

@@ -23,15 +23,9 @@ from mcap.records import (Attachment, AttachmentIndex, Channel, Chunk, ChunkInde
                           SummaryOffset)
 from mcap.stream_reader import CRCValidationError, breakup_chunk, read_magic
 
-try:
-    import zstandard
-except ImportError:  # mcap lists it as optional: such files are then read through mcap's own code
-    zstandard = None
+from wheelleg.hil.record.mcap_chunks import MESSAGE_FIELDS, OP_MESSAGE, RECORD_HEAD, zstandard
 
-_RECORD_HEAD = struct.Struct("<BQ")  # opcode, record length
-_MESSAGE_FIELDS = struct.Struct("<HIQQ")  # channel id, sequence, log time, publish time
-_MESSAGE_FIELDS_LEN = _MESSAGE_FIELDS.size
-_OP_MESSAGE = int(Opcode.MESSAGE)
+_MESSAGE_FIELDS_LEN = MESSAGE_FIELDS.size
 
 # What a cut-off file can raise while its last record is parsed.
 _CORRUPT_TAIL = (McapError, struct.error, ValueError, EOFError, UnicodeDecodeError)
@@ -105,7 +99,7 @@ def _file_records(f: BinaryIO, size_limit: int) -> Iterator[object]:
         if length > size_limit:
             raise RecordLengthLimitExceeded(opcode, length, size_limit)
         kind = _RECORD_TYPES.get(opcode)
-        if kind is None and opcode != _OP_MESSAGE:
+        if kind is None and opcode != OP_MESSAGE:
             stream.read(length)
             continue
         start = stream.count
@@ -147,13 +141,13 @@ def _split_chunk(chunk: Chunk, by_channel: bool = False) -> list:
     if chunk.uncompressed_crc != 0 and zlib.crc32(data) != chunk.uncompressed_crc:
         raise CRCValidationError(chunk.uncompressed_crc, zlib.crc32(data), chunk)
     records, grouped, pos, end = [], {}, 0, len(data)
-    head, fields, skip = _RECORD_HEAD.unpack_from, _MESSAGE_FIELDS.unpack_from, _RECORD_HEAD.size
+    head, fields, skip = RECORD_HEAD.unpack_from, MESSAGE_FIELDS.unpack_from, RECORD_HEAD.size
     while pos < end:
         opcode, length = head(data, pos)
         body, pos = pos + skip, pos + skip + length
         if pos > end:
             raise McapError("chunk record runs past the chunk's end")
-        if opcode == _OP_MESSAGE:
+        if opcode == OP_MESSAGE:
             channel_id, sequence, log_time, publish_time = fields(data, body)
             if by_channel:
                 rows = grouped.get(channel_id)
