@@ -46,6 +46,7 @@ class TraceReader:
         self._schemas: dict[int, Schema] = {}
         self._schema_of: dict[str, int] = {}  # topic -> schema id
         self._channel_meta: dict[str, dict[str, str]] = {}  # topic -> its channel's metadata
+        self._columns: dict[str, FrameColumns] = {}  # channel -> its frames by column, made once
         self._load()
         self.dbs = dict(dbs) if dbs else attached_dbs(self.attachments, self.metadata.get("run", {}))
         self._decoder = FrameDecoder(self.dbs) if self.dbs else None
@@ -160,12 +161,23 @@ class TraceReader:
             yield Frame(t_ns, channel, can_id, bool(extended), data[head:head + n], dlc, bus, bool(error))
 
     def frame_columns(self, channel: str) -> FrameColumns:
-        """One channel's frames by column (``FrameColumns``), for readers that take all of them at once."""
-        topic = CAN_PREFIX + channel
-        if self._batched(topic):
-            return FrameColumns.joined([can_batch.unpack_columns(data, t_ns)
-                                        for t_ns, data in self._messages.get(topic, ())])
-        return FrameColumns.of(list(self._channel_frames(channel, "")))  # older layouts, frame by frame
+        """One channel's frames by column (``FrameColumns``), for readers that take all of them at once.
+
+        Made once per channel and shared by every call (each decoded message of a channel, the
+        checks' commands): its arrays are read-only, and its ``data`` list is not to be changed.
+        """
+        columns = self._columns.get(channel)
+        if columns is None:
+            topic = CAN_PREFIX + channel
+            if self._batched(topic):
+                columns = FrameColumns.joined([can_batch.unpack_columns(data, t_ns)
+                                               for t_ns, data in self._messages.get(topic, ())])
+            else:  # older layouts, frame by frame
+                columns = FrameColumns.of(list(self._channel_frames(channel, "")))
+            for array in (columns.t_ns, columns.arbitration_id, columns.is_extended, columns.is_error):
+                array.flags.writeable = False
+            self._columns[channel] = columns
+        return columns
 
     def _batched(self, topic: str) -> bool:
         """Whether a ``/can/`` topic holds one message per bus and window (``can_batch``)."""
