@@ -21,19 +21,13 @@ from wheelleg.controller.quadruped import params as P
 from wheelleg.controller.quadruped import legs, stance
 from wheelleg.controller.quadruped.legs import JointCommands
 from wheelleg.controller.quadruped.rotations import rpy_matrix, wrap
-from wheelleg.controller.quadruped.sensed import Sensed, height_over_feet
-
-
-def _read_only(array: np.ndarray) -> np.ndarray:
-    array.flags.writeable = False
-    return array
-
+from wheelleg.controller.quadruped.sensed import Sensed, height_over_feet, read_only
 
 # constant arrays of the parameters, made once (read-only)
-ATTITUDE_KP, ATTITUDE_KD = _read_only(np.array(P.ATTITUDE_KP)), _read_only(np.array(P.ATTITUDE_KD))
-TRIM_GAINS = _read_only(np.array([P.ATTITUDE_KI] * 3 + [P.HEIGHT_KI]))
-TRIM_LIMITS = _read_only(np.array([P.ATTITUDE_TRIM_LIMIT] * 3 + [P.HEIGHT_TRIM_LIMIT]))
-_ORIGIN_XY = _read_only(np.zeros(2))
+ATTITUDE_KP, ATTITUDE_KD = read_only(np.array(P.ATTITUDE_KP)), read_only(np.array(P.ATTITUDE_KD))
+TRIM_GAINS = read_only(np.array([P.ATTITUDE_KI] * 3 + [P.HEIGHT_KI]))
+TRIM_LIMITS = read_only(np.array([P.ATTITUDE_TRIM_LIMIT] * 3 + [P.HEIGHT_TRIM_LIMIT]))
+_ORIGIN_XY = read_only(np.zeros(2))
 
 
 @dataclass(frozen=True)
@@ -81,9 +75,9 @@ class BalanceStand:
         self.yaw0 = 0.0
         self.measured = self.setpoint.copy()  # roll, pitch, yaw, height as last measured
         # the step's constant arrays, made once (read-only: every step reads them)
-        self._rates = _read_only(np.array([P.ATTITUDE_RATE] * 3 + [P.HEIGHT_RATE]) * period_s)
-        self._xy_rates = _read_only(np.full(2, P.HEIGHT_RATE * period_s))
-        self._feet_rates = _read_only(np.full((4, 3), P.FOOT_SETTLE_RATE * period_s))
+        self._rates = read_only(np.array([P.ATTITUDE_RATE] * 3 + [P.HEIGHT_RATE]) * period_s)
+        self._xy_rates = read_only(np.full(2, P.HEIGHT_RATE * period_s))
+        self._feet_rates = read_only(np.full((4, 3), P.FOOT_SETTLE_RATE * period_s))
 
     def start(self, sensed: Sensed) -> None:
         """Take the feet where they are and the body's posture as the first set point."""

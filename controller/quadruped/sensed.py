@@ -32,16 +32,16 @@ class Sensed:
     @cached_property
     def level_rotation(self) -> np.ndarray:
         """Body -> level frame (3, 3): measured roll and pitch."""
-        return _read_only(rpy_matrix(self.rpy[0], self.rpy[1], 0.0))
+        return read_only(rpy_matrix(self.rpy[0], self.rpy[1], 0.0))
 
     @cached_property
     def feet_body(self) -> np.ndarray:
         """Foot centres (m, (4, 3)) in the body frame (read-only)."""
-        return _read_only(legs.feet_in_body(self.q))
+        return read_only(legs.feet_in_body(self.q))
 
     @cached_property
     def _feet_level(self) -> np.ndarray:
-        return _read_only(self.feet_body @ self.level_rotation.T)
+        return read_only(self.feet_body @ self.level_rotation.T)
 
     def feet_level(self) -> np.ndarray:
         """Foot centres (m, (4, 3)) in the level frame (a copy the caller may change)."""
@@ -52,7 +52,8 @@ class Sensed:
         return float(self.level_rotation[2, 2])
 
 
-def _read_only(array: np.ndarray) -> np.ndarray:
+def read_only(array: np.ndarray) -> np.ndarray:
+    """``array``, made read-only in place: for arrays made once and shared (constants, per-tick caches)."""
     array.flags.writeable = False
     return array
 
