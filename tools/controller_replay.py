@@ -20,7 +20,6 @@ import argparse
 import importlib
 import pickle
 import re
-import subprocess
 import sys
 import tempfile
 import time
@@ -30,7 +29,7 @@ from pathlib import Path
 import can
 
 from tools import known_scenario
-from tools.loop_instructions import callgrind
+from tools.loop_instructions import callgrind, under_callgrind
 
 
 def tick_outputs(result) -> tuple:
@@ -156,16 +155,13 @@ def main(argv=None) -> int:
 
 
 def _count(path: Path) -> int:
-    with tempfile.TemporaryDirectory() as tmp:
-        command = ["valgrind", "--tool=callgrind", "--instr-atstart=no", f"--callgrind-out-file={tmp}/cg.out",
-                   sys.executable, "-m", "tools.controller_replay", "replay", str(path.resolve()), "--inside"]
-        done = subprocess.run(command, capture_output=True, text=True, cwd=Path(__file__).resolve().parents[1])
-    counted, ticks = re.search(r"Collected : (\d+)", done.stderr), re.search(r"^(\d+) ticks", done.stdout, re.M)
-    if counted is None or ticks is None:
+    done, total = under_callgrind(["tools.controller_replay", "replay", str(path.resolve()), "--inside"])
+    ticks = re.search(r"^(\d+) ticks", done.stdout, re.M)
+    if total is None or ticks is None:
         print(f"controller_replay: valgrind run failed (exit {done.returncode}):\n{done.stderr[-2000:]}",
               file=sys.stderr)
         return 1
-    total, n = int(counted.group(1)), int(ticks.group(1))
+    n = int(ticks.group(1))
     print(f"{n} ticks, {total / n / 1e6:.3f} M instructions a tick (controller alone); {done.stdout.strip()}")
     return done.returncode
 

@@ -47,6 +47,18 @@ def callgrind(state: str) -> None:
     subprocess.run(["callgrind_control", "-i", state, str(os.getpid())], check=True, capture_output=True)
 
 
+def under_callgrind(module_args: list[str]) -> tuple[subprocess.CompletedProcess, int | None]:
+    """``python -m MODULE_ARGS`` from the repository root under valgrind's callgrind, counting only
+    what it switches on (``callgrind``): (the finished process, the instructions counted, None
+    when valgrind reported no count)."""
+    with tempfile.TemporaryDirectory() as tmp:
+        command = ["valgrind", "--tool=callgrind", "--instr-atstart=no", f"--callgrind-out-file={tmp}/cg.out",
+                   sys.executable, "-m", *module_args]
+        done = subprocess.run(command, capture_output=True, text=True, cwd=Path(__file__).resolve().parents[1])
+    counted = re.search(r"Collected : (\d+)", done.stderr)
+    return done, int(counted.group(1)) if counted else None
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("scenario", nargs="?", default="balance", type=known_scenario)
@@ -54,21 +66,18 @@ def main(argv=None) -> int:
     parser.add_argument("--decoded", action="store_true", help="also record /decoded/ live (RigConfig.decode)")
     parser.add_argument("--inside", action="store_true", help=argparse.SUPPRESS)  # the run under valgrind
     args = parser.parse_args(argv)
-    with tempfile.TemporaryDirectory() as tmp:
-        if args.inside:
+    if args.inside:
+        with tempfile.TemporaryDirectory() as tmp:
             print(f"ticks {count_loop(args.scenario, args.duration, args.decoded, Path(tmp))}")
-            return 0
-        command = ["valgrind", "--tool=callgrind", "--instr-atstart=no", f"--callgrind-out-file={tmp}/cg.out",
-                   sys.executable, "-m", "tools.loop_instructions", args.scenario, "--duration", str(args.duration),
-                   "--inside"] + (["--decoded"] if args.decoded else [])
-        done = subprocess.run(command, capture_output=True, text=True, cwd=Path(__file__).resolve().parents[1])
-    counted = re.search(r"Collected : (\d+)", done.stderr)
+        return 0
+    done, total = under_callgrind(["tools.loop_instructions", args.scenario, "--duration", str(args.duration),
+                                   "--inside"] + (["--decoded"] if args.decoded else []))
     ticks = re.search(r"ticks (\d+)", done.stdout)
-    if done.returncode != 0 or counted is None or ticks is None:
+    if done.returncode != 0 or total is None or ticks is None:
         print(f"loop_instructions: valgrind run failed (exit {done.returncode}):\n{done.stderr[-2000:]}",
               file=sys.stderr)
         return 1
-    total, n = int(counted.group(1)), int(ticks.group(1))
+    n = int(ticks.group(1))
     print(f"{args.scenario}: {n} ticks, {total / 1e9:.3f} G instructions, {total / n / 1e6:.2f} M per tick")
     return 0
 
