@@ -77,10 +77,17 @@ class FrameColumns:
                    np.array([f.is_extended for f in frames], dtype=bool),
                    np.array([f.is_error for f in frames], dtype=bool), [f.data for f in frames])
 
+    ARRAYS = ("t_ns", "arbitration_id", "is_extended", "is_error")  # its (n,) arrays, in field order
+
     @classmethod
     def joined(cls, parts: list["FrameColumns"]) -> "FrameColumns":
         if not parts:
             return cls.of([])
-        return cls(*(np.concatenate([getattr(p, name) for p in parts]) for name in
-                     ("t_ns", "arbitration_id", "is_extended", "is_error")),
+        return cls(*(np.concatenate([getattr(p, name) for p in parts]) for name in cls.ARRAYS),
                    [d for p in parts for d in p.data])
+
+    def frozen(self) -> "FrameColumns":
+        """These columns with their arrays made read-only (in place): for columns shared by readers."""
+        for name in self.ARRAYS:
+            getattr(self, name).flags.writeable = False
+        return self

@@ -174,9 +174,7 @@ class TraceReader:
                                                for t_ns, data in self._messages.get(topic, ())])
             else:  # older layouts, frame by frame
                 columns = FrameColumns.of(list(self._channel_frames(channel, "")))
-            for array in (columns.t_ns, columns.arbitration_id, columns.is_extended, columns.is_error):
-                array.flags.writeable = False
-            self._columns[channel] = columns
+            self._columns[channel] = columns.frozen()
         return columns
 
     def _batched(self, topic: str) -> bool:
