@@ -211,10 +211,10 @@ class Rig:
         """One piece of the record's work that real time does in the slack between steps:
         the trace's own (``TraceWriter.housekeeping``: a finished window, a due chunk close),
         else the oldest slice of the frames noted (``Recorder.slice_size``: ``SETTLE_SLICE`` in
-        real time; the wire model, the log lines, the
-        trace's windows). The trace's first: the recorder has new frames after every step
-        and would starve them until a close forced by size; slices: a settle of everything
-        after a hiccup was a lump of its own. True if there was one."""
+        real time; the wire model, the log lines, the trace's windows). The trace's first: the
+        recorder has new frames after every step and would starve them until a close forced by
+        size; slices: a settle of everything after a hiccup was a lump of its own. True if there
+        was one."""
         if self.trace.housekeeping():
             return True
         if self.recorder.pending():
