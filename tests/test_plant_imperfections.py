@@ -165,3 +165,16 @@ def test_run_accepts_every_new_key(tmp_path):
               for key in NEW_KEYS]
     args = build_parser().parse_args(["run", "balance", *(f"--plant={p}" for p in plants)])
     assert set(plant_config(args.plant).overrides_dict()) == set(NEW_KEYS)
+
+
+def test_the_quadruped_takes_the_sideways_com_and_none_of_the_wheel_legged_robots_parts():
+    from wheelleg.emulators.quadruped.physics import QuadrupedPhysics
+    from wheelleg.hil import robots
+
+    quadruped = robots.get("quadruped")
+    quadruped.check_overrides({"com_y_m": 0.01})
+    moved, nominal = QuadrupedPhysics(overrides={"com_y_m": 0.01}).model, QuadrupedPhysics().model
+    assert moved.body("body").ipos[1] == pytest.approx(nominal.body("body").ipos[1] + 0.01)
+    for key in ("hip_armature", "wheel_frictionloss_left", "hip_zero_offset_left_front", "battery_resistance_ohm"):
+        with pytest.raises(ValueError, match=key):
+            quadruped.check_overrides({key: OVERRIDES[key].high})
