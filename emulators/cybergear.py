@@ -223,11 +223,11 @@ class CyberGear(EmulatedDevice):
         self.vbus_v = vbus_v
         self.speed_limit_rad_s = SPEED_LIMIT_RAD_S * (vbus_v / D.SUPPLY_NOMINAL_V)  # back-EMF: no drive beyond
 
-    def supply_power_w(self) -> float:
+    def supply_power_w(self, now_s: float) -> float:
         """W drawn from the supply now: shaft power plus the windings' copper loss (three phases at the
         firmware's current, each half the line resistance), negative when braking feeds it back."""
         current_a = self.firmware_torque() / D.CG_TORQUE_CONSTANT_NM_PER_A
-        return self.output_torque(0.0) * self.shaft.speed + 1.5 * D.CG_LINE_RESISTANCE_OHM * current_a * current_a
+        return self.output_torque(now_s) * self.shaft.speed + 1.5 * D.CG_LINE_RESISTANCE_OHM * current_a * current_a
 
     @property
     def warn_over_temp(self) -> bool:

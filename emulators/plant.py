@@ -124,8 +124,8 @@ class Plant:
         }
         self._motors = motors_in_order({**self.joints, **self.wheels}, physics)
         self._dt = physics.model.opt.timestep  # s, one physics step
-        self._lag = torque_lag(config, [*(["hip_torque_lag_s"] * len(self.joints)),
-                                        *(["wheel_torque_lag_s"] * len(self.wheels))], self._dt)
+        self._lag = torque_lag(config, ["hip_torque_lag_s" if isinstance(dev, CyberGear) else "wheel_torque_lag_s"
+                                        for dev in self._motors], self._dt)
         self._battery = (volts, config.value("battery_resistance_ohm"))  # open-circuit V, ohm
         sync_shafts(self.physics, self._motors, self.imu)
 
@@ -140,9 +140,7 @@ class Plant:
         open_circuit_v, resistance = self._battery
         if resistance:
             end_s = now_s + self._dt
-            power = sum(j.supply_power_w() for j in self.joints.values()) + sum(
-                w.supply_power_w(end_s) for w in self.wheels.values())
-            volts = sagged_voltage(open_circuit_v, resistance, power)
+            volts = sagged_voltage(open_circuit_v, resistance, sum(dev.supply_power_w(end_s) for dev in self._motors))
             for dev in self._motors:
                 dev.set_supply_voltage(volts)
 
