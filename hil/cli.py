@@ -6,7 +6,7 @@ and ``run(args) -> int`` (cantools' layout); the table below wires them in.
 Exit status, the same for every subcommand: 0 done (every check passed),
 1 failed (a check, a comparison, a bus that cannot be opened), 2 bad input
 (usage: an unknown name, a bad value, an output that cannot be written),
-130 interrupted, 141 the reader of the output went away (``| head``).
+130 interrupted (Ctrl-C), 143 stopped by SIGTERM (cleaned up as after Ctrl-C), 141 the reader of the output went away (``| head``).
 """
 from __future__ import annotations
 
@@ -14,7 +14,9 @@ import argparse
 import importlib
 import importlib.metadata
 import os
+import signal
 import sys
+import threading
 import time
 
 # The command's clock starts when this module loads: importing the rig (MuJoCo, numpy,
@@ -68,16 +70,43 @@ def main(argv: list[str] | None = None) -> int:
     os.environ.setdefault("MUJOCO_GL", "disable")
     argv = sys.argv[1:] if argv is None else argv
     args = build_parser(named_command(argv)).parse_args(argv)
+    previous = terminate_as_interrupt()
     try:
         status = int(args.func(args) or 0)
         sys.stdout.flush()  # a closed pipe shows here, inside the handler, not at interpreter exit
         return status
+    except Terminated:
+        return 128 + signal.SIGTERM
     except KeyboardInterrupt:
         return 130
     except BrokenPipeError:  # `wheelleg ... | head -1`: the reader left; the files are written already
         # Python would complain again flushing stdout at exit: point it at /dev/null first.
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 141
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM (a CI job cancelled, ``timeout``, a process manager), raised in the main thread.
+
+    A KeyboardInterrupt, so whatever cleans up after Ctrl-C (the rig closing and indexing its
+    trace, flushing its log, a campaign's journal) does the same after SIGTERM, and a command
+    that says where it stopped says so for both.
+    """
+
+
+def _raise_terminated(signum, frame):
+    raise Terminated(f"stopped by signal {signal.Signals(signum).name}")
+
+
+def terminate_as_interrupt():
+    """SIGTERM raises ``Terminated`` in the main thread from now on; the previous handler, or None
+    when not in the main thread (signals can only be handled there: nothing changed)."""
+    if threading.current_thread() is not threading.main_thread():
+        return None
+    return signal.signal(signal.SIGTERM, _raise_terminated)
 
 
 if __name__ == "__main__":
