@@ -23,7 +23,7 @@ import warnings
 STARTED_S = time.perf_counter()
 
 SUBCOMMANDS = ("run", "list", "campaign", "emulate", "controller", "replay", "inspect", "decode", "export", "recover",
-               "vcan")
+               "vcan", "new-robot")
 
 
 def build_parser(command: str | None = None) -> argparse.ArgumentParser:
@@ -42,7 +42,7 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
         if command is not None and name != command:
             sub.add_parser(name)
             continue
-        module = importlib.import_module(f"wheelleg.hil.commands.{name}")
+        module = importlib.import_module(f"wheelleg.hil.commands.{name.replace('-', '_')}")
         p = sub.add_parser(module.NAME, help=module.HELP, description=module.HELP)
         module.add_arguments(p)
         p.set_defaults(func=module.run)

@@ -57,17 +57,17 @@ def motors_off_after_fault(device: str, bound_s: float) -> Check:
     return Check(f"{device} silent: DISABLED and zero current within {bound_s * 1000:g} ms", fn)
 
 
-def balancer_scenario(name: str, summary: str, duration_s: float, timeline=(), checks=()) -> Scenario:
+def robot_scenario(name: str, summary: str, duration_s: float, timeline=(), checks=()) -> Scenario:
     """A scenario of the balancer: it starts leaning, the remote asks for balance at once."""
     return Scenario(name, summary, duration_s, leaning, (remote(0.0, Mode=BALANCE), *timeline),
                     (*checks, no_deadline_miss()), robot=ROBOT)
 
 
 SCENARIOS = (
-    balancer_scenario("balance", f"let go leaning {START_LEAN_RAD / DEG:g} deg forward: upright and on the spot "
+    robot_scenario("balance", f"let go leaning {START_LEAN_RAD / DEG:g} deg forward: upright and on the spot "
                       "for 5 s", 5.0, checks=(balances(0.05), pitch_below(1.0 * DEG, 2.0),
                                               drift_below(0.10))),
-    balancer_scenario("offline-wheel", f"the left wheel's C620 goes silent at {FAULT_AT_S:g} s: motors off within "
+    robot_scenario("offline-wheel", f"the left wheel's C620 goes silent at {FAULT_AT_S:g} s: motors off within "
                       "its timeout + one period", FAULT_AT_S + 0.3,
                       timeline=faults.silent("left_wheel", FAULT_AT_S, devices=DEVICES),
                       checks=(balances(0.05, FAULT_AT_S), motors_off_after_fault("left_wheel", ESC_OFFLINE_S + PERIOD_S))),
