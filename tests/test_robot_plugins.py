@@ -138,3 +138,12 @@ def test_the_rigs_own_robots_stay_known_without_their_entry_points(monkeypatch):
         assert robots.get("quadruped").name == "quadruped"
     finally:
         robots.reset()
+
+
+def test_the_rigs_entry_points_are_its_builtin_table():
+    """pyproject.toml's ``wheelleg.robots`` group and ``robots.BUILTIN`` (its fallback, and the path ``get`` takes
+    for the rig's own names without looking at the packages) name the same robots at the same objects."""
+    import tomllib  # noqa: PLC0415
+
+    project = tomllib.loads((Path(__file__).resolve().parents[1] / "pyproject.toml").read_text())["project"]
+    assert project["entry-points"][robots.GROUP] == robots.BUILTIN

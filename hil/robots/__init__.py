@@ -141,11 +141,11 @@ class Entry:
     name: str
     value: str
     package: str  # distribution name
-    version: str
+    version: str | None  # None: the rig's own, looked up when asked (``origin``)
 
     @property
     def origin(self) -> str:
-        return f"{self.package} {self.version}"
+        return f"{self.package} {self.version or _own_version()}"
 
     def load(self) -> "Robot":
         """Its ``Robot``; ``PluginError`` (one line naming the package) when it cannot be had."""
@@ -177,6 +177,7 @@ def _warn(message: str) -> None:
     warnings.warn(message, RobotPluginWarning, stacklevel=3)
 
 
+@functools.cache
 def _own_version() -> str:
     try:
         return importlib.metadata.version(DISTRIBUTION)
@@ -197,7 +198,7 @@ def entries() -> dict[str, Entry]:
         found.setdefault(point.name, []).append(Entry(point.name, point.value, package, version))
     for name, value in BUILTIN.items():
         if not any(e.package == DISTRIBUTION for e in found.get(name, ())):
-            found.setdefault(name, []).insert(0, Entry(name, value, DISTRIBUTION, _own_version()))
+            found.setdefault(name, []).insert(0, Entry(name, value, DISTRIBUTION, None))
     table = {}
     for name, candidates in found.items():
         ranked = sorted(candidates, key=lambda e: (e.package != DISTRIBUTION, e.package.lower()))
@@ -233,7 +234,8 @@ def get(name: str | None = None) -> Robot:
     robot = _LOADED.get(name)
     if robot is not None:
         return robot
-    entry = entries().get(name)
+    # the rig's own robots keep their names whatever else is installed: no need to look at the packages
+    entry = Entry(name, BUILTIN[name], DISTRIBUTION, None) if name in BUILTIN else entries().get(name)
     if entry is None:
         raise KeyError(f"no robot {name!r}; known: {', '.join(names())}")
     try:
