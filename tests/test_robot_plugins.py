@@ -147,3 +147,8 @@ def test_the_rigs_entry_points_are_its_builtin_table():
 
     project = tomllib.loads((Path(__file__).resolve().parents[1] / "pyproject.toml").read_text())["project"]
     assert project["entry-points"][robots.GROUP] == robots.BUILTIN
+
+
+@pytest.mark.parametrize("name", sorted(robots.BUILTIN))
+def test_a_trace_reader_gets_the_rigs_robots_bus_files_without_loading_them(name):
+    assert robots.bus_files(name) == {bus.role: bus.dbc_files for bus in robots.get(name).buses}

@@ -36,14 +36,14 @@ def attached_dbs(attachments: dict[str, bytes], run: dict[str, str]) -> dict[str
     {} when the record names no channel (a trace not written by a run).
     """
     try:
-        buses = robots.get(run.get("robot") or robots.DEFAULT).buses
+        files = robots.bus_files(run.get("robot") or robots.DEFAULT)
     except KeyError:  # a robot this rig cannot load: no layouts to decode with
         return {}
     out = {}
-    for bus in buses:
-        channel = run.get(bus.role)
+    for role, names in files.items():
+        channel = run.get(role)
         if channel:
-            texts = tuple(_dbc_text(attachments, dbc.resolve(file)) for file in bus.dbc_files)
+            texts = tuple(_dbc_text(attachments, dbc.resolve(file)) for file in names)
             out[channel] = _database(texts)
     return out
 

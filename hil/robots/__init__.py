@@ -174,7 +174,7 @@ class PluginError(KeyError):
 
 
 def _warn(message: str) -> None:
-    warnings.warn(message, RobotPluginWarning, stacklevel=3)
+    warnings.warn(message, RobotPluginWarning, stacklevel=2)
 
 
 @functools.cache
@@ -241,18 +241,20 @@ def get(name: str | None = None) -> Robot:
     try:
         robot = _LOADED[name] = entry.load()
     except PluginError as exc:
-        if name not in _BROKEN:
-            _BROKEN[name] = str(exc)
-            _warn(str(exc))
+        _warn_once(name, str(exc))
         raise
     return robot
 
 
 def warn_broken(name: str, why: str) -> None:
     """One ``RobotPluginWarning`` line for the robot ``name`` whose ``why`` fails, naming its package (once)."""
+    _warn_once(name, f"robot plug-in {name!r} of package {origin(name)}: {why.splitlines()[0]}")
+
+
+def _warn_once(name: str, message: str) -> None:
     if name not in _BROKEN:
-        _BROKEN[name] = why
-        _warn(f"robot plug-in {name!r} of package {origin(name)}: {why.splitlines()[0]}")
+        _BROKEN[name] = message
+        _warn(message)
 
 
 def usable() -> dict[str, Robot]:
@@ -264,6 +266,21 @@ def usable() -> dict[str, Robot]:
         except PluginError:
             continue
     return out
+
+
+def bus_files(name: str) -> dict[str, tuple]:
+    """Role -> the DBC files of each bus of the robot ``name`` (``Bus.dbc_files``): for the rig's own robots
+    from ``wheelleg.dbc.ROBOT_BUS_FILES`` without importing them (a reader of a trace needs only its layouts),
+    else from the loaded ``Robot``; KeyError (one line) for an unknown or broken robot."""
+    if name in dbc.ROBOT_BUS_FILES:
+        return dict(dbc.ROBOT_BUS_FILES[name])
+    return {bus.role: bus.dbc_files for bus in get(name).buses}
+
+
+def check_known(name: str) -> None:
+    """KeyError (one line) unless the robot ``name`` is installed and loads; the rig's own are known unloaded."""
+    if name not in BUILTIN:
+        get(name)
 
 
 def origin(name: str) -> str:
