@@ -8,6 +8,6 @@ carries only the rig's lockstep frames (SYNC, heartbeat). Modules:
 - ``physics``, ``plant``: its MuJoCo world and its emulated devices;
 - ``constants``, ``gains`` (written by ``design``), ``controller``, ``__main__``: its controller
   (``python -m wheelleg_balancer``), which imports nothing of the rig but ``wheelleg.dbc``
-  and ``wheelleg.controller``'s CAN node, as on the robot;
+  and ``wheelleg.controller``'s CAN node, offline detection and attitude, as on the robot;
 - ``scenarios``: ``balance`` and ``offline-wheel``; ``robot``: the ``Robot`` the rig loads.
 """
