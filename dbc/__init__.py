@@ -15,6 +15,9 @@ defined here only.
 The quadruped (``QUADRUPED_BUS_FILES``) has two buses too, under the same two
 names: CAN1 is its bus 0 (front legs' CyberGears, IMU, remote), CAN2 its bus 1
 (rear legs' CyberGears); its remote frame is ``quadruped.dbc``'s QuadOperator.
+Every robot's buses name their files (``wheelleg.hil.robots.Bus.dbc_files``: these
+tables for the rig's own robots, a plug-in robot's own files by path), and
+``load_files`` loads any such list.
 """
 from __future__ import annotations
 
