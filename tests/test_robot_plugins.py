@@ -50,7 +50,7 @@ def site(tmp_path, monkeypatch):
 def forget() -> None:
     """The registry and the modules of the packages a test installs, forgotten: each test installs its own."""
     robots.reset()
-    for module in ("acme_robot", "bad_robot"):
+    for module in ("acme_robot", "bad_robot", "gripper_robot"):
         sys.modules.pop(module, None)
 
 
@@ -152,3 +152,41 @@ def test_the_rigs_entry_points_are_its_builtin_table():
 @pytest.mark.parametrize("name", sorted(robots.BUILTIN))
 def test_a_trace_reader_gets_the_rigs_robots_bus_files_without_loading_them(name):
     assert robots.bus_files(name) == {bus.role: bus.dbc_files for bus in robots.get(name).buses}
+
+
+OWN_DBC = """VERSION ""
+NS_ :
+BS_:
+BU_: GRIPPER CONTROLLER
+BO_ 1024 GripperState: 2 GRIPPER
+ SG_ Opening : 0|16@1+ (0.001,0) [0|0.2] "m" CONTROLLER
+"""
+
+WITH_OWN_DBC = """
+import dataclasses
+from pathlib import Path
+from wheelleg.hil import robots
+base = robots.get("wheel-legged")
+own = Path(__file__).resolve().parent / "gripper.dbc"
+buses = (dataclasses.replace(base.buses[0], dbc_files=(*base.buses[0].dbc_files, own)), base.buses[1])
+ROBOT = dataclasses.replace(base, name="gripper", buses=buses, scenario_modules=())
+"""
+
+
+def test_a_plugins_own_dbc_file_decodes_its_frames_and_travels_with_its_traces(site):
+    """A bus may name a file of the plug-in's package (a path): its databases, a trace's decoding from its
+    attachments, and the bug report's comparison take it like the rig's own files."""
+    from wheelleg.hil.analyze.bug_report import installed_dbcs  # noqa: PLC0415
+    from wheelleg.hil.record.derived import attached_dbs  # noqa: PLC0415
+
+    (site / "gripper.dbc").write_text(OWN_DBC)
+    install(site, "gripper-robot", "2.0", {"gripper": "gripper_robot:ROBOT"}, {"gripper_robot": WITH_OWN_DBC})
+    robot = robots.get("gripper")
+    assert robot.databases()["can1"].get_message_by_name("GripperState").decode(b"\x10\x27") == {"Opening": 10.0}
+    assert site / "gripper.dbc" in robot.dbc_paths() and robots.bus_files("gripper")["can1"][-1] == site / "gripper.dbc"
+    assert installed_dbcs("gripper")["gripper.dbc"] == site / "gripper.dbc"
+    # a trace decodes with the file it carries, not with today's copy
+    recorded = OWN_DBC.replace("(0.001,0)", "(0.002,0)").encode()
+    dbs = attached_dbs({"gripper.dbc": recorded}, {"robot": "gripper", "can1": "vcan0", "can2": "vcan1"})
+    assert dbs["vcan0"].get_message_by_name("GripperState").decode(b"\x10\x27") == {"Opening": 20.0}
+    assert "GripperState" not in {m.name for m in dbs["vcan1"].messages}
