@@ -14,7 +14,6 @@ rate, its position integrated from that speed.
 from __future__ import annotations
 
 import enum
-import math
 from dataclasses import dataclass, field
 
 import can
