@@ -18,13 +18,14 @@ import signal
 import sys
 import threading
 import time
+import warnings
 
 # The command's clock starts when this module loads: importing the rig (MuJoCo, numpy,
 # cantools) and building the model count as the run's start-up (`wheelleg run` prints it).
 STARTED_S = time.perf_counter()
 
 SUBCOMMANDS = ("run", "list", "campaign", "emulate", "controller", "replay", "inspect", "decode", "export", "recover",
-               "vcan")
+               "vcan", "new-robot")
 
 
 def build_parser(command: str | None = None) -> argparse.ArgumentParser:
@@ -43,7 +44,7 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
         if command is not None and name != command:
             sub.add_parser(name)
             continue
-        module = importlib.import_module(f"wheelleg.hil.commands.{name}")
+        module = importlib.import_module(f"wheelleg.hil.commands.{name.replace('-', '_')}")
         p = sub.add_parser(module.NAME, help=module.HELP, description=module.HELP)
         module.add_arguments(p)
         p.set_defaults(func=module.run)
@@ -64,7 +65,19 @@ def version() -> str:
         return "unknown (not installed)"
 
 
+_FORMAT_WARNING = warnings.formatwarning
+
+
+def one_line_warning(message, category, filename, lineno, line=None) -> str:
+    """A broken robot plug-in (``wheelleg.hil.robots.RobotPluginWarning``) is one line on stderr, not Python's
+    two with the source line of the rig that noticed it; every other warning as Python writes it."""
+    if category.__name__ == "RobotPluginWarning":
+        return f"wheelleg: warning: {message}\n"
+    return _FORMAT_WARNING(message, category, filename, lineno, line)
+
+
 def main(argv: list[str] | None = None) -> int:
+    warnings.formatwarning = one_line_warning
     # No subcommand renders: without this MuJoCo loads an OpenGL back end (glfw) on import, ~0.3 s
     # of every command's start-up. A value the user set is kept.
     os.environ.setdefault("MUJOCO_GL", "disable")

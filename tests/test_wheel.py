@@ -35,7 +35,12 @@ def test_the_wheel_has_one_top_level_package(wheel):
     assert tops == {"wheelleg"}
     # the data the package reads at run time travels with it
     assert {"wheelleg/dbc/cybergear.dbc", "wheelleg/emulators/robot/robot.xml", "wheelleg/hil/bus/uml/uml-vcan.sh",
-            "wheelleg/hil/bus/uml/uml-vcan-init.sh", "wheelleg/hil/bus/uml/uml_xstate_shim.c"} <= set(names)
+            "wheelleg/hil/bus/uml/uml-vcan-init.sh", "wheelleg/hil/bus/uml/uml_xstate_shim.c",
+            "wheelleg/hil/scaffold/template/pyproject.toml.tmpl",
+            "wheelleg/hil/scaffold/template/package/robot.xml.tmpl"} <= set(names)
+    with zipfile.ZipFile(wheel) as zf:  # its robots, registered as any robot package registers its own
+        points = zf.read(next(n for n in names if n.endswith(".dist-info/entry_points.txt"))).decode()
+    assert "[wheelleg.robots]\nquadruped = wheelleg.hil.robots.quadruped:ROBOT\n" in points
 
 
 @same_fixture("wheel")
