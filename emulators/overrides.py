@@ -16,6 +16,7 @@ import math
 from dataclasses import dataclass
 from typing import Mapping
 
+from wheelleg.emulators.quadruped import description as QD
 from wheelleg.emulators.robot import description as D
 
 
@@ -50,8 +51,12 @@ OVERRIDES: dict[str, OverrideSpec] = {
     "hip_kt_scale": _spec("", 1.0, 0.5, 1.5, "CyberGear true torque per commanded torque (firmware Kt wrong)"),
     "wheel_kt_scale": _spec("", 1.0, 0.5, 1.5, "M3508 true torque constant over the datasheet's "
                             f"{D.M3508_TORQUE_CONSTANT_NM_PER_A} N m/A"),
-    "hip_damping": _spec("N m s/rad", 0.0, 0.0, 2.0, "viscous damping in each hip joint"),
-    "hip_frictionloss": _spec("N m", 0.0, 0.0, 3.0, "dry friction in each hip joint"),
+    "hip_damping": _spec("N m s/rad", 0.0, 0.0, 2.0, "viscous damping added in each CyberGear joint (the "
+                         "wheel-legged robot's hips: none described; the quadruped's twelve joints: on top of "
+                         f"its described {QD.JOINT_DAMPING_NM_S_PER_RAD} N m s/rad)"),
+    "hip_frictionloss": _spec("N m", 0.0, 0.0, 3.0, "dry friction added in each CyberGear joint (the wheel-legged "
+                              "robot's hips: none described; the quadruped's twelve joints: on top of its "
+                              f"described {QD.JOINT_FRICTION_NM} N m)"),
     "imu_tilt_pitch_deg": _spec("deg", 0.0, -15.0, 15.0, "IMU mounted pitched (nose down +) on the body"),
     "imu_tilt_roll_deg": _spec("deg", 0.0, -15.0, 15.0, "IMU mounted rolled (right side down +) on the body"),
     "imu_gyro_bias": _spec("rad/s", 0.0, *_BIAS, "gyro bias on all three axes (added to the per-axis ones)"),
@@ -68,24 +73,30 @@ OVERRIDES: dict[str, OverrideSpec] = {
     # --- the imperfections of geared actuators and of a real build (docs/robot.md, the tolerance box) ---
     "hip_armature": _spec("kg m^2", D.HIP_ARMATURE_KG_M2, 0.0, 0.05, "reflected inertia of rotor and gearbox "
                           "at each hip joint (MuJoCo joint armature)"),
+    "joint_armature_scale": _spec("", 1.0, 0.2, 10.0, "the quadruped's joints' reflected inertia of rotor and "
+                                  f"gearbox times this (described: its rotor alone x {QD.CG_GEAR}^2, "
+                                  f"{QD.JOINT_ARMATURE_KG_M2:.6f} kg m^2)"),
+    **{f"joint_zero_offset_{m.name}": _spec(
+        "rad", 0.0, -0.2, 0.2, f"the quadruped's {m.name} encoder zero set this far off its mark: the "
+        "CyberGear reports the shaft angle minus it") for m in QD.JOINT_MOTORS},
     "wheel_damping": _spec("N m s/rad", 0.0, 0.0, 0.5, "viscous damping of each wheel drive (M3508 gearbox)"),
     "wheel_frictionloss": _spec("N m", 0.0, 0.0, 1.0, "dry friction of each wheel drive (M3508 gearbox)"),
     **{f"hip_zero_offset_{m.name.removesuffix('_hip')}": _spec(
         "rad", 0.0, -0.2, 0.2, f"{m.name}'s encoder zero set this far off the mechanical stop: the "
         "CyberGear reports the shaft angle minus it") for m in D.HIP_MOTORS},
     **{key: spec for side in ("left", "right") for key, spec in (
-        (f"hip_kt_scale_{side}", _spec("", 1.0, 0.5, 1.5, f"the {side} hips' true torque per commanded "
-                                       "torque, times hip_kt_scale")),
+        (f"hip_kt_scale_{side}", _spec("", 1.0, 0.5, 1.5, f"the {side} CyberGears' (hips', legs') true torque "
+                                       "per commanded torque, times hip_kt_scale")),
         (f"wheel_kt_scale_{side}", _spec("", 1.0, 0.5, 1.5, f"the {side} M3508's true torque constant over "
                                          "the datasheet's, times wheel_kt_scale")),
-        (f"hip_frictionloss_{side}", _spec("N m", 0.0, 0.0, 3.0, f"dry friction in each {side} hip joint, "
-                                           "added to hip_frictionloss")),
+        (f"hip_frictionloss_{side}", _spec("N m", 0.0, 0.0, 3.0, f"dry friction added in each {side} "
+                                           "CyberGear joint, on top of hip_frictionloss")),
         (f"wheel_frictionloss_{side}", _spec("N m", 0.0, 0.0, 1.0, f"dry friction of the {side} wheel drive, "
                                              "added to wheel_frictionloss")))},
     "com_y_m": _spec("m", 0.0, -0.1, 0.1, "body CoM moved left (+) or right along body y"),
     "battery_resistance_ohm": _spec("ohm", 0.0, 0.0, 0.5, "battery and cabling resistance: the motors' supply "
                                     "sags by it times the current they draw (the CyberGears report it)"),
-    "hip_torque_lag_s": _spec("s", 0.0, 0.0, 0.02, "first-order lag (time constant) of each hip's torque "
+    "hip_torque_lag_s": _spec("s", 0.0, 0.0, 0.02, "first-order lag (time constant) of each CyberGear's torque "
                               "behind its command (the motor's current loop)"),
     "wheel_torque_lag_s": _spec("s", 0.0, 0.0, 0.02, "first-order lag (time constant) of each wheel's torque "
                                 "behind its command (the C620's current loop)"),

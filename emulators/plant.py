@@ -137,12 +137,16 @@ class Plant:
         """One physics step from ``now_s``: device torques in, new state out, the supply sagged
         by what the motors draw (``battery_resistance_ohm``)."""
         step_motors(self.physics, self._motors, self.imu, now_s, self._dt, self._lag)
-        open_circuit_v, resistance = self._battery
-        if resistance:
-            end_s = now_s + self._dt
-            volts = sagged_voltage(open_circuit_v, resistance, sum(dev.supply_power_w(end_s) for dev in self._motors))
-            for dev in self._motors:
-                dev.set_supply_voltage(volts)
+        sag_supply(self._motors, *self._battery, now_s + self._dt)
+
+
+def sag_supply(motors, open_circuit_v: float, resistance_ohm: float, now_s: float) -> None:
+    """Every motor's supply (V) set to the battery's (``open_circuit_v`` behind ``resistance_ohm``)
+    under the power they all draw at ``now_s``; nothing when the resistance is 0 (no sag)."""
+    if resistance_ohm:
+        volts = sagged_voltage(open_circuit_v, resistance_ohm, sum(dev.supply_power_w(now_s) for dev in motors))
+        for dev in motors:
+            dev.set_supply_voltage(volts)
 
 
 def torque_lag(config: PlantConfig, keys: list[str], dt_s: float) -> TorqueLag | None:

@@ -29,7 +29,7 @@ from typing import Mapping, Sequence
 import mujoco
 import numpy as np
 
-from wheelleg.emulators.model_overrides import override_model
+from wheelleg.emulators.model_overrides import WHEEL_LEGGED, Targets, override_model
 from wheelleg.emulators.terrain import TerrainFeature, add_to_spec
 
 
@@ -47,6 +47,7 @@ class World:
 
     SCENE_PATH: Path  # the robot's scene.xml
     MOTORS: tuple[str, ...] = ()  # joints driven by a motor actuator of the same name
+    OVERRIDE_TARGETS: Targets = WHEEL_LEGGED  # the joints and geoms the plant overrides act on
 
     def __init__(self, terrain: Sequence[TerrainFeature] = (), timestep_s: float = 0.001,
                  overrides: Mapping[str, float] | None = None):
@@ -56,7 +57,7 @@ class World:
         spec = mujoco.MjSpec.from_file(str(self.SCENE_PATH))
         spec.option.timestep = timestep_s
         self.terrain_names = add_to_spec(spec, self.terrain)
-        override_model(spec, overrides or {})
+        override_model(spec, overrides or {}, self.OVERRIDE_TARGETS)
         self.spec = spec  # what was compiled (a rig trace attaches its XML when the plant is overridden)
         self.model = spec.compile()
         self.data = mujoco.MjData(self.model)

@@ -167,7 +167,7 @@ def test_run_accepts_every_new_key(tmp_path):
     assert set(plant_config(args.plant).overrides_dict()) == set(NEW_KEYS)
 
 
-def test_the_quadruped_takes_the_sideways_com_and_none_of_the_wheel_legged_robots_parts():
+def test_the_quadruped_takes_the_sideways_com_and_none_of_the_wheel_legged_robots_own_parts():
     from wheelleg.emulators.quadruped.physics import QuadrupedPhysics
     from wheelleg.hil import robots
 
@@ -175,6 +175,6 @@ def test_the_quadruped_takes_the_sideways_com_and_none_of_the_wheel_legged_robot
     quadruped.check_overrides({"com_y_m": 0.01})
     moved, nominal = QuadrupedPhysics(overrides={"com_y_m": 0.01}).model, QuadrupedPhysics().model
     assert moved.body("body").ipos[1] == pytest.approx(nominal.body("body").ipos[1] + 0.01)
-    for key in ("hip_armature", "wheel_frictionloss_left", "hip_zero_offset_left_front", "battery_resistance_ohm"):
+    for key in ("hip_armature", "wheel_frictionloss_left", "hip_zero_offset_left_front", "wheel_torque_lag_s"):
         with pytest.raises(ValueError, match=key):
             quadruped.check_overrides({key: OVERRIDES[key].high})

@@ -19,6 +19,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from wheelleg.emulators.model_overrides import Targets
 from wheelleg.emulators.quadruped import description as D
 from wheelleg.emulators.terrain import GROUND_GROUP
 from wheelleg.emulators.world import World
@@ -49,6 +50,11 @@ class QuadrupedPhysics(World):
 
     SCENE_PATH = SCENE_PATH
     MOTORS = JOINT_NAMES
+    # the hip_* keys act on all twelve CyberGear joints (left: FL, RL), friction on the feet
+    OVERRIDE_TARGETS = Targets(
+        cybergears={side: tuple(m.name for m in D.JOINT_MOTORS if (D.side_sign(m.leg) > 0) == (side == "left"))
+                    for side in ("left", "right")},
+        wheels={}, contact_geoms=tuple(f"{leg}_foot" for leg in D.LEGS))
 
     def _index(self) -> None:
         super()._index()

@@ -63,8 +63,38 @@ TOLERANCE = {
     "supply_voltage_v": (21.0, 25.2),
     "battery_resistance_ohm": (0.018, 0.108),
 }
+# The quadruped's box (emulators/quadruped/README.md, "The tolerance box", gives each
+# source): the same CyberGear, IMU, bus and battery sources as the wheel-legged box, on
+# its twelve joints, whose model already has 0.1 N m of dry friction and 0.01 N m s/rad of
+# damping (so the friction keys add the rest of the sourced range and the damping is left
+# at its described value), and its own mass and CoM budget. The quadruped's keys only:
+# its plant takes no wheel key.
+_QUAD_JOINTS = tuple(f"{leg}_{joint}" for leg in ("FR", "FL", "RR", "RL") for joint in ("abduction", "thigh", "calf"))
+QUADRUPED_TOLERANCE = {
+    # mass and CoM: battery, compute and cabling on a 5.53 kg body
+    "body_mass_scale": (0.95, 1.14),
+    "inertia_scale": (0.75, 1.15),
+    "com_x_m": (-0.02, 0.02),
+    "com_y_m": (-0.01, 0.01),
+    "com_z_m": (-0.015, 0.015),
+    # twelve CyberGears
+    "joint_armature_scale": (1.0, 4.9),
+    "hip_frictionloss_left": (0.05, 0.335),
+    "hip_frictionloss_right": (0.05, 0.335),
+    "hip_kt_scale_left": (0.90, 1.03),
+    "hip_kt_scale_right": (0.90, 1.03),
+    **{f"joint_zero_offset_{joint}": (-_HIP_ZERO_RAD, _HIP_ZERO_RAD) for joint in _QUAD_JOINTS},
+    "hip_torque_lag_s": (0.00016, 0.0027),
+    # feet and floor
+    "friction": (0.5, 1.0),
+    # IMU, bus, battery: as the wheel-legged robot's
+    **{key: TOLERANCE[key] for key in (
+        "imu_tilt_pitch_deg", "imu_tilt_roll_deg", "imu_gyro_bias_x", "imu_gyro_bias_y", "imu_gyro_bias_z",
+        "imu_noise_scale", "feedback_delay_s", "command_delay_s", "supply_voltage_v", "battery_resistance_ohm")},
+}
 PRESETS: dict[str, dict[str, tuple[float, float]]] = {
     "tolerance": TOLERANCE,
+    "quadruped-tolerance": QUADRUPED_TOLERANCE,
     "tolerance-v1": {
         "body_mass_scale": (0.8, 1.4),
         "com_x_m": (-0.03, 0.03),

@@ -64,8 +64,12 @@ ROBOT = Robot(
     mode_names={int(m): m.name for m in Mode},
     offline_bits=(*(f"{leg} motors" for leg in D.LEGS), "imu", "remote"),  # controller.quadruped.node.heartbeat_mask
     debug_schema=described_schema("wheelleg.QuadrupedControllerDebug", DEBUG_FIELDS),
+    # the hip_* keys act on all twelve CyberGear joints (left: FL and RL), friction on the feet
     plant_override_keys=frozenset({
         "body_mass_scale", "com_x_m", "com_y_m", "com_z_m", "inertia_scale", "imu_tilt_pitch_deg", "imu_tilt_roll_deg",
         "hip_kt_scale", "imu_gyro_bias", "imu_gyro_bias_x", "imu_gyro_bias_y", "imu_gyro_bias_z",
-        "imu_noise_scale", "feedback_delay_s", "command_delay_s", "supply_voltage_v"}),
+        "imu_noise_scale", "feedback_delay_s", "command_delay_s", "supply_voltage_v", "friction",
+        "joint_armature_scale", "hip_damping", "hip_frictionloss", "hip_frictionloss_left", "hip_frictionloss_right",
+        "hip_kt_scale_left", "hip_kt_scale_right", *(f"joint_zero_offset_{m.name}" for m in D.JOINT_MOTORS),
+        "hip_torque_lag_s", "battery_resistance_ohm"}),
 )
