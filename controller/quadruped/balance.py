@@ -7,7 +7,10 @@ ground under where it is.
 Each ``step`` slews the set points (roll, pitch, yaw relative to the start's
 heading, height), adds the trims that integrate what the IMU and the legs
 measure against them, poses the body by IK and carries its weight with the
-force distribution's feed-forward.
+force distribution's feed-forward. The IMU's roll and pitch are taken less the
+mount's tilt, which the stand estimates (``mount_tilt``) while all four feet
+are down: the slow part of the IMU's difference from the legs' attitude over
+their plane (params.MOUNT_TILT_TAU says why).
 """
 from __future__ import annotations
 
@@ -74,6 +77,7 @@ class BalanceStand:
         self.trim = np.zeros(4)
         self.yaw0 = 0.0
         self.measured = self.setpoint.copy()  # roll, pitch, yaw, height as last measured
+        self.mount_tilt = np.zeros(2)  # rad, roll and pitch of the IMU on the body, estimated (kept across stands)
         # the step's constant arrays, made once (read-only: every step reads them)
         self._rates = read_only(np.array([P.ATTITUDE_RATE] * 3 + [P.HEIGHT_RATE]) * period_s)
         self._xy_rates = read_only(np.full(2, P.HEIGHT_RATE * period_s))
@@ -94,7 +98,8 @@ class BalanceStand:
         self.body_xy = -centroid
         self.yaw0 = float(sensed.rpy[2])
         self.trim = np.zeros(4)
-        self.setpoint = np.array([sensed.rpy[0], sensed.rpy[1], 0.0, height])
+        roll, pitch = self.body_attitude(sensed)
+        self.setpoint = np.array([roll, pitch, 0.0, height])
         self.measured = self.setpoint.copy()
 
     def step(self, sensed: Sensed, target: Posture) -> JointCommands:
@@ -105,8 +110,10 @@ class BalanceStand:
         feet_level = sensed.feet_level()
         self.down = self.down | (np.abs(self.feet_ground[:, 2] - C.FOOT_RADIUS) < 1e-9)
         down = self.down
-        self.measured = np.array([sensed.rpy[0], sensed.rpy[1], wrap(sensed.rpy[2] - self.yaw0),
-                                  height_over_feet(feet_level, down)])
+        if down.all():
+            self._estimate_mount_tilt(sensed, dt)
+        roll, pitch = self.body_attitude(sensed)
+        self.measured = np.array([roll, pitch, wrap(sensed.rpy[2] - self.yaw0), height_over_feet(feet_level, down)])
         error = self.setpoint - self.measured
         self.trim = trimmed(self.trim, error, dt)
         pose = self.setpoint + self.trim
@@ -116,6 +123,18 @@ class BalanceStand:
         tau = stance.stance_torques(sensed.q, feet_level, sensed.level_rotation, wrench, down,
                                     P.DISTRIBUTION_REGULARISATION, P.FRICTION)
         return JointCommands.hold(q, P.STANCE_KP, P.STANCE_KD, tau)
+
+
+    def body_attitude(self, sensed: Sensed) -> tuple[float, float]:
+        """The body's roll and pitch (rad): the IMU's less the estimated mount tilt."""
+        return float(sensed.rpy[0] - self.mount_tilt[0]), float(sensed.rpy[1] - self.mount_tilt[1])
+
+    def _estimate_mount_tilt(self, sensed: Sensed, dt: float) -> None:
+        """Move the tilt estimate a step ``dt`` (s) toward the IMU's roll and pitch less the legs'."""
+        legs_rp = stance.attitude_over_feet(sensed.feet_body)
+        difference = np.array([sensed.rpy[0] - legs_rp[0], sensed.rpy[1] - legs_rp[1]])
+        self.mount_tilt += dt / P.MOUNT_TILT_TAU * (difference - self.mount_tilt)
+        np.clip(self.mount_tilt, -P.MOUNT_TILT_LIMIT, P.MOUNT_TILT_LIMIT, out=self.mount_tilt)
 
 
 def trimmed(trim: np.ndarray, error: np.ndarray, dt: float) -> np.ndarray:

@@ -37,6 +37,16 @@ def footprint(width_extra_m: float = 0.0, length_extra_m: float = 0.0) -> np.nda
     return feet
 
 
+def attitude_over_feet(feet_body: np.ndarray) -> tuple[float, float]:
+    """The body's roll and pitch (rad, ZYX) over the plane through the foot centres ``feet_body``
+    (m, (n, 3), body frame, n >= 3): the plane z = a x + b y + c fitted by least squares,
+    its up normal (-a, -b, 1) the body's view of the ground's z."""
+    design = np.column_stack((feet_body[:, 0], feet_body[:, 1], np.ones(len(feet_body))))
+    (a, b, _), *_ = np.linalg.lstsq(design, feet_body[:, 2], rcond=None)
+    norm = float(np.sqrt(a * a + b * b + 1.0))
+    return float(np.arctan2(-b, 1.0)), float(np.arcsin(a / norm))
+
+
 def feet_in_body_for_pose(feet_ground: np.ndarray, body_position: np.ndarray, body_rotation: np.ndarray) -> np.ndarray:
     """Feet (m, (4, 3), body frame) of feet fixed in G when the body is at ``body_position`` (m, (3,))
     with ``body_rotation`` (body -> G, (3, 3))."""
