@@ -11,7 +11,10 @@ ended and lands at Raibert's point
 
 (p_hip under the hip, v the measured velocity from leg odometry, v_cmd the set
 point): the feet land ahead by half a stance's travel, plus more when the
-body runs faster than asked, which brakes it. Arrays: feet (4, 3) m; pairs
+body runs faster than asked, which brakes it. The stance feet are posed for a
+level body turned by ``attitude_trim``, the integral of the measured roll and
+pitch (as the balance stand's trims): a heavier rear, a CoM off its centre or
+stiff joints no longer leave the trotting body pitched. Arrays: feet (4, 3) m; pairs
 ``constants.PAIRS`` (FR+RL, FL+RR).
 """
 from __future__ import annotations
@@ -27,7 +30,7 @@ from wheelleg.controller.quadruped import legs, stance
 from wheelleg.controller.quadruped.balance import slew, slew_scalar
 from wheelleg.controller.quadruped.getup import min_jerk
 from wheelleg.controller.quadruped.legs import JointCommands
-from wheelleg.controller.quadruped.rotations import rot_z, wrap
+from wheelleg.controller.quadruped.rotations import rot_z, rpy_matrix, wrap
 from wheelleg.controller.quadruped.sensed import Sensed, height_over_feet
 
 PHASE_OFFSET = np.array([0.0, 0.5, 0.5, 0.0])  # FR, FL, RR, RL: the two diagonal pairs half a cycle apart
@@ -130,6 +133,7 @@ class Trot:
         self.heading_ref = 0.0
         self.feet_yaw_rate = 0.0  # rad/s, the yaw rate the stance feet carried in the last period
         self.height = P.HEIGHT_NOMINAL
+        self.attitude_trim = np.zeros(2)  # rad, roll and pitch the stance feet pose the body by
 
     def start(self, sensed: Sensed) -> None:
         """Begin from the feet where they are (all down), at rest, holding the heading."""
@@ -143,6 +147,7 @@ class Trot:
         self.heading_ref = float(sensed.rpy[2])
         self.feet_yaw_rate = 0.0
         self.height = height_over_feet(self.feet, np.ones(4, dtype=bool))
+        self.attitude_trim = np.zeros(2)
 
     @property
     def stance_s(self) -> float:
@@ -225,7 +230,10 @@ class Trot:
         land where planned on the ground whatever the body's roll and pitch.
         """
         tilt = sensed.level_rotation
-        feet_body = np.where(stance_mask[:, None], self.feet, self.feet @ tilt)
+        self.attitude_trim = np.clip(self.attitude_trim - P.ATTITUDE_KI * sensed.rpy[:2] * self.period_s,
+                                     -P.ATTITUDE_TRIM_LIMIT, P.ATTITUDE_TRIM_LIMIT)
+        posed = self.feet @ rpy_matrix(self.attitude_trim[0], self.attitude_trim[1])
+        feet_body = np.where(stance_mask[:, None], posed, self.feet @ tilt)
         body_velocities = np.where(stance_mask[:, None], velocities, velocities @ tilt)
         q = legs.joints_for_feet(feet_body)
         qd = np.array([np.linalg.lstsq(J, v, rcond=None)[0] for J, v in zip(legs.jacobians(q), body_velocities)])

@@ -1,4 +1,4 @@
-"""The balance stand takes the IMU's mount tilt out: the legs' attitude over their feet, and the estimate."""
+"""The quadruped controller in the tolerance box: the IMU mount tilt taken out of the stand, the trot's attitude trims."""
 from __future__ import annotations
 
 import math
@@ -47,3 +47,23 @@ def test_a_tilt_beyond_a_mounts_is_not_taken():
     for _ in range(round(3.0 / stand.period_s)):
         stand.step(sensed, Posture())
     assert stand.mount_tilt[0] == pytest.approx(P.MOUNT_TILT_LIMIT)
+
+
+def test_the_trot_trims_a_pitched_body_by_posing_its_stance_feet():
+    from wheelleg.controller.quadruped.gait import Trot, Velocity, in_stance, leg_phases
+
+    def trot_for(pitch: float) -> tuple[Trot, np.ndarray]:
+        trot = Trot()
+        trot.start(_sensed(0.0, 0.0, (0.0, 0.0)))
+        sensed = _sensed(0.0, pitch, (0.0, 0.0))
+        for _ in range(round(1.0 / trot.period_s)):
+            commands = trot.step(sensed, Velocity(), P.HEIGHT_NOMINAL)
+        return trot, commands.q
+
+    (level, q_level), (nose_up, q_nose_up) = trot_for(0.0), trot_for(math.radians(-4.0))
+    # 1 s at 4 deg: the integral has reached its limit, turning the stance feet nose-down
+    assert nose_up.attitude_trim[1] == pytest.approx(P.ATTITUDE_TRIM_LIMIT)
+    assert np.abs(level.attitude_trim).max() < 1e-12 and abs(nose_up.attitude_trim[0]) < 1e-12
+    stance_legs = in_stance(leg_phases(level.clock))
+    assert stance_legs.any()
+    assert np.abs(q_nose_up[stance_legs] - q_level[stance_legs]).max() > 0.01  # rad: the stance joints follow it
