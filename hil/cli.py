@@ -21,8 +21,8 @@ import time
 # cantools) and building the model count as the run's start-up (`wheelleg run` prints it).
 STARTED_S = time.perf_counter()
 
-SUBCOMMANDS = ("run", "list", "campaign", "emulate", "controller", "replay", "inspect", "decode", "export", "recover",
-               "vcan")
+SUBCOMMANDS = ("run", "list", "campaign", "margins", "emulate", "controller", "replay", "inspect", "decode", "export",
+               "recover", "vcan")
 
 
 def build_parser(command: str | None = None) -> argparse.ArgumentParser:
