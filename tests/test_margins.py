@@ -183,3 +183,30 @@ def test_a_real_edge_large_command_delay_fails_balance_and_its_rerun_gives_the_s
     assert edge.passing < edge.failing <= 0.05 and edge.failed_checks
     argv = shlex.split(edge.rerun)
     assert cli.main([*argv[1:], "--no-plot"]) == 1  # the failing run, alone, fails again
+
+
+# -- the campaign report gets the same table --------------------------------------------------
+
+def test_campaign_margins_appends_the_same_table_to_the_report(tmp_path):
+    from wheelleg.hil.commands import campaign
+
+    argv = ["campaign", "balance", "--samples", "3", "--vary", "com_x_m=-0.03..0.03", "--margins",
+            "--runs-per-key", "8", "--workers", "1", "-q", "--out", str(tmp_path)]
+    campaign.run(cli.build_parser().parse_args(argv), runner=fake_run, processes=False)
+    report = (tmp_path / "report.md").read_text()
+    own = (tmp_path / "margins.md").read_text()
+    rows = [line for line in own.splitlines() if line.startswith("| com_x_m |")]
+    assert len(rows) == 1 and rows[0] in report and "## Robustness margins" in report
+    assert "--margins --runs-per-key 8" in report
+    data = json.loads((tmp_path / "margins.json").read_text())
+    above = data["scenarios"][0]["keys"][0]["above"]
+    assert above["passing"] < 0.07 <= above["failing"]
+    assert str(tmp_path / "margins" / "runs" / "balance") in above["rerun"]  # apart from the sampled runs
+
+
+def test_campaign_margins_without_a_box_is_a_one_line_error(tmp_path, capsys):
+    from wheelleg.hil.commands import campaign
+
+    args = cli.build_parser().parse_args(["campaign", "balance", "--margins", "--out", str(tmp_path)])
+    assert campaign.run(args, runner=fake_run, processes=False) == 2
+    assert capsys.readouterr().out == "campaign: --margins needs a box: --preset or --vary\n"

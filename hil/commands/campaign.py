@@ -11,8 +11,9 @@ import argparse
 from pathlib import Path
 
 from wheelleg.hil import robots, scenarios
-from wheelleg.hil.campaign import analysis, execution, journal, report, sampling
+from wheelleg.hil.campaign import analysis, execution, journal, margin_runs, margins, report, sampling
 from wheelleg.hil.campaign.progress import Progress
+from wheelleg.hil.commands import margins as margins_command
 from wheelleg.hil.commands.run import add_epoch_argument
 from wheelleg.hil.record.run_metadata import epoch_text
 
@@ -40,6 +41,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--address", default=None,
                         help="join an existing Dask scheduler (tcp://HOST:8786) instead of a local cluster")
     parser.add_argument("--keep-passing", action="store_true", help="keep passing runs' traces and logs too")
+    parser.add_argument("--margins", action="store_true",
+                        help="also find each key's robustness margins against the campaign's box (as `wheelleg "
+                             "margins`, the campaign's seed as every run's seed): DIR/margins.md, "
+                             "DIR/margins.json and a section of report.md")
+    margins_command.add_runs_per_key(parser)
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
 
 
@@ -54,6 +60,8 @@ def canonical_command(args: argparse.Namespace) -> str:
         words += ["--duration", f"{args.duration:g}"]
     if args.epoch:
         words += ["--epoch", epoch_text(args.epoch)]
+    if args.margins:
+        words += ["--margins", "--runs-per-key", str(args.runs_per_key)]
     return " ".join(words + ["--out", str(args.out)])
 
 
@@ -78,6 +86,8 @@ def campaign_spec(args: argparse.Namespace) -> dict:
         raise ValueError(f"--workers {args.workers}: need at least 1")
     ranges = sampling.campaign_ranges(args.preset, args.vary)
     execution.check_ranges(ranges)
+    if args.margins:
+        margin_spec(args, ranges)  # bad input is told before any run
     spec = {"scenarios": list(args.scenarios), "seed": args.seed, "duration_s": args.duration,
             "ranges": {k: list(v) for k, v in ranges.items()}}
     if args.epoch:  # only when given: a campaign directory from before --epoch resumes as it was
@@ -111,7 +121,12 @@ def run(args: argparse.Namespace, runner: execution.Runner = execution.run_job, 
         return 2
     log.rewrite(args.scenarios)
     rows = [r for r in log.ordered(args.scenarios) if r["sample"] < args.samples]
-    path = report.write_report(args.out, rows, spec, canonical_command(args))
+    try:
+        margin_lines = find_margins(args, spec, settings, runner, processes) if args.margins else []
+    except KeyboardInterrupt:
+        print("\ncampaign: interrupted in the margins; the runs are kept, no report written")
+        return 130
+    path = report.write_report(args.out, rows, spec, canonical_command(args), margin_lines)
     for rate in analysis.pass_rates(rows):
         print(f"{rate.scenario}: {rate.passed}/{rate.runs} passed ({rate.rate:.1%})")
     print(f"report {path}")
@@ -130,3 +145,26 @@ def run_jobs(args, todo, settings, log, runner, processes, done: int, total: int
                 bar.update(row["passed"])
     finally:
         bar.close()
+
+
+def margin_spec(args: argparse.Namespace, ranges: dict) -> margin_runs.MarginSpec:
+    """The margins search of ``--margins``: the campaign's scenarios, its box, its seed; ValueError on bad input."""
+    spec = margin_runs.MarginSpec(tuple(args.scenarios), {k: tuple(v) for k, v in ranges.items()}, args.seed,
+                                  margins_command.runs_per_side(args.runs_per_key))
+    if not spec.boxes:
+        raise ValueError("--margins needs a box: --preset or --vary")
+    margin_runs.check_robots_take(spec.scenarios, spec.boxes)
+    return spec
+
+
+def find_margins(args, spec: dict, settings: execution.RunSettings, runner, processes) -> list[str]:
+    """The margins search on the campaign's engine (runs under DIR/margins/); the report's section.
+
+    It runs again in full when the campaign is resumed (its runs are not
+    journalled): the same arguments give the same table.
+    """
+    search = margin_spec(args, spec["ranges"])
+    where = execution.RunSettings(settings.out_dir / "margins", settings.duration_s, False, settings.epoch_ns)
+    results = margins_command.run_search(search, where, args.workers, args.quiet, runner, processes, args.address)
+    margins_command.write_results(args.out, results, search, canonical_command(args))
+    return margins.render_markdown(results, search.runs_per_side)

@@ -37,14 +37,25 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help=f"the box the edges are measured against: {', '.join(sorted(sampling.PRESETS))} "
                              f"(default {DEFAULT_PRESET})")
     parser.add_argument("--seed", type=int, default=0, help="every run's rig seed (default 0)")
-    parser.add_argument("--runs-per-key", type=int, default=DEFAULT_RUNS_PER_KEY,
-                        help=f"most runs a key, half on each side (default {DEFAULT_RUNS_PER_KEY})")
+    add_runs_per_key(parser)
     parser.add_argument("--duration", type=positive_seconds, default=None,
                         help="every run's duration (s; default each scenario's own)")
     parser.add_argument("--out", type=Path, default=Path("out/margins"),
                         help="directory for margins.md, margins.json and the failing runs (default out/margins)")
     parser.add_argument("--workers", type=int, default=None, help="local worker processes (default: all cores)")
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+
+
+def add_runs_per_key(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--runs-per-key", type=int, default=DEFAULT_RUNS_PER_KEY,
+                        help=f"most runs a key, half on each side (default {DEFAULT_RUNS_PER_KEY})")
+
+
+def runs_per_side(runs_per_key: int) -> int:
+    """``--runs-per-key`` split between the two sides; ValueError (one line) below 2."""
+    if runs_per_key < 2:
+        raise ValueError(f"--runs-per-key {runs_per_key}: need at least 2 (one a side)")
+    return runs_per_key // 2
 
 
 def canonical_command(args: argparse.Namespace) -> str:
@@ -60,22 +71,21 @@ def canonical_command(args: argparse.Namespace) -> str:
 def margin_spec(args: argparse.Namespace) -> margin_runs.MarginSpec:
     """The search the arguments ask for; ValueError (one line) on bad input."""
     names = margin_runs.qualified_scenarios(args.scenarios, args.robot)
-    if args.runs_per_key < 2:
-        raise ValueError(f"--runs-per-key {args.runs_per_key}: need at least 2 (one a side)")
+    per_side = runs_per_side(args.runs_per_key)
     if args.workers is not None and args.workers < 1:
         raise ValueError(f"--workers {args.workers}: need at least 1")
     boxes = margin_runs.margin_boxes(args.preset, args.keys)
     margin_runs.check_robots_take(names, boxes)
-    return margin_runs.MarginSpec(names, boxes, args.seed, args.runs_per_key // 2)
+    return margin_runs.MarginSpec(names, boxes, args.seed, per_side)
 
 
 def run_search(spec: margin_runs.MarginSpec, settings: execution.RunSettings, workers: int | None,
-               quiet: bool, runner: execution.Runner = execution.run_job,
-               processes: bool = True) -> list[margins.ScenarioMargins]:
-    """``margin_runs.search`` on a local Dask cluster (the campaign engine)."""
+               quiet: bool, runner: execution.Runner = execution.run_job, processes: bool = True,
+               address: str | None = None) -> list[margins.ScenarioMargins]:
+    """``margin_runs.search`` on the campaign engine: a local Dask cluster, or ``address``'s."""
     bar = Progress(margin_runs.most_runs(spec), enabled=not quiet)
     try:
-        with execution.Engine(None, workers, processes) as engine:
+        with execution.Engine(address, workers, processes) as engine:
             return margin_runs.search(spec, margin_runs.engine_rounds(engine, runner, settings, bar))
     finally:
         bar.close()
