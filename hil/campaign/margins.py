@@ -3,10 +3,10 @@
 For each plant override (key) and each side of its nominal value (the
 described robot, ``OVERRIDES[key].default``), ``SideSearch`` looks for the
 nearest value at which the scenario fails, between nominal (which passed) and
-the key's allowed limit on that side. Its first probe is the gate the issue
-asks for, ``GATE`` times the box's half-width on that side (so the flag
-"edge < 1.5x the box" is decided by one run, not by the resolution); then the
-limit if the gate passed (a passing limit: the edge is beyond the allowed
+the key's allowed limit on that side. Its first probe is the gate, ``GATE``
+times the box's half-width on that side out from nominal, where every edge
+should lie beyond (so the flag "edge within 1.5x the box" is decided by one
+run, not by the resolution); then the limit if the gate passed (a passing limit: the edge is beyond the allowed
 range); then halving the bracket (last pass, first fail) with the runs left
 (``SideSearch.middle``). The table shows both ends of the final bracket: that
 is the resolution.
@@ -23,7 +23,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-GATE = 1.5  # an edge nearer than this many box half-widths from nominal is flagged (issue 27)
+GATE = 1.5  # an edge nearer than this many box half-widths from nominal is flagged: the box must sit well inside
 SIDES = ("below", "above")
 SIGNIFICANT_DIGITS = 6  # a probed value is rounded so its rerun command (k=v) is the very same run
 
@@ -128,7 +128,7 @@ class Edge:
         return abs(reach - nominal) / self.half_width
 
     def flagged(self, nominal: float) -> bool:
-        """It failed within GATE half-widths of the box (the issue's minimum margin)."""
+        """It failed within GATE half-widths of the box (less than the minimum margin)."""
         ratio = self.ratio(nominal)
         return self.failing is not None and ratio is not None and ratio <= GATE * (1 + 1e-9)
 
