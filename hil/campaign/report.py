@@ -23,7 +23,8 @@ def write_report(out_dir: Path, rows: list[dict], spec: dict, command: str, marg
     plot_pass_fail(out_dir / PLOT, rows, clusters)
     text = "\n".join(["# Campaign report", "", f"    {command}", "",
                       *pass_rate_section(rows, ranges), *checks_section(rows),
-                      *clustering_section(clusters), *failures_section(rows), *(["", *margins] if margins else [])])
+                      *clustering_section(clusters), *failures_section(rows),
+                      *(["", *margins] if margins else [])])
     path = out_dir / REPORT
     path.write_text(text + "\n")
     return path
