@@ -78,6 +78,32 @@ def test_half_widths_and_gates_from_the_box():
     assert margins.gate_value(0.0, 0.0, "below") is None
 
 
+# -- the table ------------------------------------------------------------------------------------
+
+def test_the_table_shows_each_edge_its_checks_its_ratio_and_its_rerun():
+    below = margins.Edge("below", -0.1, 0.03, -0.03, -0.04, ("drift < 5 cm",), "wheelleg run balance x", ())
+    above = margins.Edge("above", 0.1, 0.03, 0.1, None, (), None, ((0.045, True), (0.1, True)))
+    no_room = margins.Edge("below", 0.0, 0.0, 0.0, None, (), None, ())
+    not_found = margins.Edge("above", 0.05, 0.002, 0.003, None, (), None, ((0.003, True),))
+    keys = (margins.KeyMargins("com_x_m", "m", 0.0, (-0.03, 0.03), below, above),
+            margins.KeyMargins("command_delay_s", "s", 0.0, (0.0, 0.002), no_room, not_found))
+    lines = margins.render_markdown([margins.ScenarioMargins("balance", 3, True, "", "r", keys)], 3)
+    assert lines[0] == "## Robustness margins" and "### balance (seed 3)" in lines
+    assert ("| com_x_m | m | 0 | -0.03..0.03 | -0.04 (passes -0.03) | drift < 5 cm | **1.33 < 1.5** | "
+            "beyond allowed range (passes 0.1) | - | >3.33 |") in lines
+    assert ("| command_delay_s | s | 0 | 0..0.002 | - (allowed range ends at nominal) | - | - | "
+            "not found (passes 0.003) | - | >1.50 |") in lines
+    assert "1 of 3 edges under 1.5x the box's half-width." in lines
+    assert "- com_x_m below, -0.04: drift < 5 cm" in lines and "      wheelleg run balance x" in lines
+    assert margins.ratio_cell(below, 0.0) == "**1.33 < 1.5**"
+
+
+def test_a_failing_nominal_is_said_with_its_rerun_and_no_table():
+    lines = margins.render_markdown([margins.ScenarioMargins("jump", 0, False, "FALLEN", "wheelleg run jump", ())], 3)
+    assert "The nominal plant fails (FALLEN): no margins. Rerun alone:" in lines
+    assert "    wheelleg run jump" in lines and not any(line.startswith("| key") for line in lines)
+
+
 # -- the search over keys and scenarios, on a fake rig ------------------------------------------
 
 EDGES = {"com_x_m": (-0.02, 0.07), "command_delay_s": (None, 0.01)}  # fail at or past these (fake rig)
