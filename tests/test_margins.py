@@ -131,8 +131,8 @@ def run_margins(argv: list[str]) -> int:
 
 
 def test_the_command_finds_each_edge_writes_the_table_and_the_same_arguments_give_the_same_table(tmp_path, capsys):
-    argv = ["balance", "--keys", "com_x_m", "command_delay_s=0..0.004", "--runs-per-key", "10", "--workers", "2",
-            "-q"]
+    argv = ["balance", "--keys", "com_x_m=-0.03..0.03", "command_delay_s=0..0.004", "--runs-per-key", "10",
+            "--workers", "2", "-q"]
     code = run_margins([*argv, "--out", str(tmp_path / "a")])
     printed = capsys.readouterr().out
     data = json.loads((tmp_path / "a" / "margins.json").read_text())
@@ -140,7 +140,7 @@ def test_the_command_finds_each_edge_writes_the_table_and_the_same_arguments_giv
     com, delay = keys["com_x_m"], keys["command_delay_s"]
     assert com["below"]["passing"] > -0.02 >= com["below"]["failing"]
     assert com["above"]["passing"] < 0.07 <= com["above"]["failing"]
-    assert com["box"] == list(sampling.PRESETS["tolerance"]["com_x_m"])
+    assert com["box"] == [-0.03, 0.03]
     assert delay["below"]["probes"] == []  # the allowed range ends at nominal
     assert delay["above"]["ratio"] == pytest.approx(delay["above"]["failing"] / 0.004)
     assert com["below"]["failed_checks"] == ["drift < 5 cm"]
@@ -171,7 +171,9 @@ def test_a_failing_nominal_stops_that_scenario_only(tmp_path, capsys):
 
 def test_default_keys_are_the_presets_box():
     assert margin_runs.margin_boxes("tolerance", []) == sampling.campaign_ranges("tolerance", [])
-    assert margin_runs.margin_boxes("tolerance", ["hip_frictionloss"]) == {"hip_frictionloss": None}
+    box = sampling.campaign_ranges("tolerance", [])
+    assert margin_runs.margin_boxes("tolerance", ["hip_frictionloss", "com_z_m=-0.01..0.02"]) == {
+        "hip_frictionloss": box.get("hip_frictionloss"), "com_z_m": (-0.01, 0.02)}
 
 
 @pytest.mark.parametrize("argv, message", [
@@ -198,7 +200,7 @@ def test_bad_input_is_a_one_line_error_exit_2(tmp_path, capsys, argv, message):
 @pytest.mark.slow
 def test_a_real_edge_large_command_delay_fails_balance_and_its_rerun_gives_the_same_failure(tmp_path):
     """Balance for 1.5 s with command latency: 3 runs above nominal (3 ms passes, 50 ms falls, then between)."""
-    args = cli.build_parser().parse_args(["margins", "balance", "--keys", "command_delay_s", "--runs-per-key", "6",
+    args = cli.build_parser().parse_args(["margins", "balance", "--keys", "command_delay_s=0..0.002", "--runs-per-key", "6",
                                           "--duration", "1.5", "--workers", "1", "-q", "--out", str(tmp_path)])
     spec = margins_command.margin_spec(args)
     settings = execution.RunSettings(tmp_path.resolve(), args.duration)
