@@ -200,8 +200,9 @@ def test_bad_input_is_a_one_line_error_exit_2(tmp_path, capsys, argv, message):
 @pytest.mark.slow
 def test_a_real_edge_large_command_delay_fails_balance_and_its_rerun_gives_the_same_failure(tmp_path):
     """Balance for 1.5 s with command latency: 3 runs above nominal (3 ms passes, 50 ms falls, then between)."""
-    args = cli.build_parser().parse_args(["margins", "balance", "--keys", "command_delay_s=0..0.002", "--runs-per-key", "6",
-                                          "--duration", "1.5", "--workers", "1", "-q", "--out", str(tmp_path)])
+    args = cli.build_parser().parse_args(["margins", "balance", "--keys", "command_delay_s=0..0.002",
+                                          "--runs-per-key", "6", "--duration", "1.5", "--workers", "1", "-q",
+                                          "--out", str(tmp_path)])
     spec = margins_command.margin_spec(args)
     settings = execution.RunSettings(tmp_path.resolve(), args.duration)
     [result] = margins_command.run_search(spec, settings, 1, True)
