@@ -159,6 +159,28 @@ def test_the_command_finds_each_edge_writes_the_table_and_the_same_arguments_giv
     assert other == table
 
 
+def test_a_search_resumes_from_its_journal_and_more_runs_extend_the_fewer_runs_probes(tmp_path, capsys):
+    argv = ["balance", "--keys", "com_x_m=-0.03..0.03", "command_delay_s=0..0.004", "--workers", "1", "-q"]
+    RUNS.clear()
+    run_margins([*argv, "--runs-per-key", "6", "--out", str(tmp_path / "fresh")])
+    fresh = list(RUNS)
+    RUNS.clear()
+    run_margins([*argv, "--runs-per-key", "2", "--out", str(tmp_path / "grown")])
+    first = list(RUNS)
+    RUNS.clear()
+    run_margins([*argv, "--runs-per-key", "6", "--out", str(tmp_path / "grown")])
+    def ids(jobs):
+        return sorted((j.sample, tuple(j.overrides.items())) for j in jobs)
+
+    assert len(first) == 4 and not set(ids(first)) & set(ids(RUNS))  # nominal and 3 gates, not run again
+    assert ids(first + RUNS) == ids(fresh)
+    tables = [(tmp_path / d / "margins.md").read_text().replace(str(tmp_path / d), "DIR") for d in ("fresh", "grown")]
+    assert tables[0].replace("--runs-per-key 6 --keys", "") == tables[1].replace("--runs-per-key 6 --keys", "")
+    RUNS.clear()
+    run_margins([*argv, "--runs-per-key", "6", "--duration", "2", "--out", str(tmp_path / "grown")])
+    assert len(RUNS) == len(fresh)  # another duration: nothing of the journal is reused
+
+
 def test_a_failing_nominal_stops_that_scenario_only(tmp_path, capsys):
     RUNS.clear()
     code = run_margins(["jump", "balance", "--keys", "com_x_m", "--workers", "1", "-q", "--out", str(tmp_path)])

@@ -6,7 +6,8 @@ workers (execution.Engine); the next round's values depend on this round's
 verdicts. Every run is a campaign job (its own directory under
 ``runs/SCENARIO/sample-NNNN``, the failing ones kept with their rerun command),
 numbered in the order the rounds ask for them, so the same arguments give the
-same runs, the same numbers and the same table.
+same runs, the same numbers and the same table, and a journal of them
+(``engine_rounds``) lets a search resume.
 """
 from __future__ import annotations
 
@@ -17,6 +18,7 @@ from wheelleg.emulators.overrides import OVERRIDES, check_override
 from wheelleg.hil import robots, scenarios
 from wheelleg.hil.campaign import sampling
 from wheelleg.hil.campaign.execution import Engine, RunSettings, Runner
+from wheelleg.hil.campaign.journal import Journal
 from wheelleg.hil.campaign.margins import (SIDES, KeyMargins, ScenarioMargins, SideSearch, edge_from,
                                            gate_value, half_widths)
 from wheelleg.hil.campaign.sampling import Job
@@ -144,12 +146,35 @@ def most_runs(spec: MarginSpec) -> int:
     return len(spec.scenarios) * (1 + 2 * len(spec.boxes) * spec.runs_per_side)
 
 
-def engine_rounds(engine: Engine, runner: Runner, settings: RunSettings, progress=None) -> RunRound:
-    """``run_round`` on ``engine``: the round's rows back in the jobs' order."""
+def journalled(log: Journal, job: Job, settings: RunSettings) -> dict | None:
+    """The row ``log`` holds for exactly this run (same seed, overrides, duration, epoch; judged), else None."""
+    row = log.rows.get((job.scenario, job.sample))
+    same = (row is not None and not row.get("error") and row["seed"] == job.seed
+            and row["overrides"] == job.overrides and row.get("duration_s") == settings.duration_s
+            and row.get("epoch_ns") == settings.epoch_ns)
+    return row if same else None
+
+
+def engine_rounds(engine: Engine, runner: Runner, settings: RunSettings, log: Journal | None = None,
+                  progress=None) -> RunRound:
+    """``run_round`` on ``engine``: the round's rows back in the jobs' order.
+
+    With ``log`` (DIR/results.jsonl, the campaign's journal format) each row is
+    journalled as it comes, and a run the journal already holds is not run
+    again: an interrupted search, or the same one with more ``--runs-per-key``
+    (its probes begin with the fewer runs' probes), resumes where it stopped.
+    """
     def run_round(jobs: list[Job]) -> list[dict]:
         rows = {}
-        for row in engine.map(runner, jobs, settings):
+        for job in jobs:
+            if log is not None and (row := journalled(log, job, settings)) is not None:
+                rows[(job.scenario, job.sample)] = row
+        todo = [job for job in jobs if (job.scenario, job.sample) not in rows]
+        for row in engine.map(runner, todo, settings) if todo else ():
+            row = {**row, "duration_s": settings.duration_s, "epoch_ns": settings.epoch_ns}
             rows[(row["scenario"], row["sample"])] = row
+            if log is not None:
+                log.append(row)
             if progress is not None:
                 progress.update(row["passed"])
         return [rows[(job.scenario, job.sample)] for job in jobs]

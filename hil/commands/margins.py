@@ -3,7 +3,8 @@
 Per key and side, a bisection between nominal and the key's allowed limit
 (hil/campaign/margins.py), its runs on the campaign engine (margin_runs.py);
 prints the table, writes DIR/margins.md and DIR/margins.json and keeps each
-edge's failing run with its rerun command.
+edge's failing run with its rerun command; DIR/results.jsonl journals the runs
+(the campaign's format), so an interrupted search resumes.
 """
 from __future__ import annotations
 
@@ -13,7 +14,7 @@ import sys
 from pathlib import Path
 
 from wheelleg.hil import robots
-from wheelleg.hil.campaign import execution, margin_runs, margins, sampling
+from wheelleg.hil.campaign import execution, journal, margin_runs, margins, sampling
 from wheelleg.hil.campaign.progress import Progress
 from wheelleg.hil.commands.run import positive_seconds
 
@@ -84,9 +85,14 @@ def run_search(spec: margin_runs.MarginSpec, settings: execution.RunSettings, wo
                address: str | None = None) -> list[margins.ScenarioMargins]:
     """``margin_runs.search`` on the campaign engine: a local Dask cluster, or ``address``'s."""
     bar = Progress(margin_runs.most_runs(spec), enabled=not quiet)
+    settings.out_dir.mkdir(parents=True, exist_ok=True)
+    log = journal.Journal(settings.out_dir)
+    if log.rows:
+        print(f"margins: {len(log.rows)} runs journalled in {log.path}; each one this search asks for again "
+              "is not run again", file=sys.stderr)
     try:
         with execution.Engine(address, workers, processes) as engine:
-            return margin_runs.search(spec, margin_runs.engine_rounds(engine, runner, settings, bar))
+            return margin_runs.search(spec, margin_runs.engine_rounds(engine, runner, settings, log, bar))
     finally:
         bar.close()
 
@@ -119,7 +125,8 @@ def run(args: argparse.Namespace, runner: execution.Runner = execution.run_job, 
     try:
         results = run_search(spec, settings, args.workers, args.quiet, runner, processes)
     except KeyboardInterrupt:
-        print("\nmargins: interrupted; no table written", file=sys.stderr)
+        print(f"\nmargins: interrupted, no table written; the runs so far are in {args.out / journal.RESULTS} "
+              "and the same command resumes", file=sys.stderr)
         return 130
     lines = write_results(args.out, results, spec, canonical_command(args))
     print("\n".join(lines))
