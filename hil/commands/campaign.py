@@ -158,11 +158,8 @@ def margin_spec(args: argparse.Namespace, ranges: dict) -> margin_runs.MarginSpe
 
 
 def find_margins(args, spec: dict, settings: execution.RunSettings, runner, processes) -> list[str]:
-    """The margins search on the campaign's engine (runs under DIR/margins/); the report's section.
-
-    It runs again in full when the campaign is resumed (its runs are not
-    journalled): the same arguments give the same table.
-    """
+    """The margins search on the campaign's engine (runs, and their journal, under DIR/margins/);
+    the report's section."""
     search = margin_spec(args, spec["ranges"])
     where = execution.RunSettings(settings.out_dir / "margins", settings.duration_s, False, settings.epoch_ns)
     results = margins_command.run_search(search, where, args.workers, args.quiet, runner, processes, args.address)
