@@ -253,6 +253,9 @@ def test_campaign_margins_appends_the_same_table_to_the_report(tmp_path):
     above = data["scenarios"][0]["keys"][0]["above"]
     assert above["passing"] < 0.07 <= above["failing"]
     assert str(tmp_path / "margins" / "runs" / "balance") in above["rerun"]  # apart from the sampled runs
+    RUNS.clear()
+    campaign.run(cli.build_parser().parse_args(argv), runner=fake_run, processes=False)
+    assert RUNS == [] and (tmp_path / "report.md").read_text() == report  # resumed: journals, nothing run again
 
 
 def test_campaign_margins_without_a_box_is_a_one_line_error(tmp_path, capsys):
