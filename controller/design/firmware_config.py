@@ -7,8 +7,9 @@ tuning as ``wheelleg.controller``: every number it needs comes from here, never
 typed twice. ``firmware/app/wl_config.h`` gets
 
 - every numeric constant of ``controller/constants.py`` (``WL_C_*``) and of
-  ``controller/params.py`` (``WL_P_*``), float32 literals; a tuple's items as
-  ``NAME_0``, ``NAME_1``, ...; the joints, wheels and devices as tables;
+  ``controller/params.py`` (``WL_P_*``), float32 literals (times in s also as doubles,
+  ``NAME_D``); a tuple's items as ``NAME_0``, ``NAME_1``, ...; the joints, wheels and
+  devices as tables;
 - the offline thresholds of ``controller/detect.py`` (``WL_DETECT_*``);
 - the layout of every frame the firmware reads or writes, from the DBC files
   (``WL_SIG_*`` signal initialisers, ``WL_ID_*``, ``WL_DLC_*``), so the C codecs
@@ -46,6 +47,9 @@ MESSAGES = (
     (CAN2, "CG_Enable", "CG_ENABLE"), (CAN2, "CG_ParamWrite", "CG_PARAM_WRITE"),
     (CAN2, "CG_FaultWarn", "CG_FAULT_WARN"),
 )
+# names of times (s) the firmware also needs in double: its phase timers add the period in double
+# and compare as the Python program does, so a phase ends on the same tick (0.4f is not 0.4)
+TIMER_SUFFIXES = ("_S", "_TIME", "_TIMEOUT")
 ID_MESSAGES = (("CG_Id_Request", "CGID_REQ"), ("CG_Id_Motion", "CGID_MOTION"), ("CG_Id_Reply", "CGID_REPLY"))
 
 
@@ -71,6 +75,8 @@ def _numbers(module, prefix: str) -> list[str]:
             lines.append(f"#define {prefix}{name} {value}")
         elif isinstance(value, float):
             lines.append(f"#define {prefix}{name} {c_float(value)}")
+            if name.endswith(TIMER_SUFFIXES):  # the phase timers compare a double sum, as the Python
+                lines.append(f"#define {prefix}{name}_D {float(value)!r}")
         elif isinstance(value, tuple) and value and all(isinstance(v, (int, float)) and not isinstance(v, bool)
                                                         for v in value):
             for i, v in enumerate(value):

@@ -140,7 +140,7 @@ static float position_error(const wl_chassis_t *c, float leg_length) {
    standing still and settled (chassis._trim) */
 static bool trim(wl_chassis_t *c, float speed, const wl_chassis_cmd_t *cmd, float leg_length) {
     if (c->travel == WL_TRAVEL_SPEEDING_UP || c->travel == WL_TRAVEL_BRAKING) {
-        c->trim_hold_s = c->travel == WL_TRAVEL_SPEEDING_UP ? (double)WL_P_CRUISE_SETTLE_S : (double)WL_P_TRIM_SETTLE_S;
+        c->trim_hold_s = c->travel == WL_TRAVEL_SPEEDING_UP ? WL_P_CRUISE_SETTLE_S_D : WL_P_TRIM_SETTLE_S_D;
         return false;
     }
     c->trim_hold_s = c->trim_hold_s - c->dt_d;

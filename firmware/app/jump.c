@@ -125,23 +125,23 @@ typedef struct {
     bool thrust;
     float hip_limit;
     wl_jump_phase_t then;
-    float timeout_s;
+    double timeout_s;
 } phase_spec_t;
 
 static const phase_spec_t PHASES[] = {
-    [WL_JUMP_SQUAT] = {false, WL_P_JUMP_SQUAT_LENGTH, false, WL_P_HIP_TORQUE_LIMIT, WL_JUMP_THRUST, WL_P_JUMP_SQUAT_TIMEOUT},
-    [WL_JUMP_THRUST] = {false, -1.0f, true, WL_P_JUMP_HIP_TORQUE_LIMIT, WL_JUMP_RETRACT, WL_P_JUMP_THRUST_TIMEOUT},
-    [WL_JUMP_RETRACT] = {true, WL_P_JUMP_RETRACT_TARGET, false, WL_P_JUMP_HIP_TORQUE_LIMIT, WL_JUMP_FLIGHT, WL_P_JUMP_RETRACT_TIMEOUT},
-    [WL_JUMP_FLIGHT] = {true, WL_P_JUMP_LAND_LENGTH, false, WL_P_HIP_TORQUE_LIMIT, WL_JUMP_LAND, WL_P_JUMP_FLIGHT_TIMEOUT},
-    [WL_JUMP_LAND] = {false, -1.0f, false, WL_P_HIP_TORQUE_LIMIT, WL_JUMP_DONE, WL_P_JUMP_LAND_TIME},
+    [WL_JUMP_SQUAT] = {false, WL_P_JUMP_SQUAT_LENGTH, false, WL_P_HIP_TORQUE_LIMIT, WL_JUMP_THRUST, WL_P_JUMP_SQUAT_TIMEOUT_D},
+    [WL_JUMP_THRUST] = {false, -1.0f, true, WL_P_JUMP_HIP_TORQUE_LIMIT, WL_JUMP_RETRACT, WL_P_JUMP_THRUST_TIMEOUT_D},
+    [WL_JUMP_RETRACT] = {true, WL_P_JUMP_RETRACT_TARGET, false, WL_P_JUMP_HIP_TORQUE_LIMIT, WL_JUMP_FLIGHT, WL_P_JUMP_RETRACT_TIMEOUT_D},
+    [WL_JUMP_FLIGHT] = {true, WL_P_JUMP_LAND_LENGTH, false, WL_P_HIP_TORQUE_LIMIT, WL_JUMP_LAND, WL_P_JUMP_FLIGHT_TIMEOUT_D},
+    [WL_JUMP_LAND] = {false, -1.0f, false, WL_P_HIP_TORQUE_LIMIT, WL_JUMP_DONE, WL_P_JUMP_LAND_TIME_D},
 };
 
 static bool phase_done(wl_jump_phase_t phase, double elapsed, float length, bool touching, bool steady) {
     switch (phase) {
-    case WL_JUMP_SQUAT: return length < WL_P_JUMP_SQUAT_DONE_LENGTH && elapsed > (double)WL_P_JUMP_SQUAT_MIN_S && steady;
+    case WL_JUMP_SQUAT: return length < WL_P_JUMP_SQUAT_DONE_LENGTH && elapsed > WL_P_JUMP_SQUAT_MIN_S_D && steady;
     case WL_JUMP_THRUST: return length > WL_P_JUMP_THRUST_END_LENGTH;
     case WL_JUMP_RETRACT: return length < WL_P_JUMP_RETRACT_LENGTH;
-    case WL_JUMP_FLIGHT: return touching && elapsed > (double)WL_P_JUMP_FLIGHT_MIN_S;
+    case WL_JUMP_FLIGHT: return touching && elapsed > WL_P_JUMP_FLIGHT_MIN_S_D;
     default: return false;
     }
 }
@@ -149,7 +149,7 @@ static bool phase_done(wl_jump_phase_t phase, double elapsed, float length, bool
 static wl_jump_phase_t next_phase(wl_jump_phase_t phase, double elapsed, float length, bool touching, bool steady) {
     if (phase == WL_JUMP_DONE) return phase;
     if (phase_done(phase, elapsed, length, touching, steady)) return PHASES[phase].then;
-    if (elapsed >= (double)PHASES[phase].timeout_s) return PHASES[phase].then;  /* every timeout goes on to the next */
+    if (elapsed >= PHASES[phase].timeout_s) return PHASES[phase].then;  /* every timeout goes on to the next */
     return phase;
 }
 
@@ -239,10 +239,10 @@ wl_recovery_cmd_t wl_recovery_step(wl_recovery_t *r, const float lengths[2], flo
     float longest = wl_maxf(lengths[0], lengths[1]);
     wl_recovery_phase_t next = r->phase;
     if (r->phase == WL_RECOVERY_TUCK) {
-        bool done = r->elapsed_s > (double)WL_P_RECOVERY_TUCK_MIN_S && longest < WL_P_RECOVERY_TUCK_LENGTH + 0.01f;
-        if (done || r->elapsed_s >= (double)WL_P_RECOVERY_TUCK_TIMEOUT) next = WL_RECOVERY_TILT_UP;
+        bool done = r->elapsed_s > WL_P_RECOVERY_TUCK_MIN_S_D && longest < WL_P_RECOVERY_TUCK_LENGTH + 0.01f;
+        if (done || r->elapsed_s >= WL_P_RECOVERY_TUCK_TIMEOUT_D) next = WL_RECOVERY_TILT_UP;
     } else if (r->phase == WL_RECOVERY_TILT_UP) {
-        if (settled || r->elapsed_s >= (double)WL_P_RECOVERY_TILT_TIMEOUT) next = WL_RECOVERY_DONE;
+        if (settled || r->elapsed_s >= WL_P_RECOVERY_TILT_TIMEOUT_D) next = WL_RECOVERY_DONE;
     }
     r->entered = next != r->phase ? (int)next : WL_PHASE_NONE;
     if (r->entered != WL_PHASE_NONE) {
