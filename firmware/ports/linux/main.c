@@ -233,6 +233,8 @@ int main(int argc, char **argv) {
     clock_gettime(CLOCK_MONOTONIC, &start);
     chassis_task_init(period_us);
     if (!sync_mode) realtime_if_allowed();
+    fprintf(stderr, "wheelleg-fw: running on %s/%s, %s\n", ifaces[0], ifaces[1],
+            sync_mode ? "ticking on the rig's SYNC" : "free-running on its own clock");
     if (sync_mode) {
         sync_run();
     } else {
@@ -240,5 +242,6 @@ int main(int argc, char **argv) {
     }
     chassis_shutdown();
     if (tx_dropped) fprintf(stderr, "wheelleg-fw: %lu frames could not be sent\n", tx_dropped);
+    fprintf(stderr, "wheelleg-fw: stopped after %u ticks; motors disabled\n", (unsigned)chassis_status().ticks);
     return 0;
 }
