@@ -62,7 +62,8 @@ def build(kind: str = "lib", out_dir: str | Path | None = None) -> Path:
                           capture_output=True, text=True)
     if proc.returncode != 0:
         lines = [line for line in (proc.stderr or proc.stdout).splitlines() if line.strip()]
-        detail = lines[0] if lines else f"make exited {proc.returncode}"
+        errors = [line for line in lines if "error" in line.lower()]  # a compiler's warnings come first
+        detail = (errors or lines or [f"make exited {proc.returncode}"])[0]
         raise FirmwareBuildError(f"firmware {kind} build failed: {detail}")
     return out.resolve() / KINDS[kind]
 

@@ -5,9 +5,8 @@
 #include <string.h>
 
 #include "dbc_codec.h"
+#include "robot.h"
 
-static const struct { uint8_t motor_id; uint8_t leg; uint8_t hip; int8_t sign; float stop; } JOINTS[] = WL_JOINT_TABLE;
-static const struct { uint8_t esc_id; uint8_t leg; int8_t forward_sign; } WHEELS[] = WL_WHEEL_TABLE;
 
 static const wl_signal_t ID_TYPE = WL_CGID_REPLY_TYPE, ID_MOTOR = WL_CGID_REPLY_MOTORID, ID_HOST = WL_CGID_REPLY_HOST;
 static const wl_signal_t ID_MODE = WL_CGID_REPLY_MODE;
@@ -79,7 +78,7 @@ static bool take_cybergear(wl_bus_state_t *bus, const hal_frame_t *f, int64_t t)
     uint32_t type = id_field(f->id, &ID_TYPE), motor = id_field(f->id, &ID_MOTOR);
     int j = -1;
     for (int i = 0; i < WL_N_JOINTS; i++) {
-        if (JOINTS[i].motor_id == motor) j = i;
+        if (WL_JOINTS[i].motor_id == motor) j = i;
     }
     if (j < 0 || id_field(f->id, &ID_HOST) != WL_C_CG_HOST_ID) return true;  /* not ours */
     wl_joint_fb_t *fb = &bus->joints[j];
@@ -178,7 +177,7 @@ void wl_bus_update(wl_bus_state_t *bus, const hal_frame_t *f, int64_t t) {
     } else if (f->bus == HAL_CAN1) {
         bool done = false;
         for (int w = 0; w < WL_N_WHEELS && !done; w++) {
-            if (f->id == (WL_ID_C620_FB - 1u) + WHEELS[w].esc_id) {
+            if (f->id == (WL_ID_C620_FB - 1u) + WL_WHEELS[w].esc_id) {
                 ok = take_wheel(bus, w, f, t);
                 done = true;
             }

@@ -5,25 +5,10 @@
 
 #include "fivebar.h"
 #include "lqr.h"
+#include "robot.h"
 #include "wl_config.h"
 #include "wl_math.h"
 
-static const struct { uint8_t motor_id; uint8_t leg; uint8_t hip; int8_t sign; float stop; } JOINTS[] = WL_JOINT_TABLE;
-static const struct { uint8_t esc_id; uint8_t leg; int8_t forward_sign; } WHEELS[] = WL_WHEEL_TABLE;
-
-static int joint_of(int leg, int hip) {
-    for (int i = 0; i < WL_N_JOINTS; i++) {
-        if (JOINTS[i].leg == leg && JOINTS[i].hip == hip) return i;
-    }
-    return 0;
-}
-
-static int wheel_of(int leg) {
-    for (int i = 0; i < WL_N_WHEELS; i++) {
-        if (WHEELS[i].leg == leg) return i;
-    }
-    return 0;
-}
 
 void wl_chassis_init(wl_chassis_t *c, double period_s) {
     memset(c, 0, sizeof *c);
@@ -228,9 +213,9 @@ static float leg_force(wl_chassis_t *c, const wl_leg_state_t *leg, int name) {
 static void hips(wl_chassis_out_t *out, int leg, const wl_leg_state_t *s, float force, float tp) {
     float t1, t4;
     wl_fivebar_joint_torques(&s->kin, force, tp, &t1, &t4);
-    int front = joint_of(leg, 0), rear = joint_of(leg, 1);
-    out->hip_torque[front] = (float)JOINTS[front].sign * t1;
-    out->hip_torque[rear] = (float)JOINTS[rear].sign * t4;
+    int front = wl_joint_of(leg, 0), rear = wl_joint_of(leg, 1);
+    out->hip_torque[front] = (float)WL_JOINTS[front].sign * t1;
+    out->hip_torque[rear] = (float)WL_JOINTS[rear].sign * t4;
 }
 
 /* on saturation scale all four hips by one factor: keeps their direction */
@@ -277,8 +262,8 @@ static void air_step(wl_chassis_t *c, const wl_sensed_t *s, float speed, const w
                           : wl_clamp(WL_P_LEG_KP * (c->leg_ref[leg] - l->L0) - WL_P_LEG_KD * l->dL0,
                                      WL_P_AIR_LEG_FORCE_LIMIT);
         hips(out, leg, l, force, tp);
-        int w = wheel_of(leg);
-        out->wheel_torque[w] = (float)WHEELS[w].forward_sign * out->wheel_t[leg];
+        int w = wl_wheel_of(leg);
+        out->wheel_torque[w] = (float)WL_WHEELS[w].forward_sign * out->wheel_t[leg];
     }
     limit_hips(out, cmd->hip_torque_limit);
     out->speed = speed;
@@ -323,8 +308,8 @@ void wl_chassis_step(wl_chassis_t *c, const wl_chassis_cmd_t *cmd, const wl_sens
         float sign = leg == WL_LEFT ? 1.0f : -1.0f;
         float push = cmd->has_leg_force ? cmd->leg_force : leg_force(c, &legs[leg], leg);
         hips(out, leg, &legs[leg], push + sign * roll_f, out->tp[leg]);
-        int w = wheel_of(leg);
-        out->wheel_torque[w] = (float)WHEELS[w].forward_sign * wl_clamp(out->wheel_t[leg], WL_P_WHEEL_TORQUE_LIMIT);
+        int w = wl_wheel_of(leg);
+        out->wheel_torque[w] = (float)WL_WHEELS[w].forward_sign * wl_clamp(out->wheel_t[leg], WL_P_WHEEL_TORQUE_LIMIT);
     }
     limit_hips(out, cmd->hip_torque_limit);
     out->speed = speed;

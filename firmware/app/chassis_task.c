@@ -9,11 +9,10 @@
 #include "jump.h"
 #include "modes.h"
 #include "support.h"
+#include "robot.h"
 #include "wl_config.h"
 #include "wl_math.h"
 
-static const struct { uint8_t motor_id; uint8_t leg; uint8_t hip; int8_t sign; float stop; } JOINTS[] = WL_JOINT_TABLE;
-static const struct { uint8_t esc_id; uint8_t leg; int8_t forward_sign; } WHEELS[] = WL_WHEEL_TABLE;
 
 /* the last run tick's output, read by the next ticks (telemetry.LastOutput) */
 typedef struct {
@@ -240,15 +239,9 @@ static wl_chassis_cmd_t command(void) {
 static void update_support(const wl_sensed_t *sensed) {
     float accel_z = wl_vertical_accel(s.bus.imu.quat, s.bus.imu.accel);
     for (int leg = 0; leg < 2; leg++) {
-        int front = -1, rear = -1;
-        for (int j = 0; j < WL_N_JOINTS; j++) {
-            if (JOINTS[j].leg == leg) {
-                if (JOINTS[j].hip == 0) front = j;
-                else rear = j;
-            }
-        }
+        int front = wl_joint_of(leg, 0), rear = wl_joint_of(leg, 1);
         s.fn[leg] = wl_support_update(&s.support[leg], &sensed->legs[leg], s.bus.joints[front].torque,
-                                      s.bus.joints[rear].torque, JOINTS[front].sign, JOINTS[rear].sign, accel_z);
+                                      s.bus.joints[rear].torque, WL_JOINTS[front].sign, WL_JOINTS[rear].sign, accel_z);
     }
     wl_contact_update(&s.contact, s.fn[0], s.fn[1], wl_support_trusted(sensed->legs));
     if (s.mode == WL_MODE_BALANCE || s.mode == WL_MODE_MOVE) wl_jump_observe_stance(&s.jump, s.fn[0], s.fn[1]);
@@ -286,7 +279,7 @@ static void send_wheel_currents(const float *currents_a) {
     float sent[WL_N_WHEELS > 4 ? WL_N_WHEELS : 4] = {0};
     for (int w = 0; w < WL_N_WHEELS; w++) {
         float amps = currents_a ? currents_a[w] : 0.0f;
-        sent[WHEELS[w].esc_id - 1] = amps;
+        sent[WL_WHEELS[w].esc_id - 1] = amps;
         wl_esc_watch_commanded(&s.esc_watch[w], wl_esc_current(amps));
     }
     hal_frame_t f = wl_tx_wheel_currents(sent, 4);
@@ -295,11 +288,11 @@ static void send_wheel_currents(const float *currents_a) {
 
 static void send_enable(void) {  /* stop-and-clear, MIT run mode, enable: the CyberGear start */
     for (int j = 0; j < WL_N_JOINTS; j++) {
-        hal_frame_t f = wl_tx_joint_stop(JOINTS[j].motor_id, true);
+        hal_frame_t f = wl_tx_joint_stop(WL_JOINTS[j].motor_id, true);
         hal_can_send(&f);
-        f = wl_tx_joint_run_mode(JOINTS[j].motor_id, 0);
+        f = wl_tx_joint_run_mode(WL_JOINTS[j].motor_id, 0);
         hal_can_send(&f);
-        f = wl_tx_joint_enable(JOINTS[j].motor_id);
+        f = wl_tx_joint_enable(WL_JOINTS[j].motor_id);
         hal_can_send(&f);
     }
     send_wheel_currents(NULL);
@@ -308,7 +301,7 @@ static void send_enable(void) {  /* stop-and-clear, MIT run mode, enable: the Cy
 static void chassis_motors_can_send(const wl_chassis_out_t *out) {
     float currents[WL_N_WHEELS];
     for (int j = 0; j < WL_N_JOINTS; j++) {
-        hal_frame_t f = wl_tx_joint_torque(JOINTS[j].motor_id, out->hip_torque[j]);
+        hal_frame_t f = wl_tx_joint_torque(WL_JOINTS[j].motor_id, out->hip_torque[j]);
         hal_can_send(&f);
     }
     for (int w = 0; w < WL_N_WHEELS; w++) currents[w] = out->wheel_torque[w] / WL_C_M3508_TORQUE_CONSTANT;
@@ -321,7 +314,7 @@ static void chassis_device_offline_handle(int64_t now) {
        back for the offline watch; the C620 holds its last command: zero every tick */
     bool clear = wl_reenable_pending(&s.reenable, now);
     for (int j = 0; j < WL_N_JOINTS; j++) {
-        hal_frame_t f = wl_tx_joint_stop(JOINTS[j].motor_id, clear);
+        hal_frame_t f = wl_tx_joint_stop(WL_JOINTS[j].motor_id, clear);
         hal_can_send(&f);
     }
     send_wheel_currents(NULL);
@@ -359,7 +352,7 @@ void chassis_task(uint64_t now_us) {
 
 void chassis_shutdown(void) {
     for (int j = 0; j < WL_N_JOINTS; j++) {
-        hal_frame_t f = wl_tx_joint_stop(JOINTS[j].motor_id, false);
+        hal_frame_t f = wl_tx_joint_stop(WL_JOINTS[j].motor_id, false);
         hal_can_send(&f);
     }
     float zero[4] = {0};

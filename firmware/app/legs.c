@@ -2,11 +2,10 @@
 
 #include <math.h>
 
+#include "robot.h"
 #include "wl_config.h"
 #include "wl_math.h"
 
-static const struct { uint8_t motor_id; uint8_t leg; uint8_t hip; int8_t sign; float stop; } JOINTS[] = WL_JOINT_TABLE;
-static const struct { uint8_t esc_id; uint8_t leg; int8_t forward_sign; } WHEELS[] = WL_WHEEL_TABLE;
 
 wl_attitude_t wl_attitude(const wl_imu_t *imu, const float bias[3]) {
     float w = imu->quat[0], x = imu->quat[1], y = imu->quat[2], z = imu->quat[3];
@@ -20,25 +19,11 @@ wl_attitude_t wl_attitude(const wl_imu_t *imu, const float bias[3]) {
     return a;
 }
 
-static int joint_of(int leg, int hip) {
-    for (int i = 0; i < WL_N_JOINTS; i++) {
-        if (JOINTS[i].leg == leg && JOINTS[i].hip == hip) return i;
-    }
-    return 0;
-}
-
-static int wheel_of(int leg) {
-    for (int i = 0; i < WL_N_WHEELS; i++) {
-        if (WHEELS[i].leg == leg) return i;
-    }
-    return 0;
-}
-
 bool wl_leg_state(const wl_bus_state_t *bus, int leg, const wl_attitude_t *att, wl_leg_state_t *out) {
-    int front = joint_of(leg, 0), rear = joint_of(leg, 1);
+    int front = wl_joint_of(leg, 0), rear = wl_joint_of(leg, 1);
     const wl_joint_fb_t *fa = &bus->joints[front], *fe = &bus->joints[rear];
-    float sa = (float)JOINTS[front].sign, se = (float)JOINTS[rear].sign;
-    float phi1 = JOINTS[front].stop + sa * fa->position, phi4 = JOINTS[rear].stop + se * fe->position;
+    float sa = (float)WL_JOINTS[front].sign, se = (float)WL_JOINTS[rear].sign;
+    float phi1 = WL_JOINTS[front].stop + sa * fa->position, phi4 = WL_JOINTS[rear].stop + se * fe->position;
     float dphi1 = sa * fa->speed, dphi4 = se * fe->speed;
     wl_leg_kin_t kin;
     if (!wl_fivebar_forward(phi1, phi4, &kin)) return false;
@@ -50,8 +35,8 @@ bool wl_leg_state(const wl_bus_state_t *bus, int leg, const wl_attitude_t *att, 
     float phi2_ahead;
     if (!wl_fivebar_shin_angle(phi1 + eps * dphi1, phi4 + eps * dphi4, &phi2_ahead)) phi2_ahead = kin.phi2;
     float dphi2 = wl_wrap(phi2_ahead - kin.phi2) / eps;
-    int w = wheel_of(leg);
-    float spin = (float)WHEELS[w].forward_sign * bus->wheels[w].speed + att->wy - dphi2;
+    int w = wl_wheel_of(leg);
+    float spin = (float)WL_WHEELS[w].forward_sign * bus->wheels[w].speed + att->wy - dphi2;
     out->kin = kin;
     out->L0 = kin.L0;
     out->dL0 = dL0;

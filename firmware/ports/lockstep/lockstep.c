@@ -19,15 +19,12 @@
 #define WL_COMPILER "unknown compiler"
 #endif
 
-#define TX_CAPACITY 64
-
 static hal_can_rx_fn rx_callback;
 static hal_task_fn task;
 static uint64_t clock_us;
 static wl_frame_t *tx_out;
 static int32_t tx_max, tx_count;
 static uint32_t tx_dropped;
-static wl_frame_t tx_scratch[TX_CAPACITY];
 
 int hal_can_send(const hal_frame_t *frame) {
     if (tx_out == NULL || tx_count >= tx_max) {
@@ -67,11 +64,11 @@ void wl_init(uint32_t period_us) {
     chassis_task_init(period_us ? period_us : 2000u);
 }
 
-static int32_t run_into(wl_frame_t *tx, int32_t max_tx) {
-    tx_out = tx != NULL && max_tx > 0 ? tx : tx_scratch;
+/* the frames the task sends go to tx[0..max_tx) (none kept when tx is NULL: counted as dropped) */
+static void send_into(wl_frame_t *tx, int32_t max_tx) {
+    tx_out = tx;
     tx_max = tx != NULL && max_tx > 0 ? max_tx : 0;
     tx_count = 0;
-    return 0;
 }
 
 int32_t wl_step(uint64_t now_us, const wl_frame_t *rx, const uint64_t *rx_time_us, int32_t n_rx, wl_frame_t *tx,
@@ -89,7 +86,7 @@ int32_t wl_step(uint64_t now_us, const wl_frame_t *rx, const uint64_t *rx_time_u
         if (rx_callback != NULL) rx_callback(&f, t);
     }
     clock_us = now_us;
-    run_into(tx, max_tx);
+    send_into(tx, max_tx);
     task(now_us);
     int32_t n = tx_count;
     tx_out = NULL;
@@ -113,7 +110,7 @@ int32_t wl_debug(float *values, int32_t max_values) {
 }
 
 int32_t wl_shutdown(wl_frame_t *tx, int32_t max_tx) {
-    run_into(tx, max_tx);
+    send_into(tx, max_tx);
     chassis_shutdown();
     int32_t n = tx_count;
     tx_out = NULL;
