@@ -151,3 +151,33 @@ def test_a_changed_command_is_caught(library):
         seen = max([seen] + [abs(py_cmd[k] - fw_cmd.get(k, 0.0)) / FULL_SCALE[k[:3]] for k in py_cmd])
     assert seen > COMMAND_TOLERANCE
 
+
+
+@same_fixture("firmware library")
+def test_random_frames_never_take_it_down(library):
+    """Random identifiers, DLCs 0..15 and payloads on both buses, among well-formed feedback:
+    every step returns, only its own kinds of frames come out, and the junk is ignored."""
+    import random  # noqa: PLC0415
+
+    from firmware_feed import BUS_INDEX, Tick  # noqa: PLC0415
+    import can  # noqa: PLC0415
+
+    rng = random.Random(28)
+    good = recorded_ticks(f"{TRACES}/balance-1s.log.gz")
+    fw = Firmware(library)
+    for tick in good[:300]:
+        junk = []
+        for _ in range(rng.randrange(6)):
+            extended = rng.random() < 0.5
+            ident = rng.randrange(1 << 29) if extended else rng.choice([0x080, 0x100, 0x101, 0x102, 0x201, 0x202,
+                                                                        0x300, rng.randrange(1 << 11)])
+            if extended and rng.random() < 0.5:  # a CyberGear reply to us, of a random type and motor
+                ident = (rng.randrange(32) << 24) | (rng.randrange(1, 5) << 8) | 0xFD
+            dlc = rng.randrange(16)
+            data = bytes(rng.randrange(256) for _ in range(min(dlc, 8)))
+            msg = can.Message(arbitration_id=ident, is_extended_id=extended, data=data, dlc=dlc, check=False)
+            junk.append((rng.choice(list(BUS_INDEX)), msg, tick.now_us))
+        frames = fw.step(Tick(tick.number, tick.frames + junk))
+        for _, ident, extended, _ in frames:
+            assert (extended and cg.comm_type(ident) in (cg.T_MOTION, cg.T_ENABLE, cg.T_STOP, cg.T_PARAM_WRITE)) \
+                or ident == 0x200

@@ -167,10 +167,8 @@ static bool take_operator(wl_operator_t *op, const hal_frame_t *f, int64_t t) {
 
 void wl_bus_update(wl_bus_state_t *bus, const hal_frame_t *f, int64_t t) {
     bus->frames++;
-    bool ok = true;
-    if (f->dlc > 8) {
-        ok = false;
-    } else if (f->extended) {
+    bool ok = true;  /* a DLC other than its message's (9..15 included) fails that message's decode */
+    if (f->extended) {
         if (f->bus == HAL_CAN2) ok = take_cybergear(bus, f, t);
     } else if (f->id == WL_ID_SYNC) {
         ok = f->dlc == WL_DLC_SYNC;  /* the port's business (lockstep over real buses) */
