@@ -181,3 +181,14 @@ def test_random_frames_never_take_it_down(library):
         for _, ident, extended, _ in frames:
             assert (extended and cg.comm_type(ident) in (cg.T_MOTION, cg.T_ENABLE, cg.T_STOP, cg.T_PARAM_WRITE)) \
                 or ident == 0x200
+
+
+@same_fixture("firmware library")
+def test_wl_init_resets_everything_reruns_are_byte_identical(library):
+    ticks = recorded_ticks(f"{TRACES}/stand-up-2s.log.gz")
+    fw = Firmware(library)
+    first = [fw.step(tick) for tick in ticks]
+    fw.lib.wl_init(2000)
+    again = [fw.step(tick) for tick in ticks]
+    assert first == again
+    assert any(frames != first[0] for frames in first)  # it did something: the stand-up's torques
