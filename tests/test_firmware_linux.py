@@ -1,7 +1,7 @@
 """The firmware's Linux port as its own process on real SocketCAN (vcan0/vcan1; inside
 ``wheelleg vcan uml --`` where the kernel has no CAN): free-running it keeps the motors off
 until the remote says otherwise and disables them on SIGTERM; with --sync the rig runs
-balance against it in lockstep."""
+balance, an offline wheel and a motor fault against it in lockstep."""
 from __future__ import annotations
 
 import argparse
@@ -54,11 +54,14 @@ def test_free_running_it_keeps_the_motors_off_and_disables_them_on_sigterm(progr
     joints.shutdown()
 
 
-def test_with_sync_the_rig_balances_it_in_lockstep(program, tmp_path):
+@pytest.mark.parametrize("scenario,duration", [("balance", 2.0), ("offline-wheel", None), ("motor-fault", None)])
+def test_with_sync_the_rig_runs_scenarios_against_it_in_lockstep(program, tmp_path, scenario, duration):
+    """Balance, a wheel drive going silent, a CyberGear fault and the Reenable that clears it:
+    judged by the rig's own checks, heartbeat included (this port sends the whole heartbeat)."""
     proc = _start(program, "--sync")
     try:
-        args = argparse.Namespace(scenario="balance", out=tmp_path, interface="socketcan", channel=list(CHANNELS),
-                                  seed=0, duration=2.0, realtime=False, external_controller=True, no_plot=True)
+        args = argparse.Namespace(scenario=scenario, out=tmp_path, interface="socketcan", channel=list(CHANNELS),
+                                  seed=0, duration=duration, realtime=False, external_controller=True, no_plot=True)
         outcome, checks, _ = execute(args)
     finally:
         proc.send_signal(signal.SIGTERM)
