@@ -81,12 +81,17 @@ def test_the_config_holds_the_python_programs_numbers():
     assert "#define WL_DETECT_TABLE {{20000u, 4, 1}" in text  # hips offline after 20 ms, level 4
 
 
-def test_the_c_gain_table_is_the_python_tables_rendering():
+def test_the_c_gain_table_holds_the_python_tables_numbers():
+    import types  # noqa: PLC0415
+
     from wheelleg.controller.design import lqr as design  # noqa: PLC0415 (sympy: only here)
     table = design.load_table()
     assert design.c_table_current(table) == []
-    bumped = design.render_c(table).replace(repr(float(table.ARM[0])), repr(float(table.ARM[0]) * 1.001), 1)
-    assert bumped != design.render_c(table)
+    coeffs = [[list(gain) for gain in row] for row in table.COEFFS]
+    coeffs[1][4][3] *= 1.001  # Tp's phi gain, constant term
+    assert design.c_table_current(types.SimpleNamespace(COEFFS=coeffs, ARM=table.ARM)) != []
+    arm = [table.ARM[0] * 1.001, *table.ARM[1:]]
+    assert design.c_table_current(types.SimpleNamespace(COEFFS=table.COEFFS, ARM=arm)) != []
 
 
 def _compare(library, ticks):
