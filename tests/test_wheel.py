@@ -35,6 +35,11 @@ def test_the_wheel_has_one_top_level_package(wheel):
     # the data the package reads at run time travels with it
     assert {"wheelleg/dbc/cybergear.dbc", "wheelleg/emulators/robot/robot.xml", "wheelleg/hil/bus/uml/uml-vcan.sh",
             "wheelleg/hil/bus/uml/uml-vcan-init.sh", "wheelleg/hil/bus/uml/uml_xstate_shim.c"} <= set(names)
+    # the firmware's sources, so an installed wheel builds it (wheelleg.hil.firmware_build)
+    firmware = {"wheelleg/firmware/" + str(path.relative_to(REPO / "firmware"))
+                for pattern in ("Makefile", "**/*.c", "**/*.h") for path in (REPO / "firmware").glob(pattern)
+                if "build" not in path.relative_to(REPO / "firmware").parts}
+    assert len(firmware) > 30 and firmware <= set(names), sorted(firmware - set(names))
 
 
 @same_fixture("wheel")
