@@ -84,8 +84,17 @@ def _numbers(module, prefix: str) -> list[str]:
     return lines
 
 
+def c_double(value: float) -> str:
+    """A double literal of ``value`` (HUGE_VAL for an open end)."""
+    if not math.isfinite(value):
+        return "HUGE_VAL" if value > 0 else "(-HUGE_VAL)"
+    return repr(float(value))
+
+
 def _signal(message, signal) -> str:
-    """A ``wl_signal_t`` initialiser of one DBC signal: {big, shift, bits, signed, scale, offset, min, max}."""
+    """A ``wl_signal_t`` initialiser of one DBC signal: {big, shift, bits, signed, scale, offset, min, max},
+    the scaling and range in double as the DBC has them (the codec checks the range as the Python one
+    does: 32767 x 0.001f is above 32.767f, 32767 x 0.001 is not)."""
     bits = signal.length
     if signal.byte_order == "little_endian":
         big, shift = 0, signal.start
@@ -94,8 +103,8 @@ def _signal(message, signal) -> str:
         big, shift = 1, 8 * message.length - msb - bits
     low = -math.inf if signal.minimum is None else signal.minimum
     high = math.inf if signal.maximum is None else signal.maximum
-    return (f"{{{big}, {shift}, {bits}, {int(signal.is_signed)}, {c_float(signal.scale)}, {c_float(signal.offset)}, "
-            f"{c_float(low)}, {c_float(high)}}}")
+    return (f"{{{big}, {shift}, {bits}, {int(signal.is_signed)}, {c_double(signal.scale)}, {c_double(signal.offset)}, "
+            f"{c_double(low)}, {c_double(high)}}}")
 
 
 def _c_name(text: str) -> str:
@@ -143,7 +152,8 @@ def render_config() -> str:
             " * do not edit. Every number from controller/constants.py (WL_C_), controller/params.py (WL_P_),",
             " * controller/detect.py (WL_DETECT_TABLE) and every frame layout from dbc/ (WL_SIG_, WL_ID_, WL_DLC_).",
             " * WL_SIG_ initialisers: {big-endian, shift in the payload integer, bits, signed, scale, offset,",
-            " * minimum, maximum} (the payload integer: little-endian bytes, or big-endian for a big-endian signal). */",
+            " * minimum, maximum} (the payload integer: little-endian bytes, or big-endian for a big-endian signal;",
+            " * scaling and range in double, as the DBC gives them). */",
             "#ifndef WL_CONFIG_H", "#define WL_CONFIG_H", "", "/* controller/constants.py */"]
     body = _numbers(C, "WL_C_") + ["", "/* controller/params.py */"] + _numbers(P, "WL_P_")
     body += ["", "/* tables: joints {motor id, leg, hip, sign, stop}, wheels {esc id, leg, forward sign},",

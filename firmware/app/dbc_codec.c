@@ -37,10 +37,9 @@ int64_t wl_sig_raw(const uint8_t *data, uint8_t length, const wl_signal_t *sig) 
 }
 
 bool wl_sig_get(const uint8_t *data, uint8_t length, const wl_signal_t *sig, float *value) {
-    double v = (double)wl_sig_raw(data, length, sig) * (double)sig->scale + (double)sig->offset;
+    double v = (double)wl_sig_raw(data, length, sig) * sig->scale + sig->offset;
     *value = (float)v;
-    /* the DBC's range with 1e-9 of slack, in double as the Python check */
-    return v >= (double)sig->minimum - 1e-9 && v <= (double)sig->maximum + 1e-9;
+    return v >= sig->minimum - 1e-9 && v <= sig->maximum + 1e-9;  /* the DBC's range with 1e-9 of slack */
 }
 
 void wl_sig_put_raw(uint8_t *data, uint8_t length, const wl_signal_t *sig, int64_t raw) {
@@ -55,7 +54,7 @@ int64_t wl_sig_rounded(const wl_signal_t *sig, float value) {
     int64_t lo = sig->is_signed ? -((int64_t)1 << (sig->bits - 1u)) : 0;
     int64_t hi = sig->is_signed ? ((int64_t)1 << (sig->bits - 1u)) - 1 : (int64_t)field_mask(sig->bits);
     if (value != value) value = 0.0f;
-    double raw = ((double)value - (double)sig->offset) / (double)sig->scale;
+    double raw = ((double)value - sig->offset) / sig->scale;
     if (raw >= (double)hi) return hi;
     if (raw <= (double)lo) return lo;
     return (int64_t)nearbyint(raw);  /* half to even, as Python's round */
@@ -64,7 +63,7 @@ int64_t wl_sig_rounded(const wl_signal_t *sig, float value) {
 uint32_t wl_sig_truncated(const wl_signal_t *sig, float value) {
     uint32_t full = (uint32_t)field_mask(sig->bits);
     if (value != value) return 0;
-    double lo = (double)sig->minimum, hi = (double)sig->maximum;
+    double lo = sig->minimum, hi = sig->maximum;
     double v = (double)value;
     v = v < lo ? lo : v > hi ? hi : v;
     double raw = (v - lo) * (double)full / (hi - lo);

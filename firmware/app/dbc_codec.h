@@ -11,7 +11,7 @@ typedef struct {
     uint8_t shift;      /* bit position of its LSB in the payload integer (little- or big-endian bytes) */
     uint8_t bits;
     uint8_t is_signed;
-    float scale, offset, minimum, maximum;
+    double scale, offset, minimum, maximum;  /* double: the DBC's own numbers, checked as the Python codec does */
 } wl_signal_t;
 
 /* The raw field of sig in data[0..length) (sign-extended when signed). */

@@ -2,7 +2,8 @@
  * do not edit. Every number from controller/constants.py (WL_C_), controller/params.py (WL_P_),
  * controller/detect.py (WL_DETECT_TABLE) and every frame layout from dbc/ (WL_SIG_, WL_ID_, WL_DLC_).
  * WL_SIG_ initialisers: {big-endian, shift in the payload integer, bits, signed, scale, offset,
- * minimum, maximum} (the payload integer: little-endian bytes, or big-endian for a big-endian signal). */
+ * minimum, maximum} (the payload integer: little-endian bytes, or big-endian for a big-endian signal;
+ * scaling and range in double, as the DBC gives them). */
 #ifndef WL_CONFIG_H
 #define WL_CONFIG_H
 
@@ -204,124 +205,124 @@
 /* frame layouts (dbc/) */
 #define WL_ID_SYNC 0x80u
 #define WL_DLC_SYNC 4
-#define WL_SIG_SYNC_TICK {0, 0, 32, 0, 1.0f, 0.0f, 0.0f, 4294967295.0f}
+#define WL_SIG_SYNC_TICK {0, 0, 32, 0, 1.0, 0.0, 0.0, 4294967295.0}
 #define WL_ID_IMU_QUAT 0x100u
 #define WL_DLC_IMU_QUAT 8
-#define WL_SIG_IMU_QUAT_QUATW {0, 0, 16, 1, 3.051850947599719e-05f, 0.0f, -1.0f, 1.0f}
-#define WL_SIG_IMU_QUAT_QUATX {0, 16, 16, 1, 3.051850947599719e-05f, 0.0f, -1.0f, 1.0f}
-#define WL_SIG_IMU_QUAT_QUATY {0, 32, 16, 1, 3.051850947599719e-05f, 0.0f, -1.0f, 1.0f}
-#define WL_SIG_IMU_QUAT_QUATZ {0, 48, 16, 1, 3.051850947599719e-05f, 0.0f, -1.0f, 1.0f}
+#define WL_SIG_IMU_QUAT_QUATW {0, 0, 16, 1, 3.051850947599719e-05, 0.0, -1.0, 1.0}
+#define WL_SIG_IMU_QUAT_QUATX {0, 16, 16, 1, 3.051850947599719e-05, 0.0, -1.0, 1.0}
+#define WL_SIG_IMU_QUAT_QUATY {0, 32, 16, 1, 3.051850947599719e-05, 0.0, -1.0, 1.0}
+#define WL_SIG_IMU_QUAT_QUATZ {0, 48, 16, 1, 3.051850947599719e-05, 0.0, -1.0, 1.0}
 #define WL_ID_IMU_GYRO 0x101u
 #define WL_DLC_IMU_GYRO 6
-#define WL_SIG_IMU_GYRO_RATEX {0, 0, 16, 1, 0.001f, 0.0f, -32.768f, 32.767f}
-#define WL_SIG_IMU_GYRO_RATEY {0, 16, 16, 1, 0.001f, 0.0f, -32.768f, 32.767f}
-#define WL_SIG_IMU_GYRO_RATEZ {0, 32, 16, 1, 0.001f, 0.0f, -32.768f, 32.767f}
+#define WL_SIG_IMU_GYRO_RATEX {0, 0, 16, 1, 0.001, 0.0, -32.768, 32.767}
+#define WL_SIG_IMU_GYRO_RATEY {0, 16, 16, 1, 0.001, 0.0, -32.768, 32.767}
+#define WL_SIG_IMU_GYRO_RATEZ {0, 32, 16, 1, 0.001, 0.0, -32.768, 32.767}
 #define WL_ID_IMU_ACCEL 0x102u
 #define WL_DLC_IMU_ACCEL 6
-#define WL_SIG_IMU_ACCEL_ACCX {0, 0, 16, 1, 0.005f, 0.0f, -163.84f, 163.835f}
-#define WL_SIG_IMU_ACCEL_ACCY {0, 16, 16, 1, 0.005f, 0.0f, -163.84f, 163.835f}
-#define WL_SIG_IMU_ACCEL_ACCZ {0, 32, 16, 1, 0.005f, 0.0f, -163.84f, 163.835f}
+#define WL_SIG_IMU_ACCEL_ACCX {0, 0, 16, 1, 0.005, 0.0, -163.84, 163.835}
+#define WL_SIG_IMU_ACCEL_ACCY {0, 16, 16, 1, 0.005, 0.0, -163.84, 163.835}
+#define WL_SIG_IMU_ACCEL_ACCZ {0, 32, 16, 1, 0.005, 0.0, -163.84, 163.835}
 #define WL_ID_OPERATOR 0x300u
 #define WL_DLC_OPERATOR 8
-#define WL_SIG_OPERATOR_MODE {0, 0, 3, 0, 1.0f, 0.0f, 0.0f, 7.0f}
-#define WL_SIG_OPERATOR_JUMP {0, 3, 1, 0, 1.0f, 0.0f, 0.0f, 1.0f}
-#define WL_SIG_OPERATOR_JUMPFORWARD {0, 4, 1, 0, 1.0f, 0.0f, 0.0f, 1.0f}
-#define WL_SIG_OPERATOR_REENABLE {0, 5, 1, 0, 1.0f, 0.0f, 0.0f, 1.0f}
-#define WL_SIG_OPERATOR_SPEEDX {0, 8, 16, 1, 0.001f, 0.0f, -32.768f, 32.767f}
-#define WL_SIG_OPERATOR_YAWRATE {0, 24, 16, 1, 0.001f, 0.0f, -32.768f, 32.767f}
-#define WL_SIG_OPERATOR_LEGLENGTH {0, 40, 8, 0, 0.001f, 0.05f, 0.05f, 0.305f}
-#define WL_SIG_OPERATOR_PITCH {0, 48, 8, 1, 0.01f, 0.0f, -1.28f, 1.27f}
-#define WL_SIG_OPERATOR_ROLL {0, 56, 8, 1, 0.01f, 0.0f, -1.28f, 1.27f}
+#define WL_SIG_OPERATOR_MODE {0, 0, 3, 0, 1.0, 0.0, 0.0, 7.0}
+#define WL_SIG_OPERATOR_JUMP {0, 3, 1, 0, 1.0, 0.0, 0.0, 1.0}
+#define WL_SIG_OPERATOR_JUMPFORWARD {0, 4, 1, 0, 1.0, 0.0, 0.0, 1.0}
+#define WL_SIG_OPERATOR_REENABLE {0, 5, 1, 0, 1.0, 0.0, 0.0, 1.0}
+#define WL_SIG_OPERATOR_SPEEDX {0, 8, 16, 1, 0.001, 0.0, -32.768, 32.767}
+#define WL_SIG_OPERATOR_YAWRATE {0, 24, 16, 1, 0.001, 0.0, -32.768, 32.767}
+#define WL_SIG_OPERATOR_LEGLENGTH {0, 40, 8, 0, 0.001, 0.05, 0.05, 0.305}
+#define WL_SIG_OPERATOR_PITCH {0, 48, 8, 1, 0.01, 0.0, -1.28, 1.27}
+#define WL_SIG_OPERATOR_ROLL {0, 56, 8, 1, 0.01, 0.0, -1.28, 1.27}
 #define WL_ID_HEARTBEAT 0x710u
 #define WL_DLC_HEARTBEAT 8
-#define WL_SIG_HEARTBEAT_TICK {0, 0, 32, 0, 1.0f, 0.0f, 0.0f, 4294967295.0f}
-#define WL_SIG_HEARTBEAT_MODE {0, 32, 8, 0, 1.0f, 0.0f, 0.0f, 255.0f}
-#define WL_SIG_HEARTBEAT_WARNINGLEVEL {0, 40, 4, 0, 1.0f, 0.0f, 0.0f, 15.0f}
-#define WL_SIG_HEARTBEAT_OFFLINECOUNT {0, 44, 4, 0, 1.0f, 0.0f, 0.0f, 15.0f}
-#define WL_SIG_HEARTBEAT_OFFLINEMASK {0, 48, 8, 0, 1.0f, 0.0f, 0.0f, 255.0f}
-#define WL_SIG_HEARTBEAT_MOTORSENABLED {0, 56, 1, 0, 1.0f, 0.0f, 0.0f, 1.0f}
-#define WL_SIG_HEARTBEAT_OFFGROUND {0, 57, 1, 0, 1.0f, 0.0f, 0.0f, 1.0f}
-#define WL_SIG_HEARTBEAT_FALLEN {0, 58, 1, 0, 1.0f, 0.0f, 0.0f, 1.0f}
-#define WL_SIG_HEARTBEAT_FAULTLATCHED {0, 59, 1, 0, 1.0f, 0.0f, 0.0f, 1.0f}
-#define WL_SIG_HEARTBEAT_BADFRAMES {0, 60, 4, 0, 1.0f, 0.0f, 0.0f, 15.0f}
+#define WL_SIG_HEARTBEAT_TICK {0, 0, 32, 0, 1.0, 0.0, 0.0, 4294967295.0}
+#define WL_SIG_HEARTBEAT_MODE {0, 32, 8, 0, 1.0, 0.0, 0.0, 255.0}
+#define WL_SIG_HEARTBEAT_WARNINGLEVEL {0, 40, 4, 0, 1.0, 0.0, 0.0, 15.0}
+#define WL_SIG_HEARTBEAT_OFFLINECOUNT {0, 44, 4, 0, 1.0, 0.0, 0.0, 15.0}
+#define WL_SIG_HEARTBEAT_OFFLINEMASK {0, 48, 8, 0, 1.0, 0.0, 0.0, 255.0}
+#define WL_SIG_HEARTBEAT_MOTORSENABLED {0, 56, 1, 0, 1.0, 0.0, 0.0, 1.0}
+#define WL_SIG_HEARTBEAT_OFFGROUND {0, 57, 1, 0, 1.0, 0.0, 0.0, 1.0}
+#define WL_SIG_HEARTBEAT_FALLEN {0, 58, 1, 0, 1.0, 0.0, 0.0, 1.0}
+#define WL_SIG_HEARTBEAT_FAULTLATCHED {0, 59, 1, 0, 1.0, 0.0, 0.0, 1.0}
+#define WL_SIG_HEARTBEAT_BADFRAMES {0, 60, 4, 0, 1.0, 0.0, 0.0, 15.0}
 #define WL_ID_C620_CMD 0x200u
 #define WL_DLC_C620_CMD 8
-#define WL_SIG_C620_CMD_ESC1_CURRENT {1, 48, 16, 1, 0.001220703125f, 0.0f, -20.0f, 20.0f}
-#define WL_SIG_C620_CMD_ESC2_CURRENT {1, 32, 16, 1, 0.001220703125f, 0.0f, -20.0f, 20.0f}
-#define WL_SIG_C620_CMD_ESC3_CURRENT {1, 16, 16, 1, 0.001220703125f, 0.0f, -20.0f, 20.0f}
-#define WL_SIG_C620_CMD_ESC4_CURRENT {1, 0, 16, 1, 0.001220703125f, 0.0f, -20.0f, 20.0f}
+#define WL_SIG_C620_CMD_ESC1_CURRENT {1, 48, 16, 1, 0.001220703125, 0.0, -20.0, 20.0}
+#define WL_SIG_C620_CMD_ESC2_CURRENT {1, 32, 16, 1, 0.001220703125, 0.0, -20.0, 20.0}
+#define WL_SIG_C620_CMD_ESC3_CURRENT {1, 16, 16, 1, 0.001220703125, 0.0, -20.0, 20.0}
+#define WL_SIG_C620_CMD_ESC4_CURRENT {1, 0, 16, 1, 0.001220703125, 0.0, -20.0, 20.0}
 #define WL_ID_C620_FB 0x201u
 #define WL_DLC_C620_FB 8
-#define WL_SIG_C620_FB_ROTORANGLE {1, 48, 16, 0, 0.0439453125f, 0.0f, 0.0f, 359.9560546875f}
-#define WL_SIG_C620_FB_ROTORSPEED {1, 32, 16, 1, 1.0f, 0.0f, -32768.0f, 32767.0f}
-#define WL_SIG_C620_FB_TORQUECURRENT {1, 16, 16, 1, 0.001220703125f, 0.0f, -20.0f, 20.0f}
-#define WL_SIG_C620_FB_MOTORTEMP {1, 8, 8, 0, 1.0f, 0.0f, 0.0f, 255.0f}
+#define WL_SIG_C620_FB_ROTORANGLE {1, 48, 16, 0, 0.0439453125, 0.0, 0.0, 359.9560546875}
+#define WL_SIG_C620_FB_ROTORSPEED {1, 32, 16, 1, 1.0, 0.0, -32768.0, 32767.0}
+#define WL_SIG_C620_FB_TORQUECURRENT {1, 16, 16, 1, 0.001220703125, 0.0, -20.0, 20.0}
+#define WL_SIG_C620_FB_MOTORTEMP {1, 8, 8, 0, 1.0, 0.0, 0.0, 255.0}
 #define WL_ID_CG_MOTION 0x1000000u
 #define WL_DLC_CG_MOTION 8
-#define WL_SIG_CG_MOTION_POSREF {1, 48, 16, 0, 0.000381475547417411f, -12.5f, -12.5f, 12.5f}
-#define WL_SIG_CG_MOTION_VELREF {1, 32, 16, 0, 0.000915541313801785f, -30.0f, -30.0f, 30.0f}
-#define WL_SIG_CG_MOTION_KP {1, 16, 16, 0, 0.00762951094834821f, 0.0f, 0.0f, 500.0f}
-#define WL_SIG_CG_MOTION_KD {1, 0, 16, 0, 7.62951094834821e-05f, 0.0f, 0.0f, 5.0f}
+#define WL_SIG_CG_MOTION_POSREF {1, 48, 16, 0, 0.000381475547417411, -12.5, -12.5, 12.5}
+#define WL_SIG_CG_MOTION_VELREF {1, 32, 16, 0, 0.000915541313801785, -30.0, -30.0, 30.0}
+#define WL_SIG_CG_MOTION_KP {1, 16, 16, 0, 0.00762951094834821, 0.0, 0.0, 500.0}
+#define WL_SIG_CG_MOTION_KD {1, 0, 16, 0, 7.62951094834821e-05, 0.0, 0.0, 5.0}
 #define WL_ID_CG_FEEDBACK 0x2000000u
 #define WL_DLC_CG_FEEDBACK 8
-#define WL_SIG_CG_FEEDBACK_POS {1, 48, 16, 0, 0.000381475547417411f, -12.5f, -12.5f, 12.5f}
-#define WL_SIG_CG_FEEDBACK_VEL {1, 32, 16, 0, 0.000915541313801785f, -30.0f, -30.0f, 30.0f}
-#define WL_SIG_CG_FEEDBACK_TORQUE {1, 16, 16, 0, 0.000366216525520714f, -12.0f, -12.0f, 12.0f}
-#define WL_SIG_CG_FEEDBACK_TEMP {1, 0, 16, 0, 0.1f, 0.0f, 0.0f, 6553.5f}
+#define WL_SIG_CG_FEEDBACK_POS {1, 48, 16, 0, 0.000381475547417411, -12.5, -12.5, 12.5}
+#define WL_SIG_CG_FEEDBACK_VEL {1, 32, 16, 0, 0.000915541313801785, -30.0, -30.0, 30.0}
+#define WL_SIG_CG_FEEDBACK_TORQUE {1, 16, 16, 0, 0.000366216525520714, -12.0, -12.0, 12.0}
+#define WL_SIG_CG_FEEDBACK_TEMP {1, 0, 16, 0, 0.1, 0.0, 0.0, 6553.5}
 #define WL_ID_CG_STOP 0x4000000u
 #define WL_DLC_CG_STOP 8
-#define WL_SIG_CG_STOP_CLEARFAULT {0, 0, 8, 0, 1.0f, 0.0f, 0.0f, 1.0f}
+#define WL_SIG_CG_STOP_CLEARFAULT {0, 0, 8, 0, 1.0, 0.0, 0.0, 1.0}
 #define WL_ID_CG_ENABLE 0x3000000u
 #define WL_DLC_CG_ENABLE 8
 #define WL_ID_CG_PARAM_WRITE 0x12000000u
 #define WL_DLC_CG_PARAM_WRITE 8
-#define WL_SIG_CG_PARAM_WRITE_INDEX {0, 0, 16, 0, 1.0f, 0.0f, 0.0f, 65535.0f}
-#define WL_SIG_CG_PARAM_WRITE_RUN_MODE {0, 32, 8, 0, 1.0f, 0.0f, 0.0f, 7.0f}
-#define WL_SIG_CG_PARAM_WRITE_IQ_REF {0, 32, 32, 1, 1.0f, 0.0f, -23.0f, 23.0f}
-#define WL_SIG_CG_PARAM_WRITE_SPD_REF {0, 32, 32, 1, 1.0f, 0.0f, -30.0f, 30.0f}
-#define WL_SIG_CG_PARAM_WRITE_LIMIT_TORQUE {0, 32, 32, 1, 1.0f, 0.0f, 0.0f, 12.0f}
-#define WL_SIG_CG_PARAM_WRITE_CUR_KP {0, 32, 32, 1, 1.0f, 0.0f, 0.0f, 100.0f}
-#define WL_SIG_CG_PARAM_WRITE_CUR_KI {0, 32, 32, 1, 1.0f, 0.0f, 0.0f, 100.0f}
-#define WL_SIG_CG_PARAM_WRITE_CUR_FILT_GAIN {0, 32, 32, 1, 1.0f, 0.0f, 0.0f, 1.0f}
-#define WL_SIG_CG_PARAM_WRITE_LOC_REF {0, 32, 32, 1, 1.0f, 0.0f, -1000.0f, 1000.0f}
-#define WL_SIG_CG_PARAM_WRITE_LIMIT_SPD {0, 32, 32, 1, 1.0f, 0.0f, 0.0f, 30.0f}
-#define WL_SIG_CG_PARAM_WRITE_LIMIT_CUR {0, 32, 32, 1, 1.0f, 0.0f, 0.0f, 23.0f}
-#define WL_SIG_CG_PARAM_WRITE_MECHPOS {0, 32, 32, 1, 1.0f, 0.0f, -1000.0f, 1000.0f}
-#define WL_SIG_CG_PARAM_WRITE_IQF {0, 32, 32, 1, 1.0f, 0.0f, -23.0f, 23.0f}
-#define WL_SIG_CG_PARAM_WRITE_MECHVEL {0, 32, 32, 1, 1.0f, 0.0f, -30.0f, 30.0f}
-#define WL_SIG_CG_PARAM_WRITE_VBUS {0, 32, 32, 1, 1.0f, 0.0f, 0.0f, 60.0f}
-#define WL_SIG_CG_PARAM_WRITE_ROTATION {0, 32, 16, 1, 1.0f, 0.0f, -32768.0f, 32767.0f}
-#define WL_SIG_CG_PARAM_WRITE_LOC_KP {0, 32, 32, 1, 1.0f, 0.0f, 0.0f, 1000.0f}
-#define WL_SIG_CG_PARAM_WRITE_SPD_KP {0, 32, 32, 1, 1.0f, 0.0f, 0.0f, 1000.0f}
-#define WL_SIG_CG_PARAM_WRITE_SPD_KI {0, 32, 32, 1, 1.0f, 0.0f, 0.0f, 1000.0f}
+#define WL_SIG_CG_PARAM_WRITE_INDEX {0, 0, 16, 0, 1.0, 0.0, 0.0, 65535.0}
+#define WL_SIG_CG_PARAM_WRITE_RUN_MODE {0, 32, 8, 0, 1.0, 0.0, 0.0, 7.0}
+#define WL_SIG_CG_PARAM_WRITE_IQ_REF {0, 32, 32, 1, 1.0, 0.0, -23.0, 23.0}
+#define WL_SIG_CG_PARAM_WRITE_SPD_REF {0, 32, 32, 1, 1.0, 0.0, -30.0, 30.0}
+#define WL_SIG_CG_PARAM_WRITE_LIMIT_TORQUE {0, 32, 32, 1, 1.0, 0.0, 0.0, 12.0}
+#define WL_SIG_CG_PARAM_WRITE_CUR_KP {0, 32, 32, 1, 1.0, 0.0, 0.0, 100.0}
+#define WL_SIG_CG_PARAM_WRITE_CUR_KI {0, 32, 32, 1, 1.0, 0.0, 0.0, 100.0}
+#define WL_SIG_CG_PARAM_WRITE_CUR_FILT_GAIN {0, 32, 32, 1, 1.0, 0.0, 0.0, 1.0}
+#define WL_SIG_CG_PARAM_WRITE_LOC_REF {0, 32, 32, 1, 1.0, 0.0, -1000.0, 1000.0}
+#define WL_SIG_CG_PARAM_WRITE_LIMIT_SPD {0, 32, 32, 1, 1.0, 0.0, 0.0, 30.0}
+#define WL_SIG_CG_PARAM_WRITE_LIMIT_CUR {0, 32, 32, 1, 1.0, 0.0, 0.0, 23.0}
+#define WL_SIG_CG_PARAM_WRITE_MECHPOS {0, 32, 32, 1, 1.0, 0.0, -1000.0, 1000.0}
+#define WL_SIG_CG_PARAM_WRITE_IQF {0, 32, 32, 1, 1.0, 0.0, -23.0, 23.0}
+#define WL_SIG_CG_PARAM_WRITE_MECHVEL {0, 32, 32, 1, 1.0, 0.0, -30.0, 30.0}
+#define WL_SIG_CG_PARAM_WRITE_VBUS {0, 32, 32, 1, 1.0, 0.0, 0.0, 60.0}
+#define WL_SIG_CG_PARAM_WRITE_ROTATION {0, 32, 16, 1, 1.0, 0.0, -32768.0, 32767.0}
+#define WL_SIG_CG_PARAM_WRITE_LOC_KP {0, 32, 32, 1, 1.0, 0.0, 0.0, 1000.0}
+#define WL_SIG_CG_PARAM_WRITE_SPD_KP {0, 32, 32, 1, 1.0, 0.0, 0.0, 1000.0}
+#define WL_SIG_CG_PARAM_WRITE_SPD_KI {0, 32, 32, 1, 1.0, 0.0, 0.0, 1000.0}
 #define WL_ID_CG_FAULT_WARN 0x15000000u
 #define WL_DLC_CG_FAULT_WARN 8
-#define WL_SIG_CG_FAULT_WARN_FAULTOVERTEMP {0, 0, 1, 0, 1.0f, 0.0f, 0.0f, 1.0f}
-#define WL_SIG_CG_FAULT_WARN_FAULTDRIVERCHIP {0, 1, 1, 0, 1.0f, 0.0f, 0.0f, 1.0f}
-#define WL_SIG_CG_FAULT_WARN_FAULTUNDERVOLTAGE {0, 2, 1, 0, 1.0f, 0.0f, 0.0f, 1.0f}
-#define WL_SIG_CG_FAULT_WARN_FAULTOVERVOLTAGE {0, 3, 1, 0, 1.0f, 0.0f, 0.0f, 1.0f}
-#define WL_SIG_CG_FAULT_WARN_FAULTPHASEBOVERCURRENT {0, 4, 1, 0, 1.0f, 0.0f, 0.0f, 1.0f}
-#define WL_SIG_CG_FAULT_WARN_FAULTPHASECOVERCURRENT {0, 5, 1, 0, 1.0f, 0.0f, 0.0f, 1.0f}
-#define WL_SIG_CG_FAULT_WARN_FAULTNOTCALIBRATED {0, 7, 1, 0, 1.0f, 0.0f, 0.0f, 1.0f}
-#define WL_SIG_CG_FAULT_WARN_FAULTOVERLOAD {0, 8, 8, 0, 1.0f, 0.0f, 0.0f, 255.0f}
-#define WL_SIG_CG_FAULT_WARN_FAULTPHASEAOVERCURRENT {0, 16, 1, 0, 1.0f, 0.0f, 0.0f, 1.0f}
-#define WL_SIG_CG_FAULT_WARN_WARNOVERTEMP {0, 32, 1, 0, 1.0f, 0.0f, 0.0f, 1.0f}
-#define WL_CGID_REQ_TARGET {0, 0, 8, 0, 1.0f, 0.0f, 0.0f, 255.0f}
-#define WL_CGID_REQ_HOST {0, 8, 8, 0, 1.0f, 0.0f, 0.0f, 255.0f}
-#define WL_CGID_REQ_EXTRA {0, 16, 8, 0, 1.0f, 0.0f, 0.0f, 255.0f}
-#define WL_CGID_REQ_TYPE {0, 24, 5, 0, 1.0f, 0.0f, 0.0f, 31.0f}
-#define WL_CGID_MOTION_TARGET {0, 0, 8, 0, 1.0f, 0.0f, 0.0f, 255.0f}
-#define WL_CGID_MOTION_TORQUEREF {0, 8, 16, 0, 0.000366216525520714f, -12.0f, -12.0f, 12.0f}
-#define WL_CGID_MOTION_TYPE {0, 24, 5, 0, 1.0f, 0.0f, 0.0f, 31.0f}
-#define WL_CGID_REPLY_HOST {0, 0, 8, 0, 1.0f, 0.0f, 0.0f, 255.0f}
-#define WL_CGID_REPLY_MOTORID {0, 8, 8, 0, 1.0f, 0.0f, 0.0f, 255.0f}
-#define WL_CGID_REPLY_FAULTUNDERVOLTAGE {0, 16, 1, 0, 1.0f, 0.0f, 0.0f, 1.0f}
-#define WL_CGID_REPLY_FAULTOVERCURRENT {0, 17, 1, 0, 1.0f, 0.0f, 0.0f, 1.0f}
-#define WL_CGID_REPLY_FAULTOVERTEMP {0, 18, 1, 0, 1.0f, 0.0f, 0.0f, 1.0f}
-#define WL_CGID_REPLY_FAULTMAGENCODER {0, 19, 1, 0, 1.0f, 0.0f, 0.0f, 1.0f}
-#define WL_CGID_REPLY_FAULTHALLENCODER {0, 20, 1, 0, 1.0f, 0.0f, 0.0f, 1.0f}
-#define WL_CGID_REPLY_FAULTNOTCALIBRATED {0, 21, 1, 0, 1.0f, 0.0f, 0.0f, 1.0f}
-#define WL_CGID_REPLY_MODE {0, 22, 2, 0, 1.0f, 0.0f, 0.0f, 3.0f}
-#define WL_CGID_REPLY_TYPE {0, 24, 5, 0, 1.0f, 0.0f, 0.0f, 31.0f}
+#define WL_SIG_CG_FAULT_WARN_FAULTOVERTEMP {0, 0, 1, 0, 1.0, 0.0, 0.0, 1.0}
+#define WL_SIG_CG_FAULT_WARN_FAULTDRIVERCHIP {0, 1, 1, 0, 1.0, 0.0, 0.0, 1.0}
+#define WL_SIG_CG_FAULT_WARN_FAULTUNDERVOLTAGE {0, 2, 1, 0, 1.0, 0.0, 0.0, 1.0}
+#define WL_SIG_CG_FAULT_WARN_FAULTOVERVOLTAGE {0, 3, 1, 0, 1.0, 0.0, 0.0, 1.0}
+#define WL_SIG_CG_FAULT_WARN_FAULTPHASEBOVERCURRENT {0, 4, 1, 0, 1.0, 0.0, 0.0, 1.0}
+#define WL_SIG_CG_FAULT_WARN_FAULTPHASECOVERCURRENT {0, 5, 1, 0, 1.0, 0.0, 0.0, 1.0}
+#define WL_SIG_CG_FAULT_WARN_FAULTNOTCALIBRATED {0, 7, 1, 0, 1.0, 0.0, 0.0, 1.0}
+#define WL_SIG_CG_FAULT_WARN_FAULTOVERLOAD {0, 8, 8, 0, 1.0, 0.0, 0.0, 255.0}
+#define WL_SIG_CG_FAULT_WARN_FAULTPHASEAOVERCURRENT {0, 16, 1, 0, 1.0, 0.0, 0.0, 1.0}
+#define WL_SIG_CG_FAULT_WARN_WARNOVERTEMP {0, 32, 1, 0, 1.0, 0.0, 0.0, 1.0}
+#define WL_CGID_REQ_TARGET {0, 0, 8, 0, 1.0, 0.0, 0.0, 255.0}
+#define WL_CGID_REQ_HOST {0, 8, 8, 0, 1.0, 0.0, 0.0, 255.0}
+#define WL_CGID_REQ_EXTRA {0, 16, 8, 0, 1.0, 0.0, 0.0, 255.0}
+#define WL_CGID_REQ_TYPE {0, 24, 5, 0, 1.0, 0.0, 0.0, 31.0}
+#define WL_CGID_MOTION_TARGET {0, 0, 8, 0, 1.0, 0.0, 0.0, 255.0}
+#define WL_CGID_MOTION_TORQUEREF {0, 8, 16, 0, 0.000366216525520714, -12.0, -12.0, 12.0}
+#define WL_CGID_MOTION_TYPE {0, 24, 5, 0, 1.0, 0.0, 0.0, 31.0}
+#define WL_CGID_REPLY_HOST {0, 0, 8, 0, 1.0, 0.0, 0.0, 255.0}
+#define WL_CGID_REPLY_MOTORID {0, 8, 8, 0, 1.0, 0.0, 0.0, 255.0}
+#define WL_CGID_REPLY_FAULTUNDERVOLTAGE {0, 16, 1, 0, 1.0, 0.0, 0.0, 1.0}
+#define WL_CGID_REPLY_FAULTOVERCURRENT {0, 17, 1, 0, 1.0, 0.0, 0.0, 1.0}
+#define WL_CGID_REPLY_FAULTOVERTEMP {0, 18, 1, 0, 1.0, 0.0, 0.0, 1.0}
+#define WL_CGID_REPLY_FAULTMAGENCODER {0, 19, 1, 0, 1.0, 0.0, 0.0, 1.0}
+#define WL_CGID_REPLY_FAULTHALLENCODER {0, 20, 1, 0, 1.0, 0.0, 0.0, 1.0}
+#define WL_CGID_REPLY_FAULTNOTCALIBRATED {0, 21, 1, 0, 1.0, 0.0, 0.0, 1.0}
+#define WL_CGID_REPLY_MODE {0, 22, 2, 0, 1.0, 0.0, 0.0, 3.0}
+#define WL_CGID_REPLY_TYPE {0, 24, 5, 0, 1.0, 0.0, 0.0, 31.0}
 
 #endif

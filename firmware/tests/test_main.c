@@ -129,6 +129,10 @@ static void test_codecs(void) {
     wl_bus_update(&bus, &fb, 4000);
     check(bus.bad_frames == bad_before + 1 && bus.wheels[0].received_us == 1000, "bad DLC counted and ignored",
           bus.bad_frames, bad_before + 1);
+    hal_frame_t gyro = {0x101, 0, 0, 6, {0xFF, 0x7F, 0x00, 0x80, 0, 0, 0, 0}};  /* the field's ends: +32.767, -32.768 */
+    wl_bus_update(&bus, &gyro, 4500);
+    check(bus.bad_frames == bad_before + 1 && bus.imu.gyro[0] == 32.767f && bus.imu.gyro[1] == -32.768f,
+          "a saturated gyro is in its DBC range", bus.imu.gyro[0], 32.767);
     hal_frame_t quat = {0x100, 0, 0, 8, {0xFF, 0x3F, 0, 0, 0, 0, 0, 0}};  /* w = 0.5 */
     wl_bus_update(&bus, &quat, 5000);
     check(bus.bad_frames == bad_before + 2 && bus.imu.quat[0] == 1.0f, "non-unit quaternion refused", bus.bad_frames,
