@@ -351,23 +351,6 @@ def render_c(table) -> str:
     return "\n".join(lines) + "\n"
 
 
-def c_table_current(table, rtol: float | None = None) -> list[str]:
-    """[] when firmware/app/lqr_gains.c holds ``table``'s numbers (to ``rtol`` of each gain's
-    largest coefficient, as ``table_matches``: a regenerated table may differ by ~1e-9 between
-    LAPACK builds); else what is wrong with it."""
-    try:
-        text = C_GAINS_PATH.read_text()
-    except OSError as exc:
-        return [f"cannot read {C_GAINS_PATH}: {exc}"]
-    want = [*(float(v) for row in table.COEFFS for gain in row for v in gain), *(float(v) for v in table.ARM)]
-    got = [float(v) for v in re.findall(r"(-?[0-9][0-9.]*(?:e[-+]?[0-9]+)?)f\b", text.split("WL_LQR_COEFFS", 2)[-1])]
-    if len(got) != len(want):
-        return [f"{C_GAINS_PATH.name} holds {len(got)} coefficients, the table {len(want)}: regenerate it"]
-    scale = np.repeat(np.max(np.abs(np.reshape(want, (-1, FIT_ORDER + 1))), axis=1), FIT_ORDER + 1)
-    worst = float(np.max(np.abs(np.subtract(got, want)) / scale))
-    return [] if worst <= (TABLE_RTOL if rtol is None else rtol) else [f"{C_GAINS_PATH.name} differs from the Python table by {worst:.3e} (relative)"]
-
-
 def load_table(path: Path | None = None):
     """The gain module at ``path`` (default GAINS_PATH), loaded fresh from the file.
 
@@ -408,6 +391,26 @@ def table_matches(d: Design, table, rtol: float = TABLE_RTOL) -> list[str]:
     if arm.shape != d.arm_coeffs.shape or np.max(np.abs(arm - d.arm_coeffs)) > rtol * np.max(np.abs(d.arm_coeffs)):
         problems.append(f"ARM {tuple(arm)} differs from the design's {tuple(d.arm_coeffs)}")
     return problems
+
+
+def c_table_current(table, rtol: float = TABLE_RTOL) -> list[str]:
+    """[] when firmware/app/lqr_gains.c holds ``table``'s numbers (to ``rtol`` of each gain's
+    largest coefficient, as ``table_matches``: a regenerated table may differ by ~1e-9 between
+    LAPACK builds); else what is wrong with it."""
+    try:
+        text = C_GAINS_PATH.read_text()
+    except OSError as exc:
+        return [f"cannot read {C_GAINS_PATH}: {exc}"]
+    want = [*(float(v) for row in table.COEFFS for gain in row for v in gain), *(float(v) for v in table.ARM)]
+    definition = text.split("const float WL_LQR_COEFFS", 1)[-1]  # the numbers after the header
+    got = [float(v) for v in re.findall(r"(-?[0-9][0-9.]*(?:e[-+]?[0-9]+)?)f\b", definition)]
+    if len(got) != len(want):
+        return [f"{C_GAINS_PATH.name} holds {len(got)} coefficients, the table {len(want)}: regenerate it"]
+    scale = np.repeat(np.max(np.abs(np.reshape(want, (-1, FIT_ORDER + 1))), axis=1), FIT_ORDER + 1)
+    worst = float(np.max(np.abs(np.subtract(got, want)) / scale))
+    if worst > rtol:
+        return [f"{C_GAINS_PATH.name} differs from the Python table by {worst:.3e} (relative)"]
+    return []
 
 
 def main(argv: list[str] | None = None) -> int:
