@@ -25,6 +25,7 @@ static const wl_signal_t FAULT_WORD[] = {
 static const wl_signal_t FAULT_WARN_OTHERS[] = {WL_SIG_CG_FAULT_WARN_WARNOVERTEMP};
 static const wl_signal_t ESC_ANGLE = WL_SIG_C620_FB_ROTORANGLE, ESC_SPEED = WL_SIG_C620_FB_ROTORSPEED;
 static const wl_signal_t ESC_CURRENT = WL_SIG_C620_FB_TORQUECURRENT, ESC_TEMP = WL_SIG_C620_FB_MOTORTEMP;
+/* per IMU frame (quaternion, gyro, accelerometer) its signals; only the quaternion has a fourth */
 static const wl_signal_t IMU_SIGS[3][4] = {
     {WL_SIG_IMU_QUAT_QUATW, WL_SIG_IMU_QUAT_QUATX, WL_SIG_IMU_QUAT_QUATY, WL_SIG_IMU_QUAT_QUATZ},
     {WL_SIG_IMU_GYRO_RATEX, WL_SIG_IMU_GYRO_RATEY, WL_SIG_IMU_GYRO_RATEZ, WL_SIG_IMU_GYRO_RATEZ},
