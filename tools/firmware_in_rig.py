@@ -93,10 +93,11 @@ def main(argv=None) -> int:
             program = FirmwareProgram(path)
             programs.append(program)
             return CanNode(buses[CAN1], buses[CAN2], program, sync=sync, period_s=period_s)
-        from wheelleg.hil.robots import wheel_legged  # noqa: PLC0415
-        # robots.get reads the module's ROBOT each time; no debug record (the library's is not the TickResult's)
-        wheel_legged.ROBOT = dataclasses.replace(wheel_legged.ROBOT, build_controller=build_controller,
-                                                 debug_schema=None)
+        from wheelleg.hil import robots  # noqa: PLC0415
+        # robots.get keeps each loaded robot: the default one swapped for one with the library as
+        # its controller; no debug record (the library's is not the TickResult's)
+        robot = robots.get()
+        robots._LOADED[robot.name] = dataclasses.replace(robot, build_controller=build_controller, debug_schema=None)
     status = 0
     for name in args.scenarios:
         start = time.perf_counter()
