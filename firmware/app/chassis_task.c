@@ -276,7 +276,7 @@ static void remember(const wl_sensed_t *sensed, const wl_chassis_out_t *out) {
 
 /* -- chassis_motors_can_send: this tick's frames -------------------------------------- */
 static void send_wheel_currents(const float *currents_a) {
-    float sent[WL_N_WHEELS > 4 ? WL_N_WHEELS : 4] = {0};
+    float sent[4] = {0};  /* the 0x200 frame's four slots */
     for (int w = 0; w < WL_N_WHEELS; w++) {
         float amps = currents_a ? currents_a[w] : 0.0f;
         sent[WL_WHEELS[w].esc_id - 1] = amps;
