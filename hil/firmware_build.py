@@ -7,13 +7,14 @@ The sources come from the installed package (``wheelleg.firmware``: in a clone, 
 top-level ``firmware/``), so an installed wheel builds them too. The build goes to
 ``firmware/build/`` when that folder is writable, else to a per-user cache, or to
 ``out_dir``. ``make`` keeps it incremental: a second call costs a make that finds it
-up to date.
+up to date; concurrent calls for one directory take turns (a lock file in it).
 
     python -m wheelleg.hil.firmware_build [lib|linux|test] [--out DIR]
 """
 from __future__ import annotations
 
 import argparse
+import fcntl
 import hashlib
 import os
 import shutil
@@ -58,8 +59,12 @@ def build(kind: str = "lib", out_dir: str | Path | None = None) -> Path:
     src = source_dir()
     out = Path(out_dir) if out_dir is not None else _default_out(src)
     out.mkdir(parents=True, exist_ok=True)
-    proc = subprocess.run([make, "-s", "-C", str(src), f"BUILD={out.resolve()}", f"CC={cc}", kind],
-                          capture_output=True, text=True)
+    # one make at a time per build directory: pytest-xdist workers (or campaign workers) that all
+    # ask for the library at once would otherwise write the same files together
+    with open(out / ".build.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        proc = subprocess.run([make, "-s", "-C", str(src), f"BUILD={out.resolve()}", f"CC={cc}", kind],
+                              capture_output=True, text=True)
     if proc.returncode != 0:
         lines = [line for line in (proc.stderr or proc.stdout).splitlines() if line.strip()]
         errors = [line for line in lines if "error" in line.lower()]  # a compiler's warnings come first
