@@ -89,13 +89,13 @@ def test_the_table_shows_each_edge_its_checks_its_ratio_and_its_rerun():
             margins.KeyMargins("command_delay_s", "s", 0.0, (0.0, 0.002), no_room, not_found))
     lines = margins.render_markdown([margins.ScenarioMargins("balance", 3, True, "", "r", keys)], 3)
     assert lines[0] == "## Robustness margins" and "### balance (seed 3)" in lines
-    assert ("| com_x_m | m | 0 | -0.03..0.03 | -0.04 (passes -0.03) | drift < 5 cm | **1.33 < 1.5** | "
+    assert ("| com_x_m | m | 0 | -0.03..0.03 | -0.04 (passes -0.03) | drift < 5 cm | **1.33** | "
             "beyond allowed range (passes 0.1) | - | >3.33 |") in lines
     assert ("| command_delay_s | s | 0 | 0..0.002 | - (allowed range ends at nominal) | - | - | "
             "not found (passes 0.003) | - | >1.50 |") in lines
     assert "1 of 3 edges under 1.5x the box's half-width." in lines
     assert "- com_x_m below, -0.04: drift < 5 cm" in lines and "      wheelleg run balance x" in lines
-    assert margins.ratio_cell(below, 0.0) == "**1.33 < 1.5**"
+    assert margins.ratio_cell(below, 0.0) == "**1.33**"
 
 
 def test_a_failing_nominal_is_said_with_its_rerun_and_no_table():

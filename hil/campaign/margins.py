@@ -187,7 +187,7 @@ def ratio_cell(edge: Edge, nominal: float) -> str:
     if ratio is None:
         return "-"
     text = f"{ratio:.2f}" if edge.failing is not None else f">{ratio:.2f}"
-    return f"**{text} < {GATE:g}**" if edge.flagged(nominal) else text
+    return f"**{text}**" if edge.flagged(nominal) else text
 
 
 def check_cell(edge: Edge) -> str:
@@ -202,7 +202,7 @@ def render_markdown(results: list[ScenarioMargins], runs_per_side: int, heading:
              f"is {GATE:g}x the box's half-width on that side, then the key's allowed limit, then halves "
              f"the bracket (in ratio once a value off nominal has passed). "
              f"Ratio: the failing value's distance from nominal over the box's half-width on that side "
-             f"(**bold** when under {GATE:g}, > when no failure was found). Checks: those that failed at "
+             f"(**bold** when it failed within {GATE:g}x, > when no failure was found). Checks: those that failed at "
              f"the failing value.", ""]
     for result in results:
         lines += scenario_lines(result, heading + "#")
