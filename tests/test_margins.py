@@ -74,6 +74,8 @@ def test_half_widths_and_gates_from_the_box():
     assert margins.half_widths(1.0, (0.8, 1.4)) == (pytest.approx(0.2), pytest.approx(0.4))
     assert margins.half_widths(0.0, (0.0, 0.002)) == (0.0, 0.002)
     assert margins.half_widths(0.0, None) == (None, None)
+    assert margins.half_widths(0.0, (0.15, 0.435)) == (0.0, 0.435)  # a box beside nominal: its far end
+    assert margins.half_widths(0.00120125, (0.0012, 0.014))[0] == 0.0  # a rounding of nominal: no reach
     assert margins.gate_value(1.0, 0.2, "below") == pytest.approx(0.7)
     assert margins.gate_value(0.0, 0.0, "below") is None
 

@@ -99,12 +99,21 @@ def gate_value(nominal: float, half_width: float | None, side: str) -> float | N
     return nominal + (GATE * half_width if side == "above" else -GATE * half_width)
 
 
+NEGLIGIBLE = 0.01  # a box reaching less than this share of its width past nominal does not reach that side
+
+
 def half_widths(nominal: float, box: tuple[float, float] | None) -> tuple[float | None, float | None]:
-    """How far the box reaches from nominal (below, above); None for a key outside the box."""
+    """How far the box reaches from nominal (below, above); None for a key outside the box.
+
+    A box that does not contain nominal (a friction of 0.15-0.435 N m where the
+    model has none) reaches only one side, by its far end; a side it barely
+    reaches (under NEGLIGIBLE of its width: a rounding of nominal) counts as 0.
+    """
     if box is None:
         return None, None
     low, high = box
-    return max(nominal - low, 0.0), max(high - nominal, 0.0)
+    reaches = (max(nominal - low, 0.0), max(high - nominal, 0.0))
+    return tuple(r if r >= NEGLIGIBLE * (high - low) else 0.0 for r in reaches)
 
 
 @dataclass(frozen=True)
