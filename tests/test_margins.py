@@ -198,6 +198,8 @@ def test_default_keys_are_the_presets_box():
     box = sampling.campaign_ranges("tolerance", [])
     assert margin_runs.margin_boxes("tolerance", ["hip_frictionloss", "com_z_m=-0.01..0.02"]) == {
         "hip_frictionloss": box.get("hip_frictionloss"), "com_z_m": (-0.01, 0.02)}
+    beside = {key: span for key, span in box.items() if not span[0] <= OVERRIDES[key].default <= span[1]}
+    assert margin_runs.margin_boxes("tolerance", list(beside)) == beside  # a preset's range may lie beside nominal
 
 
 @pytest.mark.parametrize("argv, message", [

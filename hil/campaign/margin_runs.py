@@ -51,7 +51,8 @@ def margin_boxes(preset: str | None, key_args: list[str]) -> dict:
     """Key -> box: every key of the preset's box (no ``key_args``), or the keys named.
 
     A named key is ``KEY`` (its box: the preset's range, None if the preset has
-    none) or ``KEY=LOW..HIGH`` (that box, which must contain nominal).
+    none) or ``KEY=LOW..HIGH`` (that box, which must contain nominal; a preset's
+    range may lie beside nominal, see ``margins.half_widths``).
     ValueError (one line) for an unknown preset or key, a malformed range, a key named twice.
     """
     box = sampling.campaign_ranges(preset, [])
@@ -72,7 +73,7 @@ def margin_boxes(preset: str | None, key_args: list[str]) -> dict:
         if key in boxes:
             raise ValueError(f"--keys {key}: named twice")
         nominal = OVERRIDES[key].default
-        if span is not None and not span[0] <= nominal <= span[1]:
+        if "=" in text and not span[0] <= nominal <= span[1]:  # (a preset's may lie beside it: half_widths)
             raise ValueError(f"--keys {text}: the range must contain the nominal {nominal:g}")
         boxes[key] = span
     return boxes
