@@ -12,7 +12,9 @@ from wheelleg.emulators.overrides import help_text, parse_assignment
 from wheelleg.emulators.plant import PlantConfig
 from wheelleg.hil import cli, robots, scenarios
 from wheelleg.hil.record.run_metadata import parse_epoch
-from wheelleg.hil.run.loop_timing import describe, describe_plant
+from wheelleg.hil import program as programs
+from wheelleg.hil.program.checks import program_checks
+from wheelleg.hil.run.loop_timing import describe, describe_plant, plant_kept_real_time
 from wheelleg.hil.run.progress import RunProgress
 from wheelleg.hil.run.rig import Rig, RigConfig
 from wheelleg.hil.run.schedule import CONTACT_S, NoController
@@ -71,6 +73,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--external-controller", action="store_true",
                         help="do not start the controller in-process: another process answers on the buses "
                              "(lockstep: `wheelleg controller --sync`; with --realtime: `wheelleg controller`)")
+    add_program_argument(parser)
     parser.add_argument("--no-plot", action="store_true", help="skip the PNG")
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress line on stderr")
     parser.add_argument("--plant", action="append", default=[], metavar="KEY=VALUE",
@@ -81,6 +84,31 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.epilog = ("plant overrides (--plant KEY=VALUE):\n" + help_text()
                      + "\n\nexit status: 0 every check passed, 1 a check failed (or the buses could not be "
                        "opened), 2 bad input")
+
+
+PROGRAM_HELP = ("the program under test: 'python' (default: the robot's Python program, in-process), "
+                "'firmware' (the repository's C firmware, in-process), PATH.so (a library with the lockstep "
+                "ABI, in-process, lockstep), or a command the rig starts on the buses and stops at the end "
+                "('CMD ARGS': {can1} {can2} {interface} are filled in, else the two channels are appended; "
+                "lockstep if it answers SYNC, free-running with --realtime); 'lib:PATH', 'cmd:CMD' force the kind")
+
+
+def add_program_argument(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--program", default="python", metavar="P", help=PROGRAM_HELP)
+
+
+def program_of(args: argparse.Namespace, robot: str | None, interface: str):
+    """``--program`` as a ``wheelleg.hil.program.Program``; ``UsageError`` (one line) for a bad one."""
+    try:
+        program = programs.parse(getattr(args, "program", None), robot)
+    except ValueError as exc:
+        raise UsageError(str(exc)) from exc
+    if program.kind == programs.COMMAND and interface == "virtual":
+        raise UsageError("a command program needs a bus another process can join (-i socketcan, udp_multicast, "
+                         "...): python-can's virtual bus lives inside this process")
+    if program.kind != programs.PYTHON and getattr(args, "external_controller", False):
+        raise UsageError("--program and --external-controller both name the program: give one")
+    return program
 
 
 def plant_config(assignments: list[str]) -> PlantConfig:
@@ -107,8 +135,10 @@ def execute(args: argparse.Namespace, started_s: float | None = None):
     if args.external_controller and buses.interface == "virtual":
         raise UsageError("--external-controller needs a bus another process can join (-i socketcan, "
                          "udp_multicast, ...): python-can's virtual bus lives inside this process")
+    program = program_of(args, scenario.robot, buses.interface)
     config = RigConfig(interface=buses.interface, channels=buses.channels, bus_kwargs=buses.kwargs,
-                       seed=args.seed, realtime=args.realtime, in_process_controller=not args.external_controller,
+                       seed=args.seed, realtime=args.realtime,
+                       in_process_controller=not args.external_controller and program.in_process, program=program,
                        decode=getattr(args, "decoded", False), plant=plant,
                        epoch_ns=getattr(args, "epoch", 0))
     progress = RunProgress(scenario.name, scenario.duration_s, enabled=not getattr(args, "quiet", True))
@@ -128,10 +158,12 @@ def execute(args: argparse.Namespace, started_s: float | None = None):
         outcome = rig.run()
     except NoController as exc:
         raise SystemExit(f"run: {exc}") from exc
+    except programs.ProgramError as exc:  # a command program that cannot be started
+        raise UsageError(str(exc)) from exc
     finally:
         progress.close()
     run = load_run(outcome.trace_path)
-    results = [check(run) for check in scenario.checks]
+    results = [check(run) for check in (*scenario.checks, *program_checks(run.program))]
     outcome = replace(outcome, startup_s=first_tick_s - started_s,
                       verdict_wall_s=time.perf_counter() - first_tick_s)
     if not args.no_plot:
@@ -162,13 +194,33 @@ def run(args: argparse.Namespace) -> int:
         print(f"  {describe_plant(outcome.timing['plant'])}")
     if args.plant:
         print(f"  plant overrides: {' '.join(args.plant)}")
+    if data.program.get("kind", "python") != "python":
+        print(f"  program: {describe_program(data.program)}")
     print(f"  trace {outcome.trace_path}\n  log   {outcome.log_path}")
     print_bus_load(data)
     for r in results:
         print(f"  [{'PASS' if r.passed else 'FAIL'}] {r.name}: {r.detail}")
     ok = all(r.passed for r in results)
-    print(f"{args.scenario}: {'PASSED' if ok else 'FAILED'}")
+    print(f"{args.scenario}: {verdict(ok, outcome)}")
     return 0 if ok else 1
+
+
+def describe_program(record: dict) -> str:
+    """The trace's ``program`` record on one line (also ``wheelleg inspect``)."""
+    what = record.get("command") or record.get("path") or record.get("program", "?")
+    ident = f", build {record['build_id']}" if record.get("build_id") else ""
+    digest = f", sha256 {record['sha256'][:16]}" if record.get("sha256") else ""
+    return f"{record.get('kind', '?')} {what}{ident}{digest}; ticks judged by {record.get('judged_by', '?')}"
+
+
+def verdict(ok: bool, outcome) -> str:
+    """PASSED, FAILED, or NOT REAL TIME when a real-time run failed on a plant that could not keep real
+    time (``loop_timing.plant_kept_real_time``): then the failure may be the plant's, not the program's."""
+    if ok:
+        return "PASSED"
+    plant = (outcome.timing or {}).get("plant")
+    reason = plant_kept_real_time(plant) if plant else None
+    return f"NOT REAL TIME ({reason}; the checks above failed on a world that ran slow)" if reason else "FAILED"
 
 
 def print_bus_load(run) -> None:

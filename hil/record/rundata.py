@@ -10,12 +10,13 @@ from wheelleg.dbc import cybergear as cg
 from wheelleg.dbc import CAN1, load_file
 from wheelleg.hil import robots
 from wheelleg.hil.bus.busload import LOAD_TOPIC
-from wheelleg.hil.record.frame import FrameColumns
-from wheelleg.hil.record.sources import TraceError, open_recording
+from wheelleg.hil.record.frame import Frame, FrameColumns
+from wheelleg.hil.record.sources import TraceError, is_heartbeat, open_recording, sent_by_controller
 from wheelleg.hil.record.trace import TraceReader
 from wheelleg.hil.run.scenario import RunData
 
 
+_CG_TYPE_AND_MOTOR = 0x1F0000FF  # a CyberGear request id's type (28..24) and motor id (7..0) bits
 _MOTION = load_file("cybergear.dbc").get_message_by_name("CG_MotionCmd")
 _KP, _KD = _MOTION.get_signal_by_name("Kp"), _MOTION.get_signal_by_name("Kd")  # big-endian u16, bytes 4-5, 6-7
 
@@ -76,7 +77,39 @@ def load_run(path: Path | str) -> RunData:
         events=recording.events,
         meta=dict(recording.run, truncated=recording.truncated),
         bus_load=_bus_load(reader, {name: role for role, name in channels.items()}),
+        program=dict(recording.metadata.get("program", {})),
+        command_times=_command_times(reader, channels, recording.dbs) if _judged_on_the_bus(recording) else {},
     )
+
+
+def _judged_on_the_bus(recording) -> bool:
+    """Whether the checks read the program's command times: a program other than the in-process Python one."""
+    program = recording.metadata.get("program", {})
+    return program.get("judged_by") == "bus" or program.get("kind") in ("library", "command")
+
+
+def _command_times(reader: TraceReader, channels: dict, dbs: dict) -> dict:
+    """Role -> (n,) s of the program's most frequent command on that bus (a CyberGear command
+    counts per type and motor, its torque bits aside; heartbeats are not commands; the DBC's
+    senders say whose a frame is): one frame a tick, its tick times when they cannot be seen
+    otherwise. One message, not all of a tick's: on a busy bus a tick's frames queue behind
+    others and the next tick's can follow close, so bursts do not mark ticks."""
+    out = {}
+    for role, channel in channels.items():
+        columns = reader.frame_columns(channel)
+        known: dict[tuple[int, bool, int], bool] = {}
+        rows: dict[tuple[int, bool], list[int]] = defaultdict(list)
+        for i, (ident, ext, err) in enumerate(zip(columns.arbitration_id.tolist(), columns.is_extended.tolist(),
+                                                  columns.is_error.tolist())):
+            key = (ident, ext, len(columns.data[i]))
+            if key not in known:
+                frame = Frame(0, channel, ident, ext, columns.data[i], key[2], role, err)
+                known[key] = not err and sent_by_controller(frame, dbs) and not is_heartbeat(frame)
+            if known[key]:
+                rows[(ident & _CG_TYPE_AND_MOTOR if ext else ident, ext)].append(i)
+        busiest = max(sorted(rows), key=lambda k: len(rows[k]), default=None)
+        out[role] = columns.t_ns[rows[busiest]] / 1e9 if busiest is not None else np.zeros(0)
+    return out
 
 
 def _bus_load(reader: TraceReader, buses: dict) -> dict:
