@@ -21,7 +21,7 @@ import time
 # cantools) and building the model count as the run's start-up (`wheelleg run` prints it).
 STARTED_S = time.perf_counter()
 
-SUBCOMMANDS = ("run", "list", "campaign", "emulate", "controller", "replay", "inspect", "decode", "export", "recover",
+SUBCOMMANDS = ("run", "list", "campaign", "emulate", "controller", "replay", "diff", "inspect", "decode", "export", "recover",
                "vcan")
 
 
