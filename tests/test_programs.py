@@ -213,3 +213,23 @@ def test_a_command_that_ignores_sync_is_told_to_run_in_real_time(tmp_path, monke
     with pytest.raises(SystemExit, match="answers SYNC with the heartbeat.*--realtime"):
         _run(tmp_path, *bus, "--program", f"{sys.executable} -c 'import time; time.sleep(30)'")
     assert not open_recording(tmp_path / "balance.mcap").truncated
+
+
+# -- the other commands take a program --------------------------------------------------------------
+def test_inspect_replay_and_campaign_take_the_program(tmp_path, libs, capsys):
+    _run(tmp_path / "lib", "--program", str(libs["zero"]), duration="0.1")
+    capsys.readouterr()
+    assert main(["inspect", str(tmp_path / "lib" / "balance.mcap")]) in (0, 1)
+    assert "program: library " + str(libs["zero"]) + ", build zero-program test fixture 1" in capsys.readouterr().out
+    assert main(["replay", str(tmp_path / "lib" / "balance.mcap"), "--program", str(libs["zero"])]) == 0
+    assert "identical" in capsys.readouterr().out  # the library replayed into itself
+    assert main(["replay", str(tmp_path / "lib" / "balance.mcap")]) == 1  # into the Python program: it differs
+    assert main(["campaign", "balance", "--samples", "1", "--out", str(tmp_path / "c"), "--program",
+                 str(libs["noabi"])]) == 2
+    assert "not the lockstep ABI" in capsys.readouterr().out
+
+
+def test_the_pytest_plugin_runs_a_program(rig_run, libs):
+    run = rig_run("balance", duration=0.1, program=str(libs["zero"]))
+    assert run.program["kind"] == "library" and run.ticks == 50
+    assert any(c.name.startswith("the program sent commands") and c.passed for c in run.checks)

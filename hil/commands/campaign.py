@@ -39,6 +39,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--workers", type=int, default=None, help="local worker processes (default: all cores)")
     parser.add_argument("--address", default=None,
                         help="join an existing Dask scheduler (tcp://HOST:8786) instead of a local cluster")
+    parser.add_argument("--program", default="python", metavar="P",
+                        help="the program every run tests: python (default), firmware or PATH.so (in-process kinds "
+                             "of `wheelleg run --program`)")
     parser.add_argument("--keep-passing", action="store_true", help="keep passing runs' traces and logs too")
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
 
@@ -82,6 +85,10 @@ def campaign_spec(args: argparse.Namespace) -> dict:
             "ranges": {k: list(v) for k, v in ranges.items()}}
     if args.epoch:  # only when given: a campaign directory from before --epoch resumes as it was
         spec["epoch_s"] = epoch_text(args.epoch)
+    program = getattr(args, "program", "python")
+    if program != "python":  # only when given, as --epoch; checked here (one line), run by each worker
+        execution.rig_config(0, {}, 0, program)
+        spec["program"] = program
     return spec
 
 
@@ -97,7 +104,7 @@ def run(args: argparse.Namespace, runner: execution.Runner = execution.run_job, 
     jobs = sampling.plan(args.scenarios, args.samples, args.seed, spec["ranges"])
     todo = [job for job in jobs if not log.finished((job.scenario, job.sample))]
     settings = execution.RunSettings(args.out.resolve(), args.duration, args.keep_passing,  # workers may run elsewhere
-                                     args.epoch)
+                                     args.epoch, getattr(args, "program", "python"))
     if len(todo) < len(jobs):
         print(f"campaign: resuming, {len(jobs) - len(todo)} of {len(jobs)} runs already judged in {log.path}")
     try:

@@ -32,6 +32,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="controller period in s (default: the trace's, else the controller's)")
     parser.add_argument("--allow-drops", action="store_true",
                         help="replay a candump log even though it reports DROPCOUNT losses")
+    parser.add_argument("--program", default="python", metavar="P",
+                        help="the program replayed: python (default), firmware or PATH.so (in-process kinds of "
+                             "`wheelleg run --program`)")
     robots.add_argument(parser, "whose recording, replayed into that robot's controller (default: the "
                                 "trace's record, else the wheel-legged robot)")
 
@@ -41,12 +44,19 @@ def run(args: argparse.Namespace) -> int:
     from wheelleg.hil.analyze.update import write_reference
     from wheelleg.hil.record.sources import TraceError, parse_channels
 
+    from wheelleg.hil import program as programs
+
     try:
         tolerances = dict(parse_tolerance(t) for t in args.tolerance)
+        robot = robots.get(getattr(args, "robot", None))
+        program = programs.parse(getattr(args, "program", "python"), robot.name)
+        if not program.in_process:
+            raise ValueError(f"program {program.text!r}: a command cannot be fed recorded inputs tick by tick")
         result = replay(args.trace, tolerances=tolerances, exact=args.exact,
                         channels=parse_channels(args.channels), period_s=args.period,
                         allow_drops=args.allow_drops, keep_sent=args.update is not None,
-                        robot=getattr(args, "robot", None))
+                        robot=getattr(args, "robot", None),
+                        build_controller=program.node_factory(robot) if program.kind != programs.PYTHON else None)
     except (TraceError, ValueError) as exc:
         print(f"replay: cannot replay {args.trace}: {exc}", file=sys.stderr)
         return 2

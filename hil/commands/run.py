@@ -195,7 +195,7 @@ def run(args: argparse.Namespace) -> int:
     if args.plant:
         print(f"  plant overrides: {' '.join(args.plant)}")
     if data.program.get("kind", "python") != "python":
-        print(f"  program: {describe_program(data.program)}")
+        print(f"  program: {programs.describe(data.program)}")
     print(f"  trace {outcome.trace_path}\n  log   {outcome.log_path}")
     print_bus_load(data)
     for r in results:
@@ -203,14 +203,6 @@ def run(args: argparse.Namespace) -> int:
     ok = all(r.passed for r in results)
     print(f"{args.scenario}: {verdict(ok, outcome)}")
     return 0 if ok else 1
-
-
-def describe_program(record: dict) -> str:
-    """The trace's ``program`` record on one line (also ``wheelleg inspect``)."""
-    what = record.get("command") or record.get("path") or record.get("program", "?")
-    ident = f", build {record['build_id']}" if record.get("build_id") else ""
-    digest = f", sha256 {record['sha256'][:16]}" if record.get("sha256") else ""
-    return f"{record.get('kind', '?')} {what}{ident}{digest}; ticks judged by {record.get('judged_by', '?')}"
 
 
 def verdict(ok: bool, outcome) -> str:

@@ -123,3 +123,11 @@ def firmware_library() -> Path:
     except Exception as exc:  # noqa: BLE001 - a failed build is the program's error, on one line
         raise ProgramError(f"program 'firmware': the build failed: {str(exc).splitlines()[0] if str(exc) else exc!r}") \
             from None
+
+
+def describe(record: dict) -> str:
+    """The trace's ``program`` record on one line (``wheelleg run``, ``wheelleg inspect``)."""
+    what = record.get("command") or record.get("path") or record.get("program", "?")
+    ident = f", build {record['build_id']}" if record.get("build_id") else ""
+    digest = f", sha256 {record['sha256'][:16]}" if record.get("sha256") else ""
+    return f"{record.get('kind', '?')} {what}{ident}{digest}; ticks judged by {record.get('judged_by', '?')}"
