@@ -83,17 +83,9 @@ def parse(text: str | None, robot: str | None = None) -> Program:
         return _command(text[4:], text)
     if text.startswith("lib:"):
         return _library(Path(text[4:]), robot, text)
-    if len(shlex.split(text) if _balanced(text) else [text]) == 1 and _LIBRARY_NAME.search(text):
+    if not any(c.isspace() for c in text) and _LIBRARY_NAME.search(text):  # one word (a path with spaces: lib:)
         return _library(Path(text), robot, text)
     return _command(text, text)
-
-
-def _balanced(text: str) -> bool:
-    try:
-        shlex.split(text)
-        return True
-    except ValueError:
-        return False
 
 
 def _library(path: Path, robot: str | None, text: str) -> Program:

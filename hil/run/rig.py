@@ -27,7 +27,7 @@ from wheelleg.hil.bus.plant_bus import PlantBus
 from wheelleg.hil.bus.recorder import Recorder
 from wheelleg.hil.bus.transport import open_bus
 from wheelleg.hil.program import COMMAND, Program
-from wheelleg.hil.program.process import ProgramExited, ProgramProcess, command_argv
+from wheelleg.hil.program.process import ProgramExited, ProgramProcess, command_argv, tail_line
 from wheelleg.hil.record.candump import CandumpWriter
 from wheelleg.hil.record.run_metadata import run_record
 from wheelleg.hil.record.trace import TraceWriter
@@ -292,9 +292,8 @@ class Rig:
 
     def program_output(self) -> str:
         """'; its output ends: ...' from a command program's output file, or ''."""
-        tail = self.process.tail() if self.process is not None else ""
-        return f"; its output ends: {' | '.join(line.strip() for line in tail.splitlines() if line.strip())}" \
-            if tail else ""
+        tail = tail_line(self.process.tail()) if self.process is not None else ""
+        return f"; its output ends: {tail}" if tail else ""
 
     def run(self) -> RunOutcome:
         ticks = round(self.scenario.duration_s / self.config.period_s)
