@@ -233,3 +233,30 @@ def test_the_pytest_plugin_runs_a_program(rig_run, libs):
     run = rig_run("balance", duration=0.1, program=str(libs["zero"]))
     assert run.program["kind"] == "library" and run.ticks == 50
     assert any(c.name.startswith("the program sent commands") and c.passed for c in run.checks)
+
+
+def test_a_free_running_command_that_hangs_fails_the_deadline_check_from_the_bus(tmp_path, capsys):
+    """Real time, no heartbeat the rig can see: the deadline check reads the program's commands on
+    the bus, so a program that stops sending fails it (before, it passed whatever happened)."""
+    bus, port = _udp(tmp_path)
+    _run(tmp_path, *bus, "--realtime", "--program", _fixture_command(port, "--free-run", "--silent-after", "100"),
+         duration="1.5")
+    out = capsys.readouterr().out
+    assert "[FAIL] no controller deadline miss: its commands on the bus: can1:" in out, out
+    run = load_run(tmp_path / "balance.mcap")
+    assert run.program["judged_by"] == "bus"
+    ends = [float(t[-1]) for t in run.command_times.values()]
+    assert max(ends) < 1.0  # 100 ticks of 2 ms and nothing after, whatever the machine's load
+
+
+def test_an_external_controller_in_real_time_is_judged_from_the_bus(tmp_path):
+    from wheelleg.hil import scenarios
+    from wheelleg.hil.run.rig import Rig, RigConfig
+
+    config = RigConfig(channels=("wl-ext-0", "wl-ext-1"), in_process_controller=False, realtime=True)
+    rig = Rig(scenarios.get("balance"), config, tmp_path)
+    try:
+        assert rig._program_record() == {"kind": "external", "program": "another process on the buses",
+                                         "judged_by": "bus"}
+    finally:
+        rig.close()

@@ -183,8 +183,10 @@ def run(args: argparse.Namespace) -> int:
         print(f"wheelleg run: {exc}", file=sys.stderr)
         return 2
     rtf = outcome.sim_s / outcome.wall_s if outcome.wall_s > 0 else float("inf")
+    misses = "deadline misses judged from the bus (below)" if data.program.get("judged_by") == "bus" else \
+        f"{outcome.deadline_misses} deadline misses"
     print(f"{args.scenario}: {outcome.sim_s:.2f} s simulated in {outcome.wall_s:.2f} s "
-          f"({rtf:.1f}x real time), {outcome.ticks} ticks, {outcome.deadline_misses} deadline misses")
+          f"({rtf:.1f}x real time), {outcome.ticks} ticks, {misses}")
     verdict_rtf = outcome.sim_s / outcome.verdict_wall_s if outcome.verdict_wall_s else float("inf")
     print(f"  start-up {outcome.startup_s:.2f} s (imports, model build); "
           f"{verdict_rtf:.2f}x real time from the first tick to the checks' verdict")

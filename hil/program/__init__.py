@@ -57,13 +57,14 @@ class Program:
             return library.node_factory(self.path)
         raise ValueError(f"program {self.text!r} is a command: it runs as its own process, not in-process")
 
-    def record(self, judged_by: str) -> dict[str, str]:
-        """The trace's ``program`` metadata record; ``judged_by``: heartbeat | tick_log | bus."""
+    def record(self, judged_by: str, argv: list[str] | None = None) -> dict[str, str]:
+        """The trace's ``program`` metadata record; ``judged_by``: heartbeat | tick_log | bus;
+        ``argv``: a command's words as started (placeholders filled)."""
         out = {"kind": self.kind, "program": self.text, "judged_by": judged_by}
         if self.path is not None:
             out["path"] = str(self.path)
         if self.words:
-            out["command"] = shlex.join(self.words)
+            out["command"] = shlex.join(argv or self.words)
         if self.build_id:
             out["build_id"] = self.build_id
         if self.sha256:

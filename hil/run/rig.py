@@ -114,6 +114,10 @@ class Rig:
         # the buses first: a missing vcan fails before any file is written
         self._raw = {k: _open_bus(config, ch) for k, ch in self.names.items()}
         self.schedule = _schedule(config)
+        self.process = None  # a command program's process (started by ``run``)
+        if config.program.kind == COMMAND:
+            argv = command_argv(list(config.program.words), config.interface, self.names)
+            self.process = ProgramProcess(argv, out_dir / f"{scenario.name}.program.log")
         self.clock = self.schedule.clock
         attachments = self._attachments()
         if config.plant.overrides_dict():  # the model this run compiled; its overrides are in the metadata
@@ -143,10 +147,6 @@ class Rig:
         if config.in_process_controller and not config.realtime:  # real time: hil/run/realtime.py
             self.controller = config.program.node_factory(robot)(
                 {role: _open_bus(config, name) for role, name in self.names.items()}, True, config.period_s)
-        self.process = None  # a command program's process (started by ``run``)
-        if config.program.kind == COMMAND:
-            argv = command_argv(list(config.program.words), config.interface, self.names)
-            self.process = ProgramProcess(argv, out_dir / f"{scenario.name}.program.log")
         self.deadline_misses = 0
         self.controller_died = False  # the in-process controller raised (see service_controller)
         self.tick = 0
@@ -175,7 +175,7 @@ class Rig:
             "tick_log" if cfg.realtime else "heartbeat"
         if not cfg.in_process_controller and cfg.program.kind != COMMAND:  # --external-controller
             return {"kind": "external", "program": "another process on the buses", "judged_by": judged_by}
-        return cfg.program.record(judged_by)
+        return cfg.program.record(judged_by, self.process.argv if self.process is not None else None)
 
     def _attachments(self) -> list:
         files = [(p.name, p.read_bytes(), "text/x-dbc") for p in all_dbc_files()]
