@@ -31,17 +31,19 @@ from wheelleg.hil.record.sources import CONTROLLER_NODES, HEARTBEAT, ROLES, open
 
 def signal_scales(dbs: dict) -> dict[str, tuple[float, float, str]]:
     """Signal name -> (quantisation step, full scale, unit) over the messages the controller sends
-    on ``dbs`` (role -> database) and the CyberGear id fields."""
+    on ``dbs`` (role -> database) and the CyberGear id fields; an integer field (a flag, a mode, an
+    index) has step 0: any difference counts."""
     out = {}
     for db in (*dbs.values(), dbc.load_file(cg.ID_DBC)):
         for message in db.messages:
             if not CONTROLLER_NODES.intersection(message.senders or ()):
                 continue
             for s in message.signals:
-                step = abs(float(s.scale))
+                step = abs(float(s.scale)) if not float(s.scale).is_integer() else 0.0
                 span = (float(s.maximum) - float(s.minimum)) if s.minimum is not None and s.maximum is not None \
                     else 0.0
-                out.setdefault(s.name, (step, span if span > 0 else step * (2 ** s.length - 1), s.unit or ""))
+                raw_span = abs(float(s.scale)) * (2 ** s.length - 1)
+                out.setdefault(s.name, (step, span if span > 0 else raw_span, s.unit or ""))
     return out
 
 
@@ -185,10 +187,10 @@ def report(result: DiffResult, names: tuple[str, str]) -> str:
     if result.first is not None:
         lines += [f"  {result.first.describe()}",
                   f"  {result.differing_ticks} of {result.ticks} ticks differ"]
-    lines.append("  per signal, max |A - B| (% of full scale), first tick beyond one step "
-                 "(quantities, and any field that differed):")
-    shown = [d for d in result.signals.values() if d.unit or d.max_abs > 0]
+    shown = [d for d in result.signals.values() if d.max_abs > 0]
+    lines.append("  per signal that differed, max |A - B| (% of full scale), first tick beyond one step:")
     for diff in sorted(shown, key=lambda d: (-d.percent, d.label)):
         tick = "-" if diff.first_tick is None else str(diff.first_tick)
-        lines.append(f"    {diff.label:<40} {diff.max_abs:10.6g} {diff.unit:<4} {diff.percent:7.3f} %  {tick}")
+        lines.append(f"    {diff.label:<40} {diff.max_abs:10.6g} {diff.unit:<9} {diff.percent:7.3f} %  {tick}")
+    lines.append(f"  {len(result.signals) - len(shown)} other signals equal in every tick")
     return "\n".join(lines)

@@ -30,7 +30,7 @@ from wheelleg.hil.program.library import ProgramError
 from wheelleg.hil.program.process import split_command
 
 PYTHON, FIRMWARE, LIBRARY, COMMAND = "python", "firmware", "library", "command"
-FIRMWARE_BUILD = ("wheelleg.hil.program.firmware_build", "build_library")  # (module, function) -> Path
+FIRMWARE_BUILD = ("wheelleg.hil.firmware_build", "build")  # (module, function): function("lib") -> the library
 _LIBRARY_NAME = re.compile(r"\.(so(\.\d+)*|dylib)$")
 
 
@@ -112,7 +112,7 @@ def firmware_library() -> Path:
         raise ProgramError("program 'firmware': this checkout has no firmware build yet "
                            f"({module}.{function}); give the library's path instead (--program PATH.so)") from None
     try:
-        return Path(build())
+        return Path(build("lib"))
     except Exception as exc:  # noqa: BLE001 - a failed build is the program's error, on one line
         raise ProgramError(f"program 'firmware': the build failed: {str(exc).splitlines()[0] if str(exc) else exc!r}") \
             from None
