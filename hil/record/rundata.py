@@ -16,7 +16,7 @@ from wheelleg.hil.record.trace import TraceReader
 from wheelleg.hil.run.scenario import RunData
 
 
-_CG_TYPE_AND_MOTOR = 0x1F0000FF  # a CyberGear request id's type (28..24) and motor id (7..0) bits
+_CG_MOTOR = 0xFF  # a CyberGear request id's motor id bits (7..0)
 _MOTION = load_file("cybergear.dbc").get_message_by_name("CG_MotionCmd")
 _KP, _KD = _MOTION.get_signal_by_name("Kp"), _MOTION.get_signal_by_name("Kd")  # big-endian u16, bytes 4-5, 6-7
 
@@ -89,11 +89,13 @@ def _judged_on_the_bus(recording) -> bool:
 
 
 def _command_times(reader: TraceReader, channels: dict, dbs: dict) -> dict:
-    """Role -> (n,) s of the program's most frequent command on that bus (a CyberGear command
-    counts per type and motor, its torque bits aside; heartbeats are not commands; the DBC's
-    senders say whose a frame is): one frame a tick, its tick times when they cannot be seen
-    otherwise. One message, not all of a tick's: on a busy bus a tick's frames queue behind
-    others and the next tick's can follow close, so bursts do not mark ticks."""
+    """Role -> (n,) s of the program's commands to its most commanded device on that bus (a
+    CyberGear's requests of any type by motor id: motion commands when running, stops when
+    disabled, the enable sequence; a standard frame by its id; heartbeats are not commands; the
+    DBC's senders say whose a frame is): a frame or a few back to back each tick, its tick times
+    when they cannot be seen otherwise. One device, not all of a tick's frames: on a busy bus a
+    tick's frames queue behind others and the next tick's can follow close, so bursts do not
+    mark ticks."""
     out = {}
     for role, channel in channels.items():
         columns = reader.frame_columns(channel)
@@ -106,7 +108,7 @@ def _command_times(reader: TraceReader, channels: dict, dbs: dict) -> dict:
                 frame = Frame(0, channel, ident, ext, columns.data[i], key[2], role, err)
                 known[key] = not err and sent_by_controller(frame, dbs) and not is_heartbeat(frame)
             if known[key]:
-                rows[(ident & _CG_TYPE_AND_MOTOR if ext else ident, ext)].append(i)
+                rows[(ident & _CG_MOTOR if ext else ident, ext)].append(i)
         busiest = max(sorted(rows), key=lambda k: len(rows[k]), default=None)
         out[role] = columns.t_ns[rows[busiest]] / 1e9 if busiest is not None else np.zeros(0)
     return out
