@@ -2,6 +2,7 @@
 buses, and the bad ones (no ABI, another ABI version, silent, flooding, dying mid-run), each a
 clear one-line error or a failed check with the trace kept; the program's record in the trace;
 commands judged from the bus when no heartbeat is seen; the NOT REAL TIME verdict."""
+import os
 import random
 import shutil
 import subprocess
@@ -169,9 +170,13 @@ def test_a_real_time_run_the_plant_could_not_keep_is_not_real_time():
 
 
 # -- a command on the buses -----------------------------------------------------------------------
+_GROUPS = iter(range(random.Random(os.getpid()).randrange(0, 70) * 2 + 100, 256, 2))  # a pair per test
+
+
 def _udp(tmp_path) -> list[str]:
+    """Bus flags of a udp_multicast pair of this test's own (groups and ports no other test here uses)."""
     pytest.importorskip("msgpack")
-    base = random.Random(str(tmp_path)).randrange(100, 250)
+    base = next(_GROUPS)
     port = 43300 + 2 * base
     return ["-i", "udp_multicast", "-c", f"239.74.164.{base}", "-c", f"239.74.164.{base + 1}",
             "--bus-kwargs", f"port={port}"], port
