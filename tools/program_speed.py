@@ -2,10 +2,11 @@
 
     python -m tools.program_speed [PROGRAM ...] [--duration S]     # default: python, and firmware if it builds
 
-Per program: its own microseconds a tick (wall time inside its ``tick``: the Python program's
-``Controller.tick``, a library's ``wl_step`` with the adapter around it; what an MCU budget is
-planned from for the firmware), the rig's real-time factor for the whole run, and each as a
-ratio to the first program's. Timings are of this machine as it is: state its load with them.
+Per program: its microseconds a tick as the rig drives it (wall time inside its ``tick``: the
+Python program's ``Controller.tick``; for a library the adapter's, ctypes and heartbeat
+included), a library's own ``wl_step`` alone (what an MCU budget is planned from), the rig's
+real-time factor for the whole run, and each as a ratio to the first program's. Timings are
+of this machine as it is: state its load with them.
 """
 from __future__ import annotations
 
@@ -21,7 +22,8 @@ from wheelleg.hil.run.rig import Rig, RigConfig
 
 
 def measure(program: programs.Program, duration_s: float, out: Path) -> dict:
-    """{'tick_us': mean us a tick inside the program, 'rtf': simulated s per wall s of the run}."""
+    """{'tick_us': mean us a tick inside the program's tick, 'own_us': a library's wl_step alone (else
+    the same), 'rtf': simulated s per wall s of the run}."""
     spent: list[float] = []
     scenario = replace(scenarios.get("balance"), duration_s=duration_s)
     rig = Rig(scenario, RigConfig(program=program), out)
@@ -35,8 +37,10 @@ def measure(program: programs.Program, duration_s: float, out: Path) -> dict:
         return result
 
     node.controller.tick = wrapped
+    own = node.controller.step_times = [] if hasattr(node.controller, "step_times") else spent
     outcome = rig.run()
-    return {"tick_us": 1e6 * sum(spent) / max(len(spent), 1), "rtf": outcome.sim_s / outcome.wall_s}
+    return {"tick_us": 1e6 * sum(spent) / max(len(spent), 1), "own_us": 1e6 * sum(own) / max(len(own), 1),
+            "rtf": outcome.sim_s / outcome.wall_s}
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -60,8 +64,8 @@ def main(argv: list[str] | None = None) -> int:
     base = rows[0][1] if rows else None
     print(f"balance, {args.duration:g} s simulated, each program in-process (lockstep):")
     for text, r in rows:
-        print(f"  {text:<40} {r['tick_us']:8.1f} us a tick ({r['tick_us'] / base['tick_us']:.2f}x)   "
-              f"real-time factor {r['rtf']:6.2f} ({r['rtf'] / base['rtf']:.2f}x)")
+        print(f"  {text:<40} {r['tick_us']:8.1f} us a tick ({r['tick_us'] / base['tick_us']:.2f}x), "
+              f"its own step {r['own_us']:8.1f} us   real-time factor {r['rtf']:6.2f} ({r['rtf'] / base['rtf']:.2f}x)")
     return 0
 
 

@@ -21,9 +21,12 @@ their state).
 from __future__ import annotations
 
 import ctypes
+import functools
 import hashlib
 import shutil
+import struct
 import tempfile
+import time
 from pathlib import Path
 
 import can
@@ -34,6 +37,7 @@ from wheelleg.controller.node import TickResult
 from wheelleg.controller.can_node import CanNode
 from wheelleg.controller.telemetry import DEBUG_FIELDS
 from wheelleg.dbc import CAN1, CAN2, load_file
+from wheelleg.dbc.codec import MessageCodec
 from wheelleg.hil.record.schemas import described_schema
 
 ABI_VERSION = 1
@@ -45,7 +49,10 @@ MAX_DEBUG = 256  # debug values read a tick
 BUS_INDEX = {CAN1: 0, CAN2: 1}
 ROLE_OF_BUS = {0: CAN1, 1: CAN2}
 _SYNC = load_file("rig.dbc").get_message_by_name("SYNC")
-_SYNC_ID = _SYNC.frame_id
+_SYNC_ID, _SYNC_LENGTH = _SYNC.frame_id, _SYNC.length
+_SYNC_CODEC = MessageCodec.of(_SYNC)  # compiled: cantools' decode costs ~10 us a frame
+_FRAME = struct.Struct("<IBBBB8s")  # wl_frame_t, packed and read in place: ctypes field by field costs ~5x more
+_TIME = struct.Struct("<Q")
 
 
 class ProgramError(ValueError):
@@ -137,10 +144,12 @@ class LibraryController:
         self.period_s = period_s
         self.record_debug = record_debug
         lib.wl_init(round(period_s * 1e6))
-        self._rx = (WlFrame * MAX_RX)()
-        self._rx_t = (ctypes.c_uint64 * MAX_RX)()
+        self._rx_buf, self._rx_t_buf = bytearray(_FRAME.size * MAX_RX), bytearray(_TIME.size * MAX_RX)
+        self._rx = (WlFrame * MAX_RX).from_buffer(self._rx_buf)
+        self._rx_t = (ctypes.c_uint64 * MAX_RX).from_buffer(self._rx_t_buf)
         self._n_rx = 0
-        self._tx = (WlFrame * MAX_TX)()
+        self._tx_buf = bytearray(_FRAME.size * MAX_TX)
+        self._tx = (WlFrame * MAX_TX).from_buffer(self._tx_buf)
         self._status = WlStatus()
         self._debug = (ctypes.c_float * MAX_DEBUG)()
         names = (lib.wl_debug_names() or b"").decode("utf-8", "replace")
@@ -148,6 +157,7 @@ class LibraryController:
         self.debug_schema = described_schema("wheelleg.ProgramDebug", {
             n: DEBUG_FIELDS.get(n, "the program's own debug signal (its unit: the program's documentation)")
             for n in self.debug_names})
+        self.step_times: list[float] | None = None  # when a list: wall s of each wl_step (tools.program_speed)
         self.dropped_rx = 0  # frames past MAX_RX in one period
         self.bad_counts = 0  # wl_step returned a count outside 0..MAX_TX
 
@@ -156,24 +166,26 @@ class LibraryController:
         """Keep a received frame for the next ``wl_step``; a SYNC is the rig's: its tick, not kept."""
         if msg.is_error_frame or msg.is_remote_frame or msg.is_fd:
             return None
-        if msg.arbitration_id == _SYNC_ID and not msg.is_extended_id:
-            if msg.dlc != _SYNC.length:
-                return None
-            return int(_SYNC.decode(bytes(msg.data), decode_choices=False)["Tick"])
-        if self._n_rx >= MAX_RX:
+        ident, extended = msg.arbitration_id, msg.is_extended_id
+        if ident == _SYNC_ID and not extended:
+            return int(_SYNC_CODEC.decode_raw(bytes(msg.data))["Tick"]) if msg.dlc == _SYNC_LENGTH else None
+        n = self._n_rx
+        if n >= MAX_RX:
             self.dropped_rx += 1
             return None
-        frame = self._rx[self._n_rx]
-        dlc = min(msg.dlc, 8)
-        frame.id, frame.bus, frame.extended, frame.dlc = msg.arbitration_id, BUS_INDEX[bus], int(msg.is_extended_id), dlc
-        data = bytes(msg.data[:dlc])
-        ctypes.memmove(frame.data, data, len(data))
-        self._rx_t[self._n_rx] = max(0, round(now_s * 1e6))
-        self._n_rx += 1
+        dlc = msg.dlc if msg.dlc <= 8 else 8
+        _FRAME.pack_into(self._rx_buf, n * _FRAME.size, ident, BUS_INDEX[bus], extended, dlc, 0, bytes(msg.data[:dlc]))
+        _TIME.pack_into(self._rx_t_buf, n * _TIME.size, max(0, round(now_s * 1e6)))
+        self._n_rx = n + 1
         return None
 
     def tick(self, tick: int, now_s: float) -> TickResult:
-        n = self.lib.wl_step(max(0, round(now_s * 1e6)), self._rx, self._rx_t, self._n_rx, self._tx, MAX_TX)
+        if self.step_times is None:
+            n = self.lib.wl_step(max(0, round(now_s * 1e6)), self._rx, self._rx_t, self._n_rx, self._tx, MAX_TX)
+        else:
+            t0 = time.perf_counter()
+            n = self.lib.wl_step(max(0, round(now_s * 1e6)), self._rx, self._rx_t, self._n_rx, self._tx, MAX_TX)
+            self.step_times.append(time.perf_counter() - t0)
         self._n_rx = 0
         result = TickResult()
         for msg, role in self._frames(n, now_s):
@@ -186,7 +198,7 @@ class LibraryController:
         result.frames[CAN2].append(hb)
         if self.record_debug and self.debug_names:
             count = max(0, min(self.lib.wl_debug(self._debug, len(self.debug_names)), len(self.debug_names)))
-            result.debug = {name: float(self._debug[i]) for i, name in enumerate(self.debug_names[:count])}
+            result.debug = dict(zip(self.debug_names, self._debug[:count]))  # a slice: Python floats at once
         return result
 
     def shutdown_frames(self, now_s: float) -> dict:
@@ -203,22 +215,29 @@ class LibraryController:
             self.bad_counts += 1
             n = max(0, min(n, MAX_TX))
         for i in range(n):
-            f = self._tx[i]
-            role = ROLE_OF_BUS.get(f.bus)
+            ident, bus, extended, dlc, _, data = _FRAME.unpack_from(self._tx_buf, i * _FRAME.size)
+            role = ROLE_OF_BUS.get(bus)
             if role is None:
                 continue
-            dlc = min(f.dlc, 8)
-            yield can.Message(now_s, f.id, bool(f.extended), False, False, None, dlc, bytes(f.data[:dlc])), role
+            dlc = dlc if dlc <= 8 else 8
+            yield can.Message(now_s, ident, bool(extended), False, False, None, dlc, data[:dlc]), role
 
 
 def heartbeat(tick: int, mode: int, offline_mask: int, now_s: float) -> can.Message:
     """The rig's heartbeat for a library program: Mode and OfflineMask as the program said, the rest
     as the Python program derives them (offline count and warning level from ``detect.RULES``, motors
     enabled, off ground and fallen from the mode). FaultLatched and BadFrames are not in ABI 1: 0."""
+    level, count = _offline_summary(offline_mask)
+    return messages.heartbeat(tick, mode, level, offline_mask, count, motors_enabled=mode in ENABLED,
+                              off_ground=mode == Mode.AIRBORNE, fallen=mode == Mode.FALLEN, fault_latched=False,
+                              bad_frames=0, t_s=now_s)
+
+
+@functools.cache
+def _offline_summary(offline_mask: int) -> tuple[int, int]:
+    """(warning level, count) of the devices an OfflineMask names (``detect.RULES``: bit i is rule i)."""
     offline = [rule for bit, rule in enumerate(detect.RULES) if offline_mask >> bit & 1]
-    return messages.heartbeat(tick, mode, max((r.warning_level for r in offline), default=0), offline_mask,
-                              len(offline), motors_enabled=mode in ENABLED, off_ground=mode == Mode.AIRBORNE,
-                              fallen=mode == Mode.FALLEN, fault_latched=False, bad_frames=0, t_s=now_s)
+    return max((r.warning_level for r in offline), default=0), len(offline)
 
 
 def node_factory(path: Path):
