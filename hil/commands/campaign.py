@@ -86,10 +86,17 @@ def campaign_spec(args: argparse.Namespace) -> dict:
     if args.epoch:  # only when given: a campaign directory from before --epoch resumes as it was
         spec["epoch_s"] = epoch_text(args.epoch)
     program = getattr(args, "program", "python")
-    if program != "python":  # only when given, as --epoch; checked here (one line), run by each worker
-        execution.rig_config(0, {}, 0, program)
+    if program != "python":  # only when given, as --epoch
+        program_to_run(program)  # checked here: one line
         spec["program"] = program
     return spec
+
+
+def program_to_run(program: str) -> str:
+    """What the workers load for ``--program``: a library (``firmware`` built here, once) by its absolute path."""
+    if program == "python":
+        return program
+    return str(execution.rig_config(0, {}, 0, program).program.path)
 
 
 def run(args: argparse.Namespace, runner: execution.Runner = execution.run_job, processes: bool = True) -> int:
@@ -104,7 +111,7 @@ def run(args: argparse.Namespace, runner: execution.Runner = execution.run_job, 
     jobs = sampling.plan(args.scenarios, args.samples, args.seed, spec["ranges"])
     todo = [job for job in jobs if not log.finished((job.scenario, job.sample))]
     settings = execution.RunSettings(args.out.resolve(), args.duration, args.keep_passing,  # workers may run elsewhere
-                                     args.epoch, getattr(args, "program", "python"))
+                                     args.epoch, program_to_run(getattr(args, "program", "python")))
     if len(todo) < len(jobs):
         print(f"campaign: resuming, {len(jobs) - len(todo)} of {len(jobs)} runs already judged in {log.path}")
     try:
