@@ -265,3 +265,19 @@ def test_an_external_controller_in_real_time_is_judged_from_the_bus(tmp_path):
                                          "judged_by": "bus"}
     finally:
         rig.close()
+
+
+def test_a_free_running_command_that_sends_nothing_is_given_up_on(tmp_path, monkeypatch):
+    from wheelleg.hil.run import rig
+
+    monkeypatch.setattr(rig, "CONTACT_S", 1.0)
+    bus, port = _udp(tmp_path)
+    with pytest.raises(SystemExit, match="the program sent nothing in 1 s"):
+        _run(tmp_path, *bus, "--realtime", "--program", f"{sys.executable} -c 'import time; time.sleep(30)'")
+    assert not open_recording(tmp_path / "balance.mcap").truncated  # the trace closed and indexed
+
+
+def test_a_library_is_refused_for_another_robot(tmp_path, libs, capsys):
+    assert main(["run", "quadruped/quad-trot", "--duration", "0.1", "--no-plot", "-q", "--out", str(tmp_path),
+                 "--program", str(libs["zero"])]) == 2
+    assert "a library speaks the wheel-legged robot's lockstep ABI" in capsys.readouterr().err
