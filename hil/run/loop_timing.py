@@ -128,9 +128,10 @@ def _stall_cause(cause: str) -> str:
 
 def bus_timing(times_s, period_s: float, end_s: float) -> dict:
     """A program's command timing as the bus saw it, for a program whose ticks the rig cannot
-    see (no heartbeat, another process): ``times_s`` (n,) s of the frames it sent on one bus
-    (heartbeats excepted), in order; ``end_s`` the run's end (s). A tick's frames come back to
-    back, so a frame more than half a period after the one before starts a tick. From the
+    see (no heartbeat, another process): ``times_s`` (n,) s of the commands it sent to one device
+    on one bus (``RunData.command_times``), in order; ``end_s`` the run's end (s). A tick's frames to
+    a device come back to back (an enable sequence is three), so a frame more than half a period
+    after the one before starts a tick. From the
     ticks' starts: period (mean, max), jitter |period - T| (p99, max) and the longest gap,
     the run's end included (a program that stopped sending). A gap longer than two periods
     holds at least one whole period of the program's own grid without a tick, whatever its
