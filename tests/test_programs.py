@@ -197,6 +197,11 @@ def test_a_command_answers_sync_in_lockstep(tmp_path, capsys, monkeypatch):
     run = load_run(tmp_path / "balance.mcap")
     assert run.program["kind"] == "command" and "sync_program.py" in run.program["command"]
     assert rc in (0, 1)  # the scenario's own checks need its full 10 s; these are the program's
+    # the same program in-process logs the same bytes: SYNC(0) repeated while it started is not recorded
+    _run(tmp_path / "in-process", duration="0.6")
+    log = (tmp_path / "balance.log").read_text()
+    log = log.replace(f" {bus[3]} ", " vcan0 ").replace(f" {bus[5]} ", " vcan1 ")
+    assert log == (tmp_path / "in-process" / "balance.log").read_text()
 
 
 def test_a_command_that_dies_mid_run_fails_with_its_status_and_output(tmp_path, capsys, monkeypatch):

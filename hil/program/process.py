@@ -27,6 +27,7 @@ from wheelleg.hil.program.library import ProgramError
 GRACE_S = 2.0  # s between SIGTERM and SIGKILL at the end of a run
 TAIL_LINES = 8  # lines of the program's output a report quotes
 PLACEHOLDERS = ("can1", "can2", "interface")
+SOCKET_SETTLE_S = 0.05  # s between a program's opening its bus sockets and the run's first frame
 
 
 class ProgramExited(RuntimeError):
@@ -122,9 +123,30 @@ class ProgramProcess:
             return ""
         return "\n".join(text.splitlines()[-lines:])
 
-    def wait_exit(self, timeout_s: float) -> int | None:
-        """Its exit status within ``timeout_s`` (None: still running): lets a crash settle before it is reported."""
+    def sockets(self) -> int:
+        """Sockets open in its process and the processes it started (Linux ``/proc``; 0 elsewhere)."""
+        count, pids, seen = 0, [self.proc.pid] if self.proc is not None else [], set()
+        while pids:
+            pid = pids.pop()
+            if pid in seen:
+                continue
+            seen.add(pid)
+            fd_dir = Path(f"/proc/{pid}/fd")
+            try:
+                count += sum(1 for fd in fd_dir.iterdir() if os.readlink(fd).startswith("socket:"))
+                for task in Path(f"/proc/{pid}/task").iterdir():
+                    pids += [int(c) for c in (task / "children").read_text().split()]
+            except OSError:  # it ended meanwhile, or no /proc
+                continue
+        return count
+
+    def await_sockets(self, count: int, timeout_s: float) -> bool:
+        """Whether it opened ``count`` sockets (its buses) within ``timeout_s``, then ``SOCKET_SETTLE_S``
+        more for it to bind them: a frame sent to a bus before it listens is lost to it."""
         end = time.monotonic() + timeout_s
-        while self.exited() is None and time.monotonic() < end:
-            time.sleep(0.01)
-        return self.exited()
+        while time.monotonic() < end and self.exited() is None:
+            if self.sockets() >= count:
+                time.sleep(SOCKET_SETTLE_S)
+                return True
+            time.sleep(0.005)
+        return False

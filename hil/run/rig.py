@@ -192,6 +192,15 @@ class Rig:
             bus.send(can.Message(t_s, _SYNC_ID, False, False, False, None, None, data))
         self.tick = tick
 
+    def repeat_sync(self, tick: int, t_s: float) -> None:
+        """SYNC(``tick``) again on both buses, past the record (straight onto the transport): for a
+        program still starting when the recorded one went out (``Lockstep.await_contact``). Its
+        answer is recorded as if to the first: the log is the one the program would have made
+        had it been listening."""
+        data = _SYNC_CODEC.encode_raw({"Tick": tick})
+        for bus in self._raw.values():
+            bus.send(can.Message(t_s, _SYNC_ID, False, False, False, None, None, data))
+
     def serve_plant(self, t_s: float) -> None:
         """Every device node handles what is on its bus by ``t_s``."""
         for node in self.plant.nodes.values():
@@ -277,8 +286,9 @@ class Rig:
         if self.process is None:
             return
         self.process.start()
-        if not self.config.realtime:
-            return  # lockstep: the schedule repeats SYNC(0) until its first heartbeat
+        if not self.config.realtime:  # lockstep: the first frames wait until it has its buses open;
+            self.process.await_sockets(len(self._raw), CONTACT_S)  # late, the schedule repeats SYNC(0)
+            return
         end = time.monotonic() + CONTACT_S
         while time.monotonic() < end:
             self.check_program()

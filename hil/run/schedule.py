@@ -113,7 +113,7 @@ class Lockstep:
         try:
             while time.monotonic() < end:
                 rig.check_program()
-                rig.send_sync(0, t_s)
+                rig.repeat_sync(0, t_s)
                 if self.await_heartbeats(rig, 0, t_s):
                     return True
         finally:
