@@ -286,3 +286,30 @@ def test_a_library_is_refused_for_another_robot(tmp_path, libs, capsys):
     assert main(["run", "quadruped/quad-trot", "--duration", "0.1", "--no-plot", "-q", "--out", str(tmp_path),
                  "--program", str(libs["zero"])]) == 2
     assert "a library speaks the wheel-legged robot's lockstep ABI" in capsys.readouterr().err
+
+
+# -- over real vcan (the socketcan stage: user-mode-linux where the kernel has none) ----------------
+def _vcan_run(out: Path, program: str, duration: str) -> int:
+    from wheelleg.hil.bus import vcan
+
+    reason = vcan.unavailable_reason()
+    if reason is not None:
+        pytest.fail(reason)
+    return _run(out, "-i", "socketcan", "-c", "vcan0", "-c", "vcan1", "--program", program, duration=duration)
+
+
+@pytest.mark.socketcan
+def test_the_python_program_as_a_command_over_vcan_logs_the_in_process_bytes(tmp_path):
+    _vcan_run(tmp_path / "vcan", f"{sys.executable} -m wheelleg.hil.cli controller --sync -i {{interface}} "
+                                 "-c {can1} -c {can2}", "0.6")
+    _run(tmp_path / "in-process", duration="0.6")
+    assert (tmp_path / "vcan" / "balance.log").read_text() == (tmp_path / "in-process" / "balance.log").read_text()
+
+
+@pytest.mark.socketcan
+def test_the_firmwares_linux_port_runs_lockstep_over_vcan_as_its_library_in_process(tmp_path):
+    """Started by the rig, ticking on its SYNC (``--sync``): the same bytes as the library in-process."""
+    build = pytest.importorskip("wheelleg.hil.firmware_build").build
+    assert _vcan_run(tmp_path / "vcan", f"{build('linux')} --sync", "1.0") == 0
+    assert _run(tmp_path / "in-process", "--program", str(build("lib")), duration="1.0") == 0
+    assert (tmp_path / "vcan" / "balance.log").read_text() == (tmp_path / "in-process" / "balance.log").read_text()
