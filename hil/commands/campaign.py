@@ -42,6 +42,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--program", default="python", metavar="P",
                         help="the program every run tests: python (default), firmware or PATH.so (in-process kinds "
                              "of `wheelleg run --program`)")
+    parser.add_argument("--dashboard", nargs="?", const="", default=None, metavar="[HOST:]PORT",
+                        help="serve Dask's dashboard of the local cluster (default: none; with no value "
+                             "on 127.0.0.1 at a free port; a HOST only when you name one)")
     parser.add_argument("--keep-passing", action="store_true", help="keep passing runs' traces and logs too")
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
 
@@ -104,6 +107,7 @@ def run(args: argparse.Namespace, runner: execution.Runner = execution.run_job, 
     try:
         spec = campaign_spec(args)
         journal.check_spec(args.out, spec)
+        args.dashboard = execution.dashboard_address(getattr(args, "dashboard", None))
     except ValueError as exc:
         print(f"campaign: {exc}")
         return 2
@@ -128,6 +132,9 @@ def run(args: argparse.Namespace, runner: execution.Runner = execution.run_job, 
     path = report.write_report(args.out, rows, spec, canonical_command(args))
     for rate in analysis.pass_rates(rows):
         print(f"{rate.scenario}: {rate.passed}/{rate.runs} passed ({rate.rate:.1%})")
+    cost = analysis.cpu_per_sim_second(rows)
+    if cost is not None:
+        print(f"cost: {cost:.2f} CPU s per simulated s")
     print(f"report {path}")
     return 0 if all(r["passed"] for r in rows) else 1
 
@@ -138,7 +145,9 @@ def run_jobs(args, todo, settings, log, runner, processes, done: int, total: int
         return
     bar = Progress(total, done, enabled=not args.quiet)
     try:
-        with execution.Engine(args.address, args.workers, processes) as engine:
+        with execution.Engine(args.address, args.workers, processes, args.dashboard) as engine:
+            if engine.cluster is not None and args.dashboard is not None:
+                print(f"campaign: dashboard {engine.client.dashboard_link}", flush=True)
             for row in engine.map(runner, todo, settings):
                 log.append(row)
                 bar.update(row["passed"])
