@@ -186,9 +186,7 @@ def _fixture_command(port: int, *extra: str) -> str:
     return f"{sys.executable} {FIXTURES / 'sync_program.py'} {{interface}} {port} {{can1}} {{can2}} {' '.join(extra)}"
 
 
-def test_a_command_answers_sync_in_lockstep(tmp_path, capsys, monkeypatch):
-    from wheelleg.hil.run import schedule
-    monkeypatch.setattr(schedule, "CONTACT_S", 30.0)  # a loaded machine starts Python slowly
+def test_a_command_answers_sync_in_lockstep(tmp_path, capsys):
     bus, port = _udp(tmp_path)
     rc = _run(tmp_path, *bus, "--program", _fixture_command(port), duration="0.6")
     out = capsys.readouterr().out
@@ -204,9 +202,7 @@ def test_a_command_answers_sync_in_lockstep(tmp_path, capsys, monkeypatch):
     assert log == (tmp_path / "in-process" / "balance.log").read_text()
 
 
-def test_a_command_that_dies_mid_run_fails_with_its_status_and_output(tmp_path, capsys, monkeypatch):
-    from wheelleg.hil.run import schedule
-    monkeypatch.setattr(schedule, "CONTACT_S", 30.0)
+def test_a_command_that_dies_mid_run_fails_with_its_status_and_output(tmp_path, capsys):
     bus, port = _udp(tmp_path)
     assert _run(tmp_path, *bus, "--program", _fixture_command(port, "--exit-after", "50", "--status", "3"),
                 duration="1.0") == 1
@@ -217,8 +213,8 @@ def test_a_command_that_dies_mid_run_fails_with_its_status_and_output(tmp_path, 
 
 
 def test_a_command_that_ignores_sync_is_told_to_run_in_real_time(tmp_path, monkeypatch):
-    from wheelleg.hil.run import schedule
-    monkeypatch.setattr(schedule, "CONTACT_S", 1.0)
+    from wheelleg.hil.program import process
+    monkeypatch.setattr(process, "START_S", 1.0)
     bus, port = _udp(tmp_path)
     with pytest.raises(SystemExit, match="answers SYNC with the heartbeat.*--realtime"):
         _run(tmp_path, *bus, "--program", f"{sys.executable} -c 'import time; time.sleep(30)'")
@@ -273,9 +269,9 @@ def test_an_external_controller_in_real_time_is_judged_from_the_bus(tmp_path):
 
 
 def test_a_free_running_command_that_sends_nothing_is_given_up_on(tmp_path, monkeypatch):
-    from wheelleg.hil.run import rig
+    from wheelleg.hil.program import process
 
-    monkeypatch.setattr(rig, "CONTACT_S", 1.0)
+    monkeypatch.setattr(process, "START_S", 1.0)
     bus, port = _udp(tmp_path)
     with pytest.raises(SystemExit, match="the program sent nothing in 1 s"):
         _run(tmp_path, *bus, "--realtime", "--program", f"{sys.executable} -c 'import time; time.sleep(30)'")

@@ -25,6 +25,7 @@ from wheelleg.dbc import CAN1, CAN2
 from wheelleg.hil.program.library import ProgramError
 
 GRACE_S = 2.0  # s between SIGTERM and SIGKILL at the end of a run
+START_S = 30.0  # s a program the rig started has to open its buses and answer (Python under user-mode-linux: 5-15 s)
 TAIL_LINES = 8  # lines of the program's output a report quotes
 PLACEHOLDERS = ("can1", "can2", "interface")
 SOCKET_SETTLE_S = 0.05  # s between a program's opening its bus sockets and the run's first frame

@@ -27,12 +27,13 @@ from wheelleg.hil.bus.plant_bus import PlantBus
 from wheelleg.hil.bus.recorder import Recorder
 from wheelleg.hil.bus.transport import open_bus
 from wheelleg.hil.program import COMMAND, Program
+from wheelleg.hil.program import process as program_process
 from wheelleg.hil.program.process import ProgramExited, ProgramProcess, command_argv, tail_line
 from wheelleg.hil.record.candump import CandumpWriter
 from wheelleg.hil.record.run_metadata import run_record
 from wheelleg.hil.record.trace import TraceWriter
 from wheelleg.hil.run.scenario import Scenario
-from wheelleg.hil.run.schedule import CONTACT_S, HeldLockstep, Lockstep, NoController
+from wheelleg.hil.run.schedule import HeldLockstep, Lockstep, NoController
 
 _SYNC = load_file("rig.dbc").get_message_by_name("SYNC")  # every robot's lockstep frame
 _SYNC_CODEC = MessageCodec.of(_SYNC)  # compiled: cantools' encode costs ~10 us a tick
@@ -283,14 +284,14 @@ class Rig:
 
     def _start_program(self) -> None:
         """Start a command program; in real time, wait for its first frame before the clock starts
-        (its start-up is not the plant's time), ``NoController`` after ``CONTACT_S`` without one."""
+        (its start-up is not the plant's time), ``NoController`` after ``process.START_S`` without one."""
         if self.process is None:
             return
         self.process.start()
         if not self.config.realtime:  # lockstep: the first frames wait until it has its buses open;
-            self.process.await_sockets(len(self._raw), CONTACT_S)  # late, the schedule repeats SYNC(0)
+            self.process.await_sockets(len(self._raw), program_process.START_S)  # late, SYNC(0) is repeated
             return
-        end = time.monotonic() + CONTACT_S
+        end = time.monotonic() + program_process.START_S
         while time.monotonic() < end:
             self.check_program()
             if any(bus.recv(timeout=0.01) is not None for bus in self._raw.values()):
@@ -298,7 +299,7 @@ class Rig:
                     while bus.recv(timeout=0.0) is not None:
                         pass
                 return
-        raise NoController(f"the program sent nothing in {CONTACT_S:g} s on {'/'.join(self.names.values())}"
+        raise NoController(f"the program sent nothing in {program_process.START_S:g} s on {'/'.join(self.names.values())}"
                            + self.program_output())
 
     def program_output(self) -> str:

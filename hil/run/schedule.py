@@ -105,10 +105,12 @@ class Lockstep:
     def await_contact(self, rig, t_s: float) -> bool:
         """A program the rig started (``rig.process``) may still be starting when SYNC(0) goes out, and a
         frame sent before it listens is lost to it: SYNC(0) again every ``RESYNC_S`` until its first
-        heartbeat, for up to ``CONTACT_S`` (a program ticks once per SYNC counter, so repeats are harmless)."""
+        heartbeat, for up to ``process.START_S`` (a program ticks once per SYNC counter, so repeats are harmless)."""
         if rig.controller is not None or getattr(rig, "process", None) is None:
             return False
-        end = time.monotonic() + CONTACT_S
+        from wheelleg.hil.program import process  # noqa: PLC0415 (a started program only)
+
+        end = time.monotonic() + process.START_S
         saved, self.deadline_s = self.deadline_s, RESYNC_S
         try:
             while time.monotonic() < end:
