@@ -24,7 +24,7 @@ from wheelleg.hil.run.scenario import RunData
 from wheelleg.hil.scenarios.common import no_deadline_miss
 
 FIXTURES = Path(__file__).resolve().parent / "fixtures"
-VARIANTS = {"zero": [], "silent": ["-DSILENT"], "flood": ["-DFLOOD"], "abi2": ["-DABI_VERSION_2"], "noabi": ["-DNO_ABI"]}
+VARIANTS = {"zero": [], "silent": ["-DSILENT"], "flood": ["-DFLOOD"], "abi1": ["-DABI_VERSION_1"], "noabi": ["-DNO_ABI"]}
 
 
 @pytest.fixture(scope="module")
@@ -77,7 +77,7 @@ def test_a_bad_program_is_one_line(tmp_path, capsys, text, says):
 
 
 @pytest.mark.parametrize("variant, says", [("noabi", "not the lockstep ABI (no wl_abi_version"),
-                                           ("abi2", "ABI version 2, the rig speaks 1")])
+                                           ("abi1", "lockstep ABI version 1, the rig speaks 2")])
 def test_a_library_without_the_abi_is_refused(tmp_path, capsys, libs, variant, says):
     assert _run(tmp_path, "--program", str(libs[variant])) == 2
     err = capsys.readouterr().err.strip()
@@ -116,7 +116,9 @@ def test_a_library_runs_lockstep_deterministically_and_the_trace_names_it(tmp_pa
     run = load_run(tmp_path / "a" / "balance.mcap")
     assert run.program["kind"] == "library" and run.program["build_id"] == "zero-program test fixture 1"
     assert run.program["judged_by"] == "heartbeat"
-    assert len(run.heartbeat["Tick"]) == 150 and np.all(run.heartbeat["Mode"] == 1)  # IDLE, from wl_status
+    hb = run.heartbeat  # every field from wl_status
+    assert len(hb["Tick"]) == 150 and np.all(hb["Mode"] == 1) and np.all(hb["OfflineMask"] == 0x40)
+    assert np.all(hb["OfflineCount"] == 1) and np.all(hb["WarningLevel"] == 5) and np.all(hb["BadFrames"] == 1)
     debug = open_recording(tmp_path / "a" / "balance.mcap").trace.columns("/controller/debug")
     assert np.all(np.diff(debug["now_s"]) > 0) and debug["rx_frames"].max() > 0  # its own debug names
 
@@ -130,7 +132,7 @@ def test_a_silent_library_fails_the_command_check(tmp_path, libs, capsys):
 def test_a_flooding_library_fails_the_bus_check_and_the_trace_is_whole(tmp_path, libs, capsys):
     assert _run(tmp_path, "--program", str(libs["flood"])) == 1
     out = capsys.readouterr().out
-    assert "[FAIL] the program's frames fit the bus" in out
+    assert "[FAIL] the program does not flood the bus" in out
     assert not open_recording(tmp_path / "balance.mcap").truncated
 
 

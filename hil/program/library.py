@@ -1,6 +1,6 @@
 """A program as a shared library with the lockstep C ABI, run in-process in virtual time.
 
-The ABI (version 1, header ``firmware/include/wl_lockstep.h``): ``wl_abi_version``,
+The ABI (version 2, header ``firmware/include/wl_lockstep.h``): ``wl_abi_version``,
 ``wl_build_id``, ``wl_init(period_us)``, ``wl_step(now_us, rx, rx_time_us, n_rx, tx,
 max_tx)``, ``wl_status``, ``wl_debug_names``, ``wl_debug``, ``wl_shutdown``; frames are
 16-byte ``wl_frame_t`` (id, bus 0 = CAN1 / 1 = CAN2, extended, dlc, pad, data[8]).
@@ -9,10 +9,10 @@ max_tx)``, ``wl_status``, ``wl_debug_names``, ``wl_debug``, ``wl_shutdown``; fra
 ``wheelleg.controller.can_node.CanNode`` drives (``on_frame``, ``tick``,
 ``shutdown_frames``): the frames the program's buses receive are collected, SYNC
 excepted (the program knows nothing of it); each tick hands them to ``wl_step``
-with the tick's time, sends what it returns and then the rig's heartbeat, whose
-Mode and OfflineMask come from ``wl_status`` (the rest is derived from them the way
-the Python program sets them). So the rig, replay and the differential check drive
-a library exactly as they drive the Python program.
+with the tick's time, sends what it returns and then the rig's heartbeat, every field
+of it from ``wl_status`` (the program's own: mode, warning level, offline count and
+mask, motors enabled, off ground, fallen, fault latched, bad frames). So the rig, replay
+and the differential check drive a library exactly as they drive the Python program.
 
 Each controller loads its own copy of the file (``dlopen`` of one path twice gives
 the same globals: two programs of one file, as in a differential check, would share
@@ -21,7 +21,6 @@ their state).
 from __future__ import annotations
 
 import ctypes
-import functools
 import hashlib
 import shutil
 import struct
@@ -31,8 +30,8 @@ from pathlib import Path
 
 import can
 
-from wheelleg.controller import detect, messages
-from wheelleg.controller.modes import ENABLED, Mode
+from wheelleg.controller import messages
+from wheelleg.controller.modes import Mode
 from wheelleg.controller.node import TickResult
 from wheelleg.controller.can_node import CanNode
 from wheelleg.controller.telemetry import DEBUG_FIELDS
@@ -40,7 +39,7 @@ from wheelleg.dbc import CAN1, CAN2, load_file
 from wheelleg.dbc.codec import MessageCodec
 from wheelleg.hil.record.schemas import described_schema
 
-ABI_VERSION = 1
+ABI_VERSION = 2  # 1 had Mode and OfflineMask only in wl_status: refused
 SYMBOLS = ("wl_abi_version", "wl_build_id", "wl_init", "wl_step", "wl_status", "wl_debug_names", "wl_debug",
            "wl_shutdown")
 MAX_RX = 512  # frames one period may bring (2 ms at 1 Mbit/s on two buses: < 40); more are dropped, counted
@@ -65,11 +64,15 @@ class WlFrame(ctypes.Structure):
 
 
 class WlStatus(ctypes.Structure):
-    _fields_ = [("mode", ctypes.c_uint8), ("offline_mask", ctypes.c_uint8), ("pad", ctypes.c_uint16),
+    """``wl_status_t``: the heartbeat's fields as the program set them (rig.dbc Heartbeat)."""
+
+    _fields_ = [("mode", ctypes.c_uint8), ("warning_level", ctypes.c_uint8), ("offline_count", ctypes.c_uint8),
+                ("offline_mask", ctypes.c_uint8), ("motors_enabled", ctypes.c_uint8), ("off_ground", ctypes.c_uint8),
+                ("fallen", ctypes.c_uint8), ("fault_latched", ctypes.c_uint8), ("bad_frames", ctypes.c_uint32),
                 ("ticks", ctypes.c_uint32)]
 
 
-assert ctypes.sizeof(WlFrame) == 16 and ctypes.sizeof(WlStatus) == 8  # the ABI's layouts
+assert ctypes.sizeof(WlFrame) == 16 and ctypes.sizeof(WlStatus) == 16  # the ABI's layouts
 
 
 def sha256_of(path: Path) -> str:
@@ -93,7 +96,8 @@ def open_library(path: Path) -> ctypes.CDLL:
     _declare(lib)
     version = lib.wl_abi_version()
     if version != ABI_VERSION:
-        raise ProgramError(f"program library {path}: ABI version {version}, the rig speaks {ABI_VERSION}")
+        raise ProgramError(f"program library {path}: lockstep ABI version {version}, the rig speaks {ABI_VERSION} "
+                           "(rebuild it against firmware/include/wl_lockstep.h)")
     return lib
 
 
@@ -190,10 +194,14 @@ class LibraryController:
         result = TickResult()
         for msg, role in self._frames(n, now_s):
             result.frames[role].append(msg)
-        self.lib.wl_status(ctypes.byref(self._status))
-        mode = self._status.mode
+        status = self._status
+        self.lib.wl_status(ctypes.byref(status))
+        mode = status.mode
         result.mode = Mode(mode) if mode in Mode._value2member_map_ else mode
-        hb = heartbeat(tick, mode, self._status.offline_mask, now_s)
+        hb = messages.heartbeat(tick, mode, status.warning_level, status.offline_mask, status.offline_count,
+                                motors_enabled=bool(status.motors_enabled), off_ground=bool(status.off_ground),
+                                fallen=bool(status.fallen), fault_latched=bool(status.fault_latched),
+                                bad_frames=status.bad_frames, t_s=now_s)
         result.frames[CAN1].append(hb)
         result.frames[CAN2].append(hb)
         if self.record_debug and self.debug_names:
@@ -221,23 +229,6 @@ class LibraryController:
                 continue
             dlc = dlc if dlc <= 8 else 8
             yield can.Message(now_s, ident, bool(extended), False, False, None, dlc, data[:dlc]), role
-
-
-def heartbeat(tick: int, mode: int, offline_mask: int, now_s: float) -> can.Message:
-    """The rig's heartbeat for a library program: Mode and OfflineMask as the program said, the rest
-    as the Python program derives them (offline count and warning level from ``detect.RULES``, motors
-    enabled, off ground and fallen from the mode). FaultLatched and BadFrames are not in ABI 1: 0."""
-    level, count = _offline_summary(offline_mask)
-    return messages.heartbeat(tick, mode, level, offline_mask, count, motors_enabled=mode in ENABLED,
-                              off_ground=mode == Mode.AIRBORNE, fallen=mode == Mode.FALLEN, fault_latched=False,
-                              bad_frames=0, t_s=now_s)
-
-
-@functools.cache
-def _offline_summary(offline_mask: int) -> tuple[int, int]:
-    """(warning level, count) of the devices an OfflineMask names (``detect.RULES``: bit i is rule i)."""
-    offline = [rule for bit, rule in enumerate(detect.RULES) if offline_mask >> bit & 1]
-    return max((r.warning_level for r in offline), default=0), len(offline)
 
 
 def node_factory(path: Path):
