@@ -50,6 +50,19 @@ def _make_gm6020(args: argparse.Namespace, ids: Sequence[int]) -> list:
     return [GM6020(i, command_timeout_s=args.command_timeout) for i in ids]
 
 
+def _damiao_arguments(parser: argparse.ArgumentParser) -> None:
+    from wheelleg.emulators.damiao import MODELS
+    parser.add_argument("--model", choices=sorted(MODELS), default="DM-J4310-2EC",
+                        help="motor model: its PMAX/VMAX/TMAX and motor line (default: %(default)s)")
+    parser.add_argument("--master", type=int_id, default=0x00, metavar="N",
+                        help="MST_ID, the id every reply goes to (default 0x00)")
+
+
+def _make_damiao(args: argparse.Namespace, ids: Sequence[int]) -> list:
+    from wheelleg.emulators.damiao import Damiao
+    return [Damiao(model=args.model, esc_id=i, master_id=args.master) for i in ids]
+
+
 def _imu_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--imu-period", type=float, default=0.002, metavar="S",
                         help="IMU frame period (default: %(default)s s)")
@@ -71,4 +84,6 @@ C610_FAMILY = DeviceFamily("c610", "DJI C610 ESC + M2006 P36", ("c610.dbc",), (1
                            "ESC id 1..8 (default 1)")
 GM6020_FAMILY = DeviceFamily("gm6020", "DJI GM6020 gimbal motor (voltage and current frames)", ("gm6020.dbc",), (1,),
                              _make_gm6020, _command_timeout, "motor id 1..7 (default 1)")
+DAMIAO = DeviceFamily("damiao", "Damiao DM-J4310-2EC, DM-J4340-2EC, DM-J8009P-2EC joint motors", ("damiao.dbc",), (1,),
+                      _make_damiao, _damiao_arguments, "ESC_ID 1..0x7FE (default 1)")
 IMU = DeviceFamily("imu", "the rig's IMU (rig.dbc)", ("rig.dbc",), (), _make_imu, _imu_arguments)

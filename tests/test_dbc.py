@@ -59,7 +59,7 @@ def _close(sig, got, want) -> bool:
 
 # -- loading -----------------------------------------------------------------------------
 def test_every_dbc_is_found():
-    assert {p.name for p in FILES} == {"c610.dbc", "c620.dbc", "cybergear.dbc", "cybergear_4pi.dbc", "cybergear_id.dbc",
+    assert {p.name for p in FILES} == {"c610.dbc", "c620.dbc", "cybergear.dbc", "damiao.dbc", "cybergear_4pi.dbc", "cybergear_id.dbc",
                                         "gm6020.dbc", "quadruped.dbc", "rig.dbc"}
 
 
