@@ -108,7 +108,7 @@ class _Layouts:
         self.vel = MessageCodec.of(msg("DM_VelCmd"))
         self.force_pos = MessageCodec.of(msg("DM_ForcePosCmd"))
         self.special = MessageCodec.of(msg("DM_Special"))
-        self.fill = self.special.signals["Fill"].minimum  # seven 0xFF bytes
+        self.fill = tuple(self.special.signals[n].mask for n in ("FillLow", "FillHigh"))  # seven 0xFF bytes
         self.registers = {}  # rid -> (name, codec of that register's frame, its signal)
         reg = msg("DM_Register")
         fixed = [reg.get_signal_by_name(n) for n in ("Rid", "TargetId", "Op")]
@@ -215,7 +215,7 @@ class Damiao(EmulatedDevice):
         if offset not in MODE_OFFSET.values():
             return []
         special = self._lay.special.decode_raw(data)
-        if special["Fill"] == self._lay.fill and special["Command"] in (ENABLE, DISABLE, SET_ZERO, CLEAR_ERROR):
+        if (special["FillLow"], special["FillHigh"]) == self._lay.fill and special["Command"] in (ENABLE, DISABLE, SET_ZERO, CLEAR_ERROR):
             self._on_special(special["Command"])
             return [self._feedback_frame(now_s)]
         if offset != MODE_OFFSET[self.control_mode]:
