@@ -63,6 +63,23 @@ def _make_damiao(args: argparse.Namespace, ids: Sequence[int]) -> list:
     return [Damiao(model=args.model, esc_id=i, master_id=args.master) for i in ids]
 
 
+def _robstride_arguments(parser: argparse.ArgumentParser) -> None:
+    from wheelleg.emulators.robstride import MODELS
+    parser.add_argument("--model", choices=sorted(MODELS), default="RS01",
+                        help="actuator model: its scales, limits and motor line (default: %(default)s)")
+    parser.add_argument("--host", type=int_id, default=0x00, metavar="N",
+                        help="the host id in 0..127 the motors answer (default 0x00); hosts 0x80..0xFF always")
+    parser.add_argument("--uid", type=int_id, default=None, metavar="UID",
+                        help="64-bit MCU unique id sent in type-0 replies")
+
+
+def _make_robstride(args: argparse.Namespace, ids: Sequence[int]) -> list:
+    from wheelleg.emulators.robstride import RobStride
+    if args.uid is not None and len(ids) > 1:
+        raise ValueError("--uid names one motor; give it with a single --id")
+    return [RobStride(model=args.model, motor_id=i, uid=args.uid, host_id=args.host) for i in ids]
+
+
 def _imu_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--imu-period", type=float, default=0.002, metavar="S",
                         help="IMU frame period (default: %(default)s s)")
@@ -86,4 +103,7 @@ GM6020_FAMILY = DeviceFamily("gm6020", "DJI GM6020 gimbal motor (voltage and cur
                              _make_gm6020, _command_timeout, "motor id 1..7 (default 1)")
 DAMIAO = DeviceFamily("damiao", "Damiao DM-J4310-2EC, DM-J4340-2EC, DM-J8009P-2EC joint motors", ("damiao.dbc",), (1,),
                       _make_damiao, _damiao_arguments, "ESC_ID 1..0x7FE (default 1)")
+ROBSTRIDE = DeviceFamily("robstride", "RobStride RS01, RS02, RS03, RS04 actuators (29-bit ids, CyberGear family)",
+                         ("robstride_rs01.dbc", "robstride_rs02.dbc", "robstride_rs03.dbc", "robstride_rs04.dbc"),
+                         (0x7F,), _make_robstride, _robstride_arguments, "motor id 0..127 (default 0x7F)")
 IMU = DeviceFamily("imu", "the rig's IMU (rig.dbc)", ("rig.dbc",), (), _make_imu, _imu_arguments)

@@ -35,6 +35,12 @@ class Emulators:
         """python-can kwargs of the group."""
         return {"interface": "udp_multicast", "channel": self.channel, "port": self.port}
 
+    def driver_bus(self):
+        """A python-can bus on the group for a driver: echo-free, as SocketCAN is by default (python-can's
+        multicast bus hears its own frames, which a driver would read as the motor's answer)."""
+        from wheelleg.controller.bus_args import open_bus
+        return open_bus(**self.bus)
+
     def start(self, family: str, *args: str) -> dict:
         cmd = [sys.executable, "-m", "wheelleg.hil.cli", "emulate", family, *args,
                "-i", "udp_multicast", "-c", self.channel, "--bus-kwargs", f"port={self.port}"]

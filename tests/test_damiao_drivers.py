@@ -36,7 +36,7 @@ def _controller(emu: Emulators):
     from damiao_motor import DaMiaoController
     ctrl = DaMiaoController(channel=emu.channel, bustype="udp_multicast")
     ctrl.bus.shutdown()  # the driver opened python-can's default port; use the test's group and port
-    ctrl.bus = can.Bus(**emu.bus)
+    ctrl.bus = emu.driver_bus()
     return ctrl
 
 

@@ -10,7 +10,7 @@ from wheelleg.dbc import dbc_path
 from wheelleg.emulators import family as F
 from wheelleg.hil.cli import main
 
-BUILTIN = {"cybergear", "c620", "c610", "gm6020", "damiao", "imu"}
+BUILTIN = {"cybergear", "c620", "c610", "gm6020", "damiao", "robstride", "imu"}
 
 
 def test_the_rigs_families_come_from_the_entry_point_group():
