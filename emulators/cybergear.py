@@ -492,7 +492,7 @@ class CyberGear(EmulatedDevice):
         return [self._feedback_frame(self.last_host, now_s)]
 
     def _on_table(self, can_id: int, data: bytes, now_s: float) -> list[can.Message]:
-        return self.table.dump(data, self.uid, self._live_table(), self.motor_id, self.last_host, now_s)
+        return self.table.dump(self._live_table(), self.motor_id, self.last_host, now_s)
 
     def _on_config_read(self, can_id: int, data: bytes, now_s: float) -> list[can.Message]:
         return self.table.read(data, self._live_table(), self.motor_id, self.last_host, now_s)
@@ -520,8 +520,12 @@ class CyberGear(EmulatedDevice):
         return [frame(cg.reply_id(cg.T_FAULT_WARN, self.motor_id, self.last_host), payload, True, now_s)]
 
     def _quick_move(self, jog: dict) -> None:
-        """run_mode 7, the debugger's jog: taken in any mode (the public driver sends it enabled)."""
+        """run_mode 7, the debugger's jog: taken in any mode (the public driver sends it enabled); its
+        run flag turns a stopped motor without a separate enable, as the debugger's jog buttons do."""
         self.params["run_mode"] = RUN_QUICK_MOVE
+        if jog["Run"] == 1 and self.mode == MODE_RESET and not self._faults:
+            self.mode = MODE_RUN
+            self._speed_integral_a = 0.0
         speed = jog["Speed"] if jog["Run"] == 1 else 0.0
         self._quick_move_rad_s = _clamp(speed, -self.LINE.speed_limit_rad_s, self.LINE.speed_limit_rad_s)
 
