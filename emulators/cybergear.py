@@ -70,7 +70,8 @@ SPEED_LOOP_MODES = (RUN_POSITION, RUN_SPEED, RUN_ZERO, RUN_QUICK_MOVE)  # speed 
 CALIBRATION_S = 2.0
 ELEC_OFFSET_RAD = 0.4537
 MAX_MOTOR_ID = cg.MAX_MOTOR_ID  # parameter CAN_ID 0x200A range
-ECHO_MEMORY = 16  # own frames remembered to recognise their echo (docs/protocols.md, reply storms)
+ECHO_MEMORY = 160  # own frames remembered to recognise their echo (docs/protocols.md, reply storms): a whole
+# type-19 table answer (114 frames) and more, since a table request is answered whatever its payload
 CURRENT_LIMIT_A = 23.0  # peak phase current; iq_ref / limit_cur range
 FULL_DLC = 8
 
