@@ -12,7 +12,7 @@ from pathlib import Path
 
 from wheelleg.controller.quadruped.modes import Mode
 from wheelleg.controller.quadruped.telemetry import DEBUG_FIELDS
-from wheelleg.dbc import CAN1, CAN2
+from wheelleg.dbc import CAN1, CAN2, QUADRUPED_BUS_FILES
 from wheelleg.emulators.quadruped import description as D
 from wheelleg.hil.record.schemas import POSE_FIELDS, described_schema
 from wheelleg.hil.robots import Bus, Device, Robot
@@ -48,8 +48,8 @@ ROBOT = Robot(
     summary="12 CyberGear joints (FR, FL, RR, RL x abduction, thigh, calf), CyberDog 2 class, 10 kg",
     buses=(
         Bus(CAN1, "bus 0: front legs' CyberGears, IMU, remote",
-            (*_motors(0), Device("imu", "imu"), Device("remote", "remote"))),
-        Bus(CAN2, "bus 1: rear legs' CyberGears", _motors(1)),
+            (*_motors(0), Device("imu", "imu"), Device("remote", "remote")), QUADRUPED_BUS_FILES[CAN1]),
+        Bus(CAN2, "bus 1: rear legs' CyberGears", _motors(1), QUADRUPED_BUS_FILES[CAN2]),
     ),
     model_dir=MODEL_DIR,
     scenario_modules=("wheelleg.hil.scenarios.quadruped", "wheelleg.hil.scenarios.quadruped_faults"),
