@@ -50,14 +50,13 @@ from __future__ import annotations
 
 import math
 from collections import deque
-from dataclasses import dataclass
 
 import can
 
-from wheelleg.dbc import CYBERGEAR_FILES, load_file
+from wheelleg.dbc import CYBERGEAR_FILES
 from wheelleg.dbc import cybergear as cg
-from wheelleg.dbc.codec import MessageCodec
 from wheelleg.emulators.cybergear_config import StoredTable
+from wheelleg.emulators.cybergear_family import Layouts, MotorLine
 from wheelleg.emulators.device import EmulatedDevice, Shaft, frame, is_data_frame
 from wheelleg.emulators.robot import description as D
 
@@ -111,22 +110,6 @@ FAULT_WORD = {"FaultOverTemp": "FaultOverTemp", "FaultUnderVoltage": "FaultUnder
 BAUD_CODES = (1, 2, 3, 4)  # type 22: 1M, 500k, 250k, 125k
 
 
-@dataclass(frozen=True)
-class MotorLine:
-    """What a motor of the CyberGear protocol family can do (output side, SI units, at ``supply_v``)."""
-
-    torque_limit_nm: float  # peak torque
-    speed_limit_rad_s: float  # no drive beyond (the back-EMF line's zero)
-    back_emf_nm_s_per_rad: float  # the line's slope
-    torque_constant: float  # N m/A
-    current_limit_a: float  # iq_ref / limit_cur range
-    thermal_tau_s: float
-    heat_k_per_a2: float
-    over_temp_c: float  # the fault
-    warn_temp_c: float  # the warning
-    supply_v: float  # nominal
-
-
 CYBERGEAR_LINE = MotorLine(D.CG_TORQUE_LIMIT_NM, SPEED_LIMIT_RAD_S, BACK_EMF_NM_S_PER_RAD,
                            D.CG_TORQUE_CONSTANT_NM_PER_A, CURRENT_LIMIT_A, THERMAL_TAU_S, HEAT_K_PER_A2,
                            D.CG_OVER_TEMP_C, D.CG_WARN_TEMP_C, D.SUPPLY_NOMINAL_V)
@@ -134,55 +117,6 @@ CYBERGEAR_LINE = MotorLine(D.CG_TORQUE_LIMIT_NM, SPEED_LIMIT_RAD_S, BACK_EMF_NM_
 
 def _clamp(x: float, lo: float, hi: float) -> float:
     return lo if x < lo else hi if x > hi else x
-
-
-class Layouts:
-    """Codecs of one DBC of the CyberGear protocol family (message names ``PREFIX_...``), built once.
-
-    Messages a family member lacks (RobStride: calibration, brake, quick move) are None.
-    """
-
-    _cache: dict[tuple, "Layouts"] = {}
-
-    def __init__(self, dbc: str, prefix: str):
-        db = load_file(dbc)
-        names = {m.name for m in db.messages}
-
-        def msg(name: str):
-            return db.get_message_by_name(name.replace("CG_", prefix + "_", 1))
-
-        def optional(name: str):
-            full = name.replace("CG_", prefix + "_", 1)
-            return MessageCodec.of(db.get_message_by_name(full)) if full in names else None
-
-        self.motion = MessageCodec.of(msg("CG_MotionCmd"))
-        self.motion_fields = tuple(self.motion.signals[name] for name in ("PosRef", "VelRef", "Kp", "Kd"))
-        self.feedback = MessageCodec.of(msg("CG_Feedback"))
-        # the type-2 payload from the four values, each by the manual's truncating float_to_uint
-        self.feedback_payload = self.feedback.encoder(dict.fromkeys(("Pos", "Vel", "Torque", "Temp"), "truncated"))
-        self.device_id = MessageCodec.of(msg("CG_DeviceId"))
-        self.stop = MessageCodec.of(msg("CG_Stop"))
-        self.set_zero = MessageCodec.of(msg("CG_SetZero"))
-        self.set_baud = optional("CG_SetBaud")
-        self.fault_warn = MessageCodec.of(msg("CG_FaultWarn"))
-        self.calibration = optional("CG_Calibration")
-        write, read = msg("CG_ParamWrite"), msg("CG_ParamRead")
-        self.index = MessageCodec(write, [write.get_signal_by_name("Index")])
-        # a type-18 write of run_mode 7, in cybergear_id.dbc: the type alone does not select it
-        self.quick_move = MessageCodec.of(load_file(cg.ID_DBC).get_message_by_name("CG_QuickMove")) \
-            if prefix == "CG" else None
-        self.params = {}  # index -> (name, index, write codec, read-reply codec)
-        for sig in write.signals:
-            for index in sig.multiplexer_ids or ():
-                self.params[index] = (
-                    sig.name, index, MessageCodec(write, [write.get_signal_by_name("Index"), sig]),
-                    MessageCodec(read, [read.get_signal_by_name("Index"), read.get_signal_by_name(sig.name)]))
-
-    @classmethod
-    def get(cls, dbc: str, prefix: str = "CG") -> "Layouts":
-        if (dbc, prefix) not in cls._cache:
-            cls._cache[dbc, prefix] = cls(dbc, prefix)
-        return cls._cache[dbc, prefix]
 
 
 class CyberGear(EmulatedDevice):

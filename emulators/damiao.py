@@ -323,14 +323,13 @@ class Damiao(EmulatedDevice):
 
     def _demand_torque(self) -> float:
         p_ref, v_ref, a, b, c = self._target
-        speed, r = self.shaft.speed, self.registers
         if self.control_mode == MIT:  # a, b, c = Kp, Kd, tau_ff
-            return a * (p_ref - self.position) + b * (v_ref - speed) + c
-        if self.control_mode != VEL:  # position loop: v_ref is the speed limit, a the torque limit
-            v_ref = _clamp(r["KP_APR"] * (p_ref - self.position), -v_ref, v_ref)
-        return _clamp(r["KP_ASR"] * (v_ref - speed) + self._speed_integral, -a, a)
+            return a * (p_ref - self.position) + b * (v_ref - self.shaft.speed) + c
+        # speed loop (PI) under the position loop; a is the torque limit
+        return _clamp(self.registers["KP_ASR"] * self._speed_error() + self._speed_integral, -a, a)
 
     def _speed_error(self) -> float:
+        """rad/s the speed loop corrects: to the speed target, or to the position loop's (v_ref its limit)."""
         p_ref, v_ref, *_ = self._target
         if self.control_mode != VEL:
             v_ref = _clamp(self.registers["KP_APR"] * (p_ref - self.position), -v_ref, v_ref)

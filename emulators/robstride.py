@@ -37,8 +37,8 @@ import can
 
 from wheelleg.dbc import cybergear as cg
 from wheelleg.dbc import load_file
-from wheelleg.emulators.cybergear import (CYBERGEAR_LINE, MODE_RESET, MODE_RUN, RUN_SPEED, CyberGear, Layouts,
-                                          MotorLine)
+from wheelleg.emulators.cybergear import CYBERGEAR_LINE, MODE_RESET, MODE_RUN, RUN_SPEED, CyberGear
+from wheelleg.emulators.cybergear_family import Layouts, MotorLine
 from wheelleg.emulators.device import EmulatedDevice, PeriodicSchedule, Shaft
 
 T_SAVE, T_BAUD, T_REPORT, T_PROTOCOL = 22, 23, 24, 25
