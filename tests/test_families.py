@@ -73,3 +73,25 @@ def test_a_plugin_family_is_served_by_wheelleg_emulate(monkeypatch):
 def test_unknown_family_is_a_clear_error():
     with pytest.raises(ValueError, match="no device family 'nosuch'; installed: .*cybergear"):
         F.family("nosuch")
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["robstride", "--id", "1", "--id", "2", "--uid", "5"], "--uid names one motor"),
+    (["damiao", "--id", "0"], "ESC_ID must be 1..0x7FE"),
+    (["damiao", "--id", "0x7FF"], "ESC_ID must be 1..0x7FE"),
+    (["gm6020", "--id", "8"], "gm6020 id must be 1..7"),
+    (["c610", "--id", "3", "--id", "3"], "--id given twice"),
+])
+def test_bad_family_options_are_one_line_errors(argv, message, capsys):
+    assert main(["emulate", *argv, "-i", "virtual", "-c", "x"]) == 2
+    err = capsys.readouterr().err
+    assert message in err and err.count("\n") == 1
+
+
+def test_each_family_makes_its_default_devices():
+    from wheelleg.hil.cli import build_parser
+    from wheelleg.hil.commands import emulate
+    for name in BUILTIN:
+        args = build_parser().parse_args(["emulate", name, "-i", "virtual", "-c", "x"])
+        devices = emulate.make_devices(args)
+        assert len(devices) == 1 and devices[0].internal_errors == 0
