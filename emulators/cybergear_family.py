@@ -28,6 +28,7 @@ class MotorLine:
     over_temp_c: float  # the fault
     warn_temp_c: float  # the warning
     supply_v: float  # nominal
+    line_resistance_ohm: float  # phase to phase: the copper loss in supply_power_w
 
 
 class Layouts:

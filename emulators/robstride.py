@@ -59,11 +59,13 @@ class RobStrideModel:
 
 def _line(peak_nm: float, speed_rad_s: float, current_a: float, rated_nm: float) -> MotorLine:
     """A model's line: Kt = peak torque / peak current; full torque up to 70 % of the speed range;
-    rated torque continuous settles 45 K above ambient (⚠ thermal figures assumed, see docs/protocols.md)."""
+    rated torque continuous settles 45 K above ambient (⚠ thermal figures and the CyberGear's line resistance
+    assumed, see docs/protocols.md)."""
     kt = peak_nm / current_a
     return MotorLine(peak_nm, speed_rad_s, peak_nm / (0.3 * speed_rad_s), kt, current_a,
                      CYBERGEAR_LINE.thermal_tau_s, 45.0 / (rated_nm / kt) ** 2,
-                     CYBERGEAR_LINE.over_temp_c, CYBERGEAR_LINE.warn_temp_c, NOMINAL_SUPPLY_V)
+                     CYBERGEAR_LINE.over_temp_c, CYBERGEAR_LINE.warn_temp_c, NOMINAL_SUPPLY_V,
+                     CYBERGEAR_LINE.line_resistance_ohm)
 
 
 # Each model's manual: peak torque, the speed field's range, peak current, rated torque.
