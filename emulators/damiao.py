@@ -197,6 +197,16 @@ class Damiao(EmulatedDevice):
         """The feedback's state nibble."""
         return self.fault if self.fault is not None else ENABLED if self.enabled else DISABLED
 
+    def set_supply_voltage(self, supply_v: float) -> None:
+        """The supply the motor sees now (V): the no-load speed and the voltage faults follow it."""
+        self.supply_v = supply_v
+
+    def supply_power_w(self, now_s: float) -> float:
+        """W drawn from the supply now: shaft power plus the windings' loss (three phases, Rs each, at
+        the current the torque needs through KT_Value)."""
+        current = self.firmware_torque(now_s) / self.registers["KT_Value"]
+        return self.output_torque(now_s) * self.shaft.speed + 1.5 * self.registers["Rs"] * current * current
+
     def inject_fault(self, name: str) -> None:
         """Latch a fault (``FAULTS``): torque off until a clear-error frame."""
         if name not in FAULTS:

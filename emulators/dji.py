@@ -114,6 +114,15 @@ class DjiMotor(EmulatedDevice):
         self.command_kind = CURRENT
         self.last_command_s: float | None = None
 
+    def set_supply_voltage(self, supply_v: float) -> None:
+        """The supply the drive sees now (V): voltage commands and the back-EMF limit follow it."""
+        self.supply_v = supply_v
+
+    def supply_power_w(self, now_s: float) -> float:
+        """W drawn from the supply now: shaft power plus the windings' I^2 R."""
+        current = self.motor_current(now_s)
+        return self.output_torque(now_s) * self.shaft.speed + current * current * self.model.resistance_ohm
+
     # -- frames ------------------------------------------------------------------
     def _handle(self, msg: can.Message, now_s: float) -> list[can.Message]:
         entry = self._commands.get(msg.arbitration_id)

@@ -122,3 +122,19 @@ def test_dji_devices_answer_nothing_on_a_crowded_bus():
     feedback = [f for d in devices for f in d.periodic(0.0)]
     assert len(feedback) == len(devices)
     assert _exchange(devices, feedback) == [0]  # feedback frames (0x201.., 0x205..) are nobody's command
+
+
+def test_every_new_device_takes_the_plants_supply_calls():
+    """The plant's battery-sag override sets each motor's supply and asks the power it draws."""
+    for d in damiao_devices() + robstride_devices() + dji_devices():
+        d.set_supply_voltage(20.0)
+        assert (d.supply_v if hasattr(d, "supply_v") else d.vbus_v) == 20.0
+        assert d.supply_power_w(0.0) == 0.0  # at rest, disabled or no command: nothing drawn
+    m = Damiao("DM-J4310-2EC", esc_id=1)
+    m.handle(can.Message(arbitration_id=1, data=bytes([0xFF] * 7 + [0xFC]), is_extended_id=False), 0.0)
+    m.handle(can.Message(arbitration_id=1, data=bytes([0x7F, 0xFF, 0x7F, 0xF0, 0, 0, 0x0C, 0x00]),
+                         is_extended_id=False), 0.0)
+    assert m.supply_power_w(0.0) > 0.0  # stalled at a torque: copper loss only
+    m.set_supply_voltage(9.0)
+    m.advance(0.001, 0.001)
+    assert m.state == 0x9  # under UV_Value: under-voltage
