@@ -204,7 +204,8 @@ class Damiao(EmulatedDevice):
     def supply_power_w(self, now_s: float) -> float:
         """W drawn from the supply now: shaft power plus the windings' loss (three phases, Rs each, at
         the current the torque needs through KT_Value)."""
-        current = self.firmware_torque(now_s) / self.registers["KT_Value"]
+        kt = self.registers["KT_Value"] or self.model.torque_constant  # a KT_Value of 0 may be written
+        current = self.firmware_torque(now_s) / kt
         return self.output_torque(now_s) * self.shaft.speed + 1.5 * self.registers["Rs"] * current * current
 
     def inject_fault(self, name: str) -> None:

@@ -132,11 +132,12 @@ class RobStride(CyberGear):
         return ((can_id >> shift) & mask) * scale + offset
 
     # -- RobStride's own commands ------------------------------------------------------
-    def _magic(self, data: bytes, value: int) -> int | None:
+    @staticmethod
+    def _magic(data: bytes) -> int | None:
         """Byte 6 of a type 23-25 request whose bytes 0..5 are the magic 01..06, else None."""
         if len(data) < 7 or int.from_bytes(data[:6], "little") != MAGIC6:
             return None
-        return data[6] if value else None
+        return data[6]
 
     def _on_save(self, can_id: int, data: bytes, now_s: float) -> list[can.Message]:
         if int.from_bytes(data.ljust(8, b"\0"), "little") != MAGIC8:
@@ -145,7 +146,7 @@ class RobStride(CyberGear):
         return [self._feedback_frame(self.last_host, now_s)]
 
     def _on_baud(self, can_id: int, data: bytes, now_s: float) -> list[can.Message]:
-        code = self._magic(data, 1)
+        code = self._magic(data)
         if code is None:
             return []
         if code in (1, 2, 3, 4):
@@ -153,7 +154,7 @@ class RobStride(CyberGear):
         return [self._device_id_frame(now_s)]
 
     def _on_report(self, can_id: int, data: bytes, now_s: float) -> list[can.Message]:
-        flag = self._magic(data, 1)
+        flag = self._magic(data)
         if flag is None:
             return []
         if flag == 1:
@@ -164,7 +165,7 @@ class RobStride(CyberGear):
         return [self._feedback_frame(self.last_host, now_s)]
 
     def _on_protocol(self, can_id: int, data: bytes, now_s: float) -> list[can.Message]:
-        code = self._magic(data, 1)
+        code = self._magic(data)
         if code is None:
             return []
         if code in (0, 1, 2):
@@ -200,9 +201,4 @@ class RobStride(CyberGear):
             limit = p["vel_max"] if p["run_mode"] == RUN_PROFILE_POSITION else p["limit_spd"]
             return max(-limit, min(limit, p["loc_kp"] * (p["loc_ref"] - self.mech_pos)))
         return max(-self.LINE.speed_limit_rad_s, min(self.LINE.speed_limit_rad_s, p["spd_ref"]))
-
-    def _read_param(self, name: str):
-        if name in self.params or name not in ("mechPos", "mechVel", "iqf", "VBUS"):
-            return self.params[name]
-        return super()._read_param(name)
 
