@@ -155,6 +155,8 @@ class CyberGear(EmulatedDevice):
             raise ValueError(f"vbus_v and kt_scale must be > 0, got {vbus_v!r}, {kt_scale!r}")
         self.kt_scale = kt_scale
         self.set_supply_voltage(vbus_v)
+        # LINE's two numbers firmware_torque reads ~10 times a control period, one attribute each
+        self._peak_nm, self._back_emf = self.LINE.torque_limit_nm, self.LINE.back_emf_nm_s_per_rad
         self.host_id = host_id  # CAN_MASTER: the one host in 0..127 this motor answers
         self.last_host = host_id
         self._sent: deque = deque(maxlen=ECHO_MEMORY)  # (id, data) of own frames not yet heard back
@@ -249,14 +251,14 @@ class CyberGear(EmulatedDevice):
         """
         # The plant asks ~10 times a control period per motor: the clamps are written out
         # (each as ``_clamp``, ``min`` and ``max`` decide, NaN included).
-        mode, faults, speed, line = self.mode, self._faults, self.shaft.speed, self.LINE
+        mode, faults, speed, peak = self.mode, self._faults, self.shaft.speed, self._peak_nm
         if mode != MODE_RUN or faults:
             if mode == MODE_BRAKE and not faults:
-                return _clamp(-line.back_emf_nm_s_per_rad * speed, -line.torque_limit_nm, line.torque_limit_nm)
+                return _clamp(-self._back_emf * speed, -peak, peak)
             return 0.0
         limit = self.params["limit_torque"]
-        if line.torque_limit_nm < limit:  # min(limit_torque, the motor's)
-            limit = line.torque_limit_nm
+        if peak < limit:  # min(limit_torque, the motor's)
+            limit = peak
         if self.params["run_mode"] == RUN_OPERATION:  # _demand_torque's MIT law, inline
             p_ref, v_ref, kp, kd, tau_ff = self._motion
             tau = kp * (p_ref - (self.shaft.angle - self._zero_rad)) + kd * (v_ref - speed) + tau_ff
@@ -264,7 +266,7 @@ class CyberGear(EmulatedDevice):
             tau = self._demand_torque()
         tau = -limit if tau < -limit else limit if tau > limit else tau
         if tau * speed > 0.0:  # driving, not braking: back-EMF limit
-            available = line.back_emf_nm_s_per_rad * (self.speed_limit_rad_s - abs(speed))
+            available = self._back_emf * (self.speed_limit_rad_s - abs(speed))
             if not available > 0.0:  # max(0.0, available)
                 available = 0.0
             tau = -available if tau < -available else available if tau > available else tau
