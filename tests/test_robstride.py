@@ -94,3 +94,14 @@ def test_can_timeout_drops_a_running_motor_to_reset():
 def test_unknown_model():
     with pytest.raises(ValueError, match="unknown RobStride model"):
         RobStride("RS09")
+
+
+def test_zero_and_id_change_as_the_cybergear():
+    """Type 6 (neither published driver has a call for it) and type 7, inherited from the CyberGear."""
+    m = RobStride("RS02", motor_id=1)
+    m.shaft.angle = 1.0
+    (r,) = m.handle(req(6, data=bytes([1]) + bytes(7)), 0.0)
+    assert cg.comm_type(r.arbitration_id) == 2 and m.mech_pos == 0.0
+    (r,) = m.handle(req(7, extra=(9 << 8) | HOST), 0.0)
+    assert cg.comm_type(r.arbitration_id) == 0 and cg.reply_motor(r.arbitration_id) == 9 and m.motor_id == 9
+    assert r.data == (0x5253_0000_0000_0001).to_bytes(8, "little")  # its UID: "RS" and the id it was made with
