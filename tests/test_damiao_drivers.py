@@ -16,7 +16,7 @@ import time
 
 import pytest
 
-from tests.drivers_helpers import Emulators, eventually
+from drivers_helpers import Emulators, eventually
 from wheelleg.emulators.damiao import Damiao
 
 can = pytest.importorskip("can")

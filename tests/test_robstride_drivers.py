@@ -14,7 +14,7 @@ import time
 
 import pytest
 
-from tests.drivers_helpers import Emulators, eventually
+from drivers_helpers import Emulators, eventually
 from wheelleg.emulators.robstride import RobStride
 
 can = pytest.importorskip("can")
