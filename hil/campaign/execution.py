@@ -98,7 +98,12 @@ def run_job(job: Job, settings: RunSettings) -> dict:
     except Exception as exc:  # noqa: BLE001 - a run that cannot run has failed, with the reason kept
         row["error"] = f"{type(exc).__name__}: {exc}".splitlines()[0]
     row["wall_s"] = round(time.perf_counter() - wall0, 3)
-    return finish_files(row, job, settings)
+    row = finish_files(row, job, settings)
+    if not row["passed"] and row["trace"] and not row.get("error"):
+        from wheelleg.hil.watch.campaign_video import add_failure_video  # noqa: PLC0415
+
+        add_failure_video(row, settings.out_dir)
+    return row
 
 
 def failed_row(job: Job, error: str | None) -> dict:

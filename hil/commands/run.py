@@ -137,7 +137,8 @@ def execute(args: argparse.Namespace, started_s: float | None = None):
     if not args.no_plot:
         from wheelleg.hil.analyze.plot import plot_run  # noqa: PLC0415 (matplotlib: ~1 s of start-up, only to plot)
 
-        plot_run(run, args.out / f"{scenario.name}.png", title=f"{scenario.name}: {scenario.summary}")
+        plot_run(run, args.out / f"{scenario.name}.png", title=f"{scenario.name}: {scenario.summary}",
+                 trace=outcome.trace_path)
     return outcome, results, run
 
 

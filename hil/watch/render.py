@@ -140,10 +140,12 @@ def _label(motion: RecordedMotion, t_s: float) -> str:
     return f"{motion.scenario}  t = {t_s:5.2f} s" + (f"  {recent[-1]}" if recent else "")
 
 
-def motion_frames(motion: RecordedMotion, times: Iterable[float], renderer: FrameRenderer) -> Iterator[np.ndarray]:
-    """One labelled image per time in ``times`` (the last recorded pose at or before it)."""
+def motion_frames(motion: RecordedMotion, times: Iterable[float], renderer: FrameRenderer,
+                  labelled: bool = True) -> Iterator[np.ndarray]:
+    """One image per time in ``times`` (the last recorded pose at or before it), ``labelled`` with the
+    scenario, the time and the latest event."""
     for t_s in times:
-        yield renderer.frame(motion.qpos[motion.index_at(t_s)], _label(motion, float(t_s)))
+        yield renderer.frame(motion.qpos[motion.index_at(t_s)], _label(motion, float(t_s)) if labelled else "")
 
 
 def write_video(path: Path, frames: Iterable[np.ndarray], fps: float) -> int:

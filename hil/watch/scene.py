@@ -3,8 +3,8 @@
 Every run records MuJoCo's whole generalized position (``qpos``: free bodies as
 x, y, z and a quaternion, hinges as angles) every ``QPOS_PERIOD_S`` of simulated
 time, one float64 per coordinate, so any run can be drawn again from its trace
-alone (``wheelleg render``, the filmstrip of the run's PNG). 50 Hz: twice a 25 fps
-video's rate; ~0.5 KB per simulated second compressed (docs/measurements.md).
+alone (``wheelleg render``, the filmstrip of the run's PNG). 25 Hz: a video's rate;
+~3.7 KB per simulated second, 1.5 % of a balance trace (docs/measurements.md).
 
 The world: the MJCF the run compiled when the plant was overridden (its
 ``plant_model.xml`` attachment), else the robot's scene rebuilt with the
@@ -20,7 +20,7 @@ import numpy as np
 from wheelleg.hil.record.schemas import described_schema
 
 QPOS_TOPIC = "/sim/qpos"
-QPOS_PERIOD_S = 0.02  # 50 Hz of simulated time
+QPOS_PERIOD_S = 0.04  # 25 Hz of simulated time: a 25 fps video's rate
 _FREE_PARTS = (("x", "m, world"), ("y", "m, world"), ("z", "m, world"),
                ("qw", "orientation quaternion"), ("qx", "orientation quaternion"),
                ("qy", "orientation quaternion"), ("qz", "orientation quaternion"))
