@@ -22,7 +22,7 @@ import time
 STARTED_S = time.perf_counter()
 
 SUBCOMMANDS = ("run", "list", "campaign", "emulate", "controller", "replay", "inspect", "decode", "export", "recover",
-               "vcan", "render")
+               "vcan", "render", "layout")
 
 
 def build_parser(command: str | None = None) -> argparse.ArgumentParser:

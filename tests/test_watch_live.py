@@ -98,3 +98,56 @@ def test_a_port_in_use_is_a_one_line_usage_error(tmp_path):
                               capture_output=True, text=True, timeout=120)
     assert done.returncode == 2 and f"cannot listen on 127.0.0.1:{port}" in done.stderr
     assert done.stderr.count("\n") == 1
+
+
+def test_scene_goes_into_the_trace_with_scene_and_only_then(tmp_path):
+    from google.protobuf import descriptor_pb2, descriptor_pool, message_factory
+
+    from wheelleg.hil import cli
+
+    for flag, out in (["--scene"], tmp_path / "with"), ([], tmp_path / "without"):
+        assert cli.main(["run", "jump", "--duration", "1.0", *flag, "--out", str(out), "--no-plot", "-q"]) in (0, 1)
+    assert "/scene" not in TraceReader(tmp_path / "without" / "jump.mcap").topics
+    reader = TraceReader(tmp_path / "with" / "jump.mcap")
+    schema, encoding, _ = reader.schema("/scene")
+    assert encoding == "protobuf" and schema.name == "foxglove.SceneUpdate"
+    pool = descriptor_pool.DescriptorPool()
+    for file in descriptor_pb2.FileDescriptorSet.FromString(schema.data).file:
+        pool.Add(file)
+    scene_class = message_factory.GetMessageClass(pool.FindMessageTypeByName(schema.name))
+    motion = recorded_motion(tmp_path / "with" / "jump.mcap")
+    recorded = dict(zip((motion.t_s * 1e9).round().astype(np.int64).tolist(), motion.qpos))
+    scenes = reader.records("/scene")
+    assert len(scenes) == pytest.approx(1.0 / 0.02, abs=2)
+    common = [(t, p) for t, p in scenes if t in recorded]
+    assert len(common) > 20
+    for t_ns, payload in common:
+        position, _ = body_box(scene_class.FromString(payload))
+        assert np.allclose(position, recorded[t_ns][:3], atol=1e-9)
+
+
+def test_the_shipped_layout_is_the_built_one_and_plots_fields_the_run_streams(capsys):
+    from wheelleg.controller.telemetry import DEBUG_FIELDS
+    from wheelleg.hil import cli
+    from wheelleg.hil.record.schemas import SIM_STATE_FIELDS
+    from wheelleg.hil.watch import layout
+
+    assert cli.main(["layout"]) == 0
+    path = capsys.readouterr().out.strip()
+    text = open(path).read()
+    assert text.strip() == layout.build()
+    shown = json.loads(text)
+    paths = [series["value"] for panel in walk(shown["content"]) if panel.get("panelType") == "Plot"
+             for series in panel["config"]["paths"]]
+    fields = {"/sim/state": SIM_STATE_FIELDS, "/controller/debug": DEBUG_FIELDS}
+    assert paths and all(p.partition(".")[2] in fields[p.partition(".")[0]] for p in paths), paths
+    kinds = {panel.get("panelType") for panel in walk(shown["content"])}
+    assert {"ThreeDee", "Plot", "RawMessages"} <= kinds and "/scene" in text and "/scenario/events" in text
+
+
+def walk(node: dict):
+    """Every panel of a layout's content tree."""
+    if node.get("type") == "panel":
+        yield node
+    for item in node.get("items", []):
+        yield from walk(item["content"])

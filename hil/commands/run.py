@@ -154,9 +154,11 @@ def _watch(rig: Rig, args: argparse.Namespace) -> list:
     """The viewer and live server ``args`` ask for (none by default); UsageError if one cannot start."""
     try:
         return watch_options.attach(rig, args)
-    except watch_options.WatchError as exc:
-        rig.close()
-        raise UsageError(str(exc)) from exc
+    except BaseException as exc:
+        rig.close()  # its buses and files, before the error
+        if isinstance(exc, watch_options.WatchError):
+            raise UsageError(str(exc)) from exc
+        raise
 
 
 def run(args: argparse.Namespace) -> int:

@@ -23,9 +23,8 @@ from wheelleg.hil.record.schemas import CAN_PREFIX, EVENTS_TOPIC, SIM_STATE_TOPI
 from wheelleg.hil.record.trace_json import dumps
 from wheelleg.hil.watch.foxglove_scene import SceneBuilder
 from wheelleg.hil.watch.options import WatchError
+from wheelleg.hil.watch.scene_record import SCENE_PERIOD_S, SCENE_TOPIC
 
-SCENE_TOPIC = "/scene"
-SCENE_PERIOD_S = 0.02  # 50 Hz of simulated time
 DEBUG_TOPIC = "/controller/debug"
 CAN_WINDOW_NS = 100_000_000  # each bus's frames of 100 ms of bus time are one /can/ message, as in the trace
 
@@ -43,7 +42,7 @@ class LiveServer:
         self.context = foxglove.Context()
         try:
             self.server = foxglove.start_server(name=f"wheelleg {rig.scenario.name}", host=host, port=port,
-                                                context=self.context)
+                                                context=self.context, capabilities=[foxglove.Capability.Time])
         except Exception as exc:  # noqa: BLE001 - the SDK's own error (address in use, bad host), one line
             raise WatchError(f"--live: cannot listen on {host}:{port}: {exc}".splitlines()[0]) from exc
         self.url = f"ws://{host}:{self.server.port}"

@@ -29,6 +29,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help=f"with --live: the address to listen on (default {DEFAULT_HOST}: this machine only)")
     parser.add_argument("--port", type=int, default=DEFAULT_PORT,
                         help=f"with --live: the port to listen on (default {DEFAULT_PORT}; 0: any free one)")
+    parser.add_argument("--scene", action="store_true",
+                        help="also record /scene (the robot as a Foxglove 3D scene, 50 Hz) into the trace, "
+                             "+5 %% of its size")
 
 
 def check(args: argparse.Namespace) -> None:
@@ -36,9 +39,9 @@ def check(args: argparse.Namespace) -> None:
     view = getattr(args, "view", False)
     if getattr(args, "view_fast", False) and not view:
         raise ValueError("--view-fast goes with --view")
-    watching = view or getattr(args, "live", False)
+    watching = view or getattr(args, "live", False) or getattr(args, "scene", False)
     if watching and getattr(args, "realtime", False):
-        raise ValueError("--view and --live follow the lockstep run: drop --realtime")
+        raise ValueError("--view, --live and --scene follow the lockstep run: drop --realtime")
     if not 0 <= getattr(args, "port", 0) <= 65535:
         raise ValueError(f"--port {args.port}: must be 0..65535")
 
@@ -47,6 +50,10 @@ def attach(rig, args: argparse.Namespace) -> list:
     """The watchers ``args`` ask for, started and added to ``rig.watchers``; WatchError if one cannot start."""
     watchers = []
     try:
+        if getattr(args, "scene", False):
+            from wheelleg.hil.watch.scene_record import SceneRecorder  # noqa: PLC0415
+
+            watchers.append(SceneRecorder(rig))
         if getattr(args, "live", False):
             from wheelleg.hil.watch.live import LiveServer  # noqa: PLC0415
 
