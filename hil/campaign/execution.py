@@ -100,7 +100,7 @@ def run_job(job: Job, settings: RunSettings) -> dict:
     row["wall_s"] = round(time.perf_counter() - wall0, 3)
     row = finish_files(row, job, settings)
     if not row["passed"] and row["trace"] and not row.get("error"):
-        from wheelleg.hil.watch.campaign_video import add_failure_video  # noqa: PLC0415
+        from wheelleg.hil.watch.failure_video import add_failure_video  # noqa: PLC0415
 
         add_failure_video(row, settings.out_dir)
     return row

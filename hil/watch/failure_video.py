@@ -1,4 +1,5 @@
-"""A failing campaign run's short video of its failing moment (clips.py), named in its results row."""
+"""A failing run's short video of its failing moment (clips.py): beside a failing campaign run's trace
+(named in its results row), and beside a failing test's trace (the pytest plugin's bug report)."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -17,3 +18,13 @@ def add_failure_video(row: dict, out_dir: Path) -> None:
         return
     row["video"] = str(Path(row["trace"]).parent / FAILURE_VIDEO)
     row["moment_s"] = round(moment, 3)
+
+
+def bug_report_video(trace: Path) -> str:
+    """Render ``trace``'s failing moment to TRACE.failure.mp4; the bug report's line naming it (or why not)."""
+    out = trace.with_suffix(".failure.mp4")
+    try:
+        moment, _ = failure_clip(trace, out)
+    except Exception as exc:  # noqa: BLE001 - the report goes on without a video
+        return f"  video:   none ({type(exc).__name__}: {exc})".splitlines()[0]
+    return f"  video:   {out} (the failing moment, {moment:.2f} s, and 1.5 s before it)"
