@@ -69,3 +69,24 @@ def test_bad_input_is_one_line_and_exit_2(rig_run, tmp_path, capsys):
         err = capsys.readouterr().err
         assert message in err and err.count("\n") == 1, err
     assert not (tmp_path / "x.avi").exists()
+
+
+@needs_gl
+@pytest.mark.slow
+def test_the_run_png_gets_a_filmstrip_of_the_robot_at_its_events(rig_run, tmp_path):
+    from PIL import Image
+
+    from wheelleg.hil.analyze.plot import plot_run
+    from wheelleg.hil.watch.clips import filmstrip_times
+
+    run = rig_run("jump", duration=1.6)
+    plain = np.asarray(Image.open(plot_run(run, tmp_path / "plain.png")).convert("RGB")).astype(int)
+    strip = np.asarray(Image.open(plot_run(run, tmp_path / "strip.png", trace=run.trace_path)).convert("RGB")).astype(int)
+    extra = strip.shape[0] - plain.shape[0]
+    assert strip.shape[1] == plain.shape[1] and extra > 100  # a row above the four panels
+    top = strip[: extra + 40]
+    r, g, b = top[..., 0], top[..., 1], top[..., 2]
+    assert ((b > r + 25) & (b >= g)).sum() > 5000  # MuJoCo's blue floor: pictures of the robot
+    times = filmstrip_times(recorded_motion(run.trace_path))
+    assert times[0] == pytest.approx(0.002) and len(times) == 6 and times == sorted(times)
+    assert all(b - a > 0.25 for a, b in zip(times, times[1:]))

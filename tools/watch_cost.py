@@ -5,8 +5,8 @@
 Printed, all from one process (the machine is shared: compare the ratios):
 
 1. the run's CPU time without and with ``--live`` (a WebSocket client subscribed to every
-   channel, in a thread of this process: its work counts against ``--live``), best of
-   ``--repeats`` each, interleaved, and the ratio;
+   channel, in a process of its own as the Foxglove app is; the server's threads count), best
+   of ``--repeats`` each, interleaved, and the ratio;
 2. the /scene topic's size per simulated second (protobuf SceneUpdate at the live rate),
    raw and zstd-compressed, against the trace's own size per simulated second;
 3. the same records (every message of the trace just made) written by the rig's
@@ -16,8 +16,9 @@ Printed, all from one process (the machine is shared: compare the ratios):
 from __future__ import annotations
 
 import argparse
+import subprocess
+import sys
 import tempfile
-import threading
 import time
 from dataclasses import replace
 from pathlib import Path
@@ -28,8 +29,8 @@ from wheelleg.hil.run.rig import Rig, RigConfig
 
 
 def timed_run(scenario, out: Path, live: bool) -> float:
-    """CPU s of this process over one lockstep run (with the live server and a subscribed client when ``live``:
-    the client's thread counts too). CPU, not wall: the machine is shared."""
+    """CPU s of this process over one lockstep run (with the live server and a subscribed client when ``live``).
+    CPU, not wall: the machine is shared."""
     rig = Rig(scenario, RigConfig(trace_flush_s=None), out)
     watchers, client = [], None
     if live:
@@ -38,49 +39,44 @@ def timed_run(scenario, out: Path, live: bool) -> float:
         server = LiveServer(rig, "127.0.0.1", 0)
         watchers = [server]
         rig.watchers.append(server)
-        client = _Subscriber(server.url)
+        client = subprocess.Popen([sys.executable, "-m", "tools.watch_cost", "--client", server.url],
+                                  stdout=subprocess.PIPE, text=True)
+        assert client.stdout.readline().startswith("subscribed")  # before the run starts
     cpu0 = time.process_time()
     rig.run()
     cpu = time.process_time() - cpu0
     for watcher in watchers:
         watcher.close()
     if client is not None:
-        client.join()
+        print(f"  (the client, another process, {client.communicate(timeout=60)[0].strip()})")
     return cpu
 
 
-class _Subscriber(threading.Thread):
-    """A Foxglove WebSocket client subscribed to every channel, counting what it gets."""
+def subscriber(url: str) -> None:
+    """A Foxglove WebSocket client subscribed to every channel (``--client URL``): says "subscribed", then
+    counts what it gets until the server stops."""
+    import json
 
-    def __init__(self, url: str):
-        super().__init__(daemon=True)
-        self.url, self.messages = url, 0
-        self.ready = threading.Event()
-        self.start()
-        self.ready.wait(10)
+    from websockets.sync.client import connect
 
-    def run(self) -> None:
-        import json
-
-        from websockets.sync.client import connect
-
-        with connect(self.url, subprotocols=["foxglove.sdk.v1"], max_size=None) as ws:
-            channels = {}
-            ws.send(json.dumps({"op": "subscribe", "subscriptions": []}))
-            deadline = time.monotonic() + 5
-            while len(channels) < 6 and time.monotonic() < deadline:
-                message = ws.recv(timeout=5)
-                if isinstance(message, str) and json.loads(message).get("op") == "advertise":
-                    channels.update({c["topic"]: c["id"] for c in json.loads(message)["channels"]})
-            ws.send(json.dumps({"op": "subscribe", "subscriptions": [
-                {"id": i, "channelId": c} for i, c in enumerate(channels.values(), start=1)]}))
-            self.ready.set()
-            try:
-                while True:
-                    if not isinstance(ws.recv(timeout=10), str):
-                        self.messages += 1
-            except Exception:  # noqa: BLE001 - the server stopped
-                return
+    messages = 0
+    with connect(url, subprotocols=["foxglove.sdk.v1"], max_size=None) as ws:
+        channels = {}
+        deadline = time.monotonic() + 10
+        while len(channels) < 6 and time.monotonic() < deadline:
+            message = ws.recv(timeout=10)
+            if isinstance(message, str) and json.loads(message).get("op") == "advertise":
+                channels.update({c["topic"]: c["id"] for c in json.loads(message)["channels"]})
+        ws.send(json.dumps({"op": "subscribe", "subscriptions": [
+            {"id": i, "channelId": c} for i, c in enumerate(channels.values(), start=1)]}))
+        print("subscribed", flush=True)
+        try:
+            while True:
+                if not isinstance(ws.recv(timeout=30), str):
+                    messages += 1
+        except Exception:  # noqa: BLE001 - the server stopped
+            pass
+    print(f"received {messages} messages on {len(channels)} channels")
 
 
 def scene_size(trace: Path, duration_s: float) -> tuple[float, float]:
@@ -150,7 +146,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("scenario", nargs="?", default="balance", type=known_scenario)
     parser.add_argument("--duration", type=float, default=None)
     parser.add_argument("--repeats", type=int, default=2)
+    parser.add_argument("--client", metavar="URL", help=argparse.SUPPRESS)  # the subscriber process
     args = parser.parse_args(argv)
+    if args.client:
+        subscriber(args.client)
+        return 0
     scenario = scenarios.get(args.scenario)
     if args.duration is not None:
         scenario = replace(scenario, duration_s=args.duration)

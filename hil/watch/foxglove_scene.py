@@ -23,15 +23,14 @@ PLANE_SIZE_M = 20.0  # an infinite MuJoCo plane drawn this wide
 _T = mujoco.mjtGeom
 
 
-def _quat(xmat: np.ndarray) -> fm.Quaternion:
-    q = np.empty(4)
-    mujoco.mju_mat2Quat(q, xmat)
-    return fm.Quaternion(x=float(q[1]), y=float(q[2]), z=float(q[3]), w=float(q[0]))
+_Q = np.empty(4)  # scratch quaternion (w, x, y, z)
 
 
 def _pose(position, xmat: np.ndarray) -> fm.Pose:
-    x, y, z = (float(v) for v in position)
-    return fm.Pose(position=fm.Vector3(x=x, y=y, z=z), orientation=_quat(xmat))
+    mujoco.mju_mat2Quat(_Q, xmat)
+    w, qx, qy, qz = _Q.tolist()
+    x, y, z = position.tolist()
+    return fm.Pose(position=fm.Vector3(x=x, y=y, z=z), orientation=fm.Quaternion(x=qx, y=qy, z=qz, w=w))
 
 
 class SceneBuilder:
@@ -40,6 +39,9 @@ class SceneBuilder:
     def __init__(self, model: mujoco.MjModel):
         self.model = model
         self._colour = [self._geom_colour(g) for g in range(model.ngeom)]
+        self._shapes = [self._shape(g) for g in range(model.ngeom)]  # sizes never change: made once
+        self._balls = {g: fm.Vector3(x=2 * model.geom_size[g][0], y=2 * model.geom_size[g][0], z=2 * model.geom_size[g][0])
+                       for g in range(model.ngeom) if model.geom_type[g] == _T.mjGEOM_CAPSULE}
         self._static = [g for g in range(model.ngeom) if model.geom_bodyid[g] == 0]
         self._moving = [g for g in range(model.ngeom) if model.geom_bodyid[g] != 0]
         self._force = np.zeros(6)
@@ -66,30 +68,41 @@ class SceneBuilder:
             self._add_geom(parts, g, data)
         return fm.SceneEntity(timestamp=stamp, frame_id="world", id=name, **parts)
 
-    def _add_geom(self, parts: dict, g: int, data: mujoco.MjData) -> None:
+    def _shape(self, g: int):
+        """(primitive list name, size, capsule half length or 0) of geom ``g``; None for a mesh or height field."""
         m = self.model
-        kind, size, colour = m.geom_type[g], m.geom_size[g], self._colour[g]
-        xmat, pos = data.geom_xmat[g], data.geom_xpos[g]
+        kind, size = m.geom_type[g], m.geom_size[g].tolist()
         if kind == _T.mjGEOM_BOX:
-            parts["cubes"].append(fm.CubePrimitive(pose=_pose(pos, xmat), color=colour,
-                                                   size=fm.Vector3(x=2 * size[0], y=2 * size[1], z=2 * size[2])))
-        elif kind == _T.mjGEOM_PLANE:
+            return "cubes", fm.Vector3(x=2 * size[0], y=2 * size[1], z=2 * size[2]), 0.0
+        if kind == _T.mjGEOM_PLANE:
             wide = [2 * s if s > 0 else PLANE_SIZE_M for s in size[:2]]
-            parts["cubes"].append(fm.CubePrimitive(pose=_pose(pos, xmat), color=colour,
-                                                   size=fm.Vector3(x=wide[0], y=wide[1], z=0.001)))
-        elif kind in (_T.mjGEOM_SPHERE, _T.mjGEOM_ELLIPSOID):
-            radii = size if kind == _T.mjGEOM_ELLIPSOID else (size[0],) * 3
-            parts["spheres"].append(fm.SpherePrimitive(pose=_pose(pos, xmat), color=colour,
-                                                       size=fm.Vector3(x=2 * radii[0], y=2 * radii[1], z=2 * radii[2])))
-        elif kind in (_T.mjGEOM_CYLINDER, _T.mjGEOM_CAPSULE):
-            r, half = float(size[0]), float(size[1])
-            parts["cylinders"].append(fm.CylinderPrimitive(pose=_pose(pos, xmat), color=colour, bottom_scale=1.0,
-                                                           top_scale=1.0, size=fm.Vector3(x=2 * r, y=2 * r, z=2 * half)))
-            if kind == _T.mjGEOM_CAPSULE:  # its round ends
-                axis = xmat.reshape(3, 3)[:, 2] * half
-                for end in (pos + axis, pos - axis):
-                    parts["spheres"].append(fm.SpherePrimitive(pose=_pose(end, xmat), color=colour,
-                                                               size=fm.Vector3(x=2 * r, y=2 * r, z=2 * r)))
+            return "cubes", fm.Vector3(x=wide[0], y=wide[1], z=0.001), 0.0
+        if kind in (_T.mjGEOM_SPHERE, _T.mjGEOM_ELLIPSOID):
+            radii = size if kind == _T.mjGEOM_ELLIPSOID else [size[0]] * 3
+            return "spheres", fm.Vector3(x=2 * radii[0], y=2 * radii[1], z=2 * radii[2]), 0.0
+        if kind in (_T.mjGEOM_CYLINDER, _T.mjGEOM_CAPSULE):
+            half = size[1] if kind == _T.mjGEOM_CAPSULE else 0.0
+            return "cylinders", fm.Vector3(x=2 * size[0], y=2 * size[0], z=2 * size[1]), half
+        return None
+
+    def _add_geom(self, parts: dict, g: int, data: mujoco.MjData) -> None:
+        shape = self._shapes[g]
+        if shape is None:
+            return
+        kind, size, capsule_half = shape
+        colour, xmat, pos = self._colour[g], data.geom_xmat[g], data.geom_xpos[g]
+        pose = _pose(pos, xmat)
+        if kind == "cylinders":
+            parts[kind].append(fm.CylinderPrimitive(pose=pose, size=size, color=colour, bottom_scale=1.0, top_scale=1.0))
+        elif kind == "cubes":
+            parts[kind].append(fm.CubePrimitive(pose=pose, size=size, color=colour))
+        else:
+            parts[kind].append(fm.SpherePrimitive(pose=pose, size=size, color=colour))
+        if capsule_half:  # a capsule's round ends
+            ball = self._balls[g]
+            axis = xmat.reshape(3, 3)[:, 2] * capsule_half
+            for end in (pos + axis, pos - axis):
+                parts["spheres"].append(fm.SpherePrimitive(pose=_pose(end, xmat), size=ball, color=colour))
 
     def _arrows(self, data: mujoco.MjData) -> list:
         """One arrow per contact: the force on the geom of the higher body id (the robot's side), from the
