@@ -151,3 +151,18 @@ def walk(node: dict):
         yield node
     for item in node.get("items", []):
         yield from walk(item["content"])
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--view-fast"], "--view-fast goes with --view"),
+    (["--live", "--realtime"], "drop --realtime"),
+    (["--scene", "--realtime"], "drop --realtime"),
+    (["--live", "--port", "70000"], "--port 70000: must be 0..65535"),
+])
+def test_watching_options_that_do_not_go_together_are_one_line_usage_errors(tmp_path, capsys, argv, message):
+    from wheelleg.hil import cli
+
+    assert cli.main(["run", "balance", *argv, "--out", str(tmp_path), "-q"]) == 2
+    err = capsys.readouterr().err
+    assert message in err and err.count("\n") == 1
+    assert not (tmp_path / "balance.mcap").exists()
