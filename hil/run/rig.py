@@ -142,7 +142,7 @@ class Rig:
             self.controller = robot.build_controller({role: _open_bus(config, name) for role, name in self.names.items()},
                                                      True, config.period_s)
         self.qpos = QposRecorder(self.physics.model, self.physics.data.qpos)  # /sim/qpos: drawing it again
-        self.watchers = []  # objects with ``on_state(rig)``, each period after the state (viewer, live server)
+        self.watchers = []  # objects with ``on_state(rig, state)``, each period after the state (hil/watch/)
         self.stop_requested = False  # a watcher ends the run early (the viewer's window closed)
         self.deadline_misses = 0
         self.controller_died = False  # the in-process controller raised (see service_controller)

@@ -48,7 +48,7 @@ def failure_clip(trace: Path, out: Path) -> tuple[float, int]:
     (``out`` with .png: the video's poster); (the moment in s, frames written)."""
     from PIL import Image  # noqa: PLC0415
 
-    from wheelleg.hil.record.trace import TraceReader  # noqa: PLC0415
+    from wheelleg.hil.record.trace_reader import TraceReader  # noqa: PLC0415
 
     motion = recorded_motion(trace)
     moment = failing_moment(TraceReader(trace).sim_state(), motion.events)

@@ -105,11 +105,12 @@ def world_model(metadata: dict, attachments: dict) -> mujoco.MjModel:
 
 def recorded_motion(path) -> RecordedMotion:
     """The poses and world of the trace at ``path``; SceneError (one line) if it has none."""
-    from wheelleg.hil.record.sources import MCAP_MAGIC  # noqa: PLC0415
-    from wheelleg.hil.record.trace import TraceReader  # noqa: PLC0415
+    from mcap.writer import MCAP0_MAGIC  # noqa: PLC0415
+
+    from wheelleg.hil.record.trace_reader import TraceReader  # noqa: PLC0415 (not sources: no DBC parsing)
 
     with open(path, "rb") as f:
-        if f.read(len(MCAP_MAGIC)) != MCAP_MAGIC:
+        if f.read(len(MCAP0_MAGIC)) != MCAP0_MAGIC:
             raise SceneError("not an MCAP trace (a candump log holds frames only, no poses)")
     try:
         reader = TraceReader(path)
