@@ -45,14 +45,15 @@ def offscreen_gl() -> str:
     if chosen not in BACKENDS:
         chosen = next((name for name, (lib, _) in BACKENDS.items() if ctypes.util.find_library(lib)), None)
         if chosen is None:
-            raise RenderError("no offscreen OpenGL for MuJoCo's renderer: install Debian's libosmesa6 "
-                              "(apt-get install libosmesa6), or libegl1 with libegl-mesa0")
+            raise RenderError(f"no offscreen OpenGL for MuJoCo's renderer: install Debian's {BACKENDS['osmesa'][1]} "
+                              f"(apt-get install {BACKENDS['osmesa'][1]}), or {BACKENDS['egl'][1]}")
     already = os.environ.get("PYOPENGL_PLATFORM")
     if "OpenGL" in sys.modules and already not in (None, chosen):
         raise RenderError(f"OpenGL is already loaded for {already!r} in this process, not {chosen!r}")
     os.environ["MUJOCO_GL"] = os.environ["PYOPENGL_PLATFORM"] = chosen
     from mujoco.rendering.classic import gl_context  # noqa: PLC0415 (read MUJOCO_GL when the rig disabled it)
 
+    # mujoco read MUJOCO_GL once, on import (the rig's "disable": no GLContext); read it again now
     if getattr(gl_context, "GLContext", None) is None or gl_context._MUJOCO_GL != chosen:
         importlib.reload(gl_context)
     return chosen
@@ -190,7 +191,7 @@ def render_trace(trace: Path, out: Path, t_from: float | None = None, t_to: floa
     end = motion.t_s[-1] if t_to is None else t_to
     if suffix == ".png":
         end = start + 1 / fps
-    if not end > start:
+    if not (end > start and start <= motion.t_s[-1]):
         raise RenderError(f"nothing to draw from {start:g} s to {end:g} s (the run spans "
                           f"{motion.t_s[0]:g}..{motion.t_s[-1]:g} s)")
     out.parent.mkdir(parents=True, exist_ok=True)

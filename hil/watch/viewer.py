@@ -83,11 +83,9 @@ class RunViewer:
     def __init__(self, rig, fast: bool = False):
         self.handle = open_viewer(rig.physics.model, rig.physics.data)
         self.pacer = Pacer(fast)
-        self.closed_by_user = False
 
     def on_state(self, rig, state: dict) -> None:
-        if not self.handle.is_running():
-            self.closed_by_user = True
+        if not self.handle.is_running():  # the window was closed
             rig.stop_requested = True
             return
         if self.pacer.wait(rig.clock.now_ns / 1e9):
