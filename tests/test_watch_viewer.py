@@ -68,11 +68,11 @@ def test_the_viewer_shows_the_robot_and_closing_it_ends_the_run_with_its_verdict
     assert run.returncode in (0, 1), err
     assert "the viewer was closed at" in err
     assert "balance: PASSED" in out or "balance: FAILED" in out
-    simulated = float(out.split(" s simulated")[0].split()[-1])
-    assert 0 < simulated < 10.0  # ended before the scenario's 10 s: by the window's close
+    ticks = int(out.split(" ticks")[0].split()[-1])
+    assert 0 < ticks < 5000  # ended before the scenario's 10 s (5000 ticks of 2 ms): by the window's close
     from wheelleg.hil.record.rundata import load_run
 
-    assert load_run(tmp_path / "balance.mcap").state["t"][-1] == pytest.approx(simulated, abs=0.003)
+    assert load_run(tmp_path / "balance.mcap").state["t"][-1] == pytest.approx(ticks * 0.002, abs=1e-9)
 
 
 def test_view_without_a_display_is_a_one_line_usage_error(tmp_path):
