@@ -48,10 +48,8 @@ def failure_clip(trace: Path, out: Path) -> tuple[float, int]:
     (``out`` with .png: the video's poster); (the moment in s, frames written)."""
     from PIL import Image  # noqa: PLC0415
 
-    from wheelleg.hil.record.trace_reader import TraceReader  # noqa: PLC0415
-
     motion = recorded_motion(trace)
-    moment = failing_moment(TraceReader(trace).sim_state(), motion.events)
+    moment = failing_moment(motion.state, motion.events)
     begin, end = clip_span(moment, float(motion.t_s[0]), float(motion.t_s[-1]))
     times = frame_times(begin, end, CLIP_FPS)
     with FrameRenderer(motion.model, *CLIP_SIZE) as renderer:

@@ -70,13 +70,15 @@ class QposRecorder:
 
 @dataclass
 class RecordedMotion:
-    """A trace's poses: ``t_s`` (n,) s and ``qpos`` (n, nq), with the world they belong to."""
+    """A trace's poses: ``t_s`` (n,) s and ``qpos`` (n, nq), with the world they belong to, its events
+    and its ground truth (``state``: /sim/state's columns)."""
 
     model: mujoco.MjModel
     t_s: np.ndarray
     qpos: np.ndarray
     events: list[dict]
     scenario: str
+    state: dict
 
     def index_at(self, t_s: float) -> int:
         """The last pose at or before ``t_s`` (the first one before the first)."""
@@ -127,4 +129,4 @@ def recorded_motion(path) -> RecordedMotion:
     qpos = np.column_stack([columns[n] for n in names])
     t_s = np.array([t for t, _ in reader.records(QPOS_TOPIC)], dtype=np.int64) / 1e9
     return RecordedMotion(model, t_s, qpos, reader.events(),
-                          reader.metadata.get("run", {}).get("scenario", "run"))
+                          reader.metadata.get("run", {}).get("scenario", "run"), reader.sim_state())
