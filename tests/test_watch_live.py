@@ -43,7 +43,7 @@ def receive(client: foxglove_client.Client) -> dict:
 
 def test_a_client_sees_the_channels_and_scene_poses_that_match_ground_truth(tmp_path):
     run = subprocess.Popen([sys.executable, "-m", "wheelleg.hil.cli", "run", "balance", "--live", "--port", "0",
-                            "--out", str(tmp_path), "--no-plot", "-q"],
+                            "--live-wait", "60", "--out", str(tmp_path), "--no-plot", "-q"],
                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         line = run.stdout.readline()
@@ -54,7 +54,9 @@ def test_a_client_sees_the_channels_and_scene_poses_that_match_ground_truth(tmp_
     finally:
         run.kill()
     assert run.returncode == 0, err
-    assert len(got["/scene"]) > 50 and len(got["/sim/state"]) > 500 and got["/can/vcan1"]
+    # every message from the start (--live-wait): scenes at 2 ms, then every 20 ms to 10 s; the state every tick
+    assert [t for t, _ in got["/scene"][:2]] == [2_000_000, 20_000_000] and len(got["/scene"]) == 501
+    assert len(got["/sim/state"]) == 5000 and got["/can/vcan1"]
     scene_class = got.pop("scene_class")
 
     motion = recorded_motion(tmp_path / "balance.mcap")  # the plant's poses, from the trace
@@ -158,6 +160,7 @@ def walk(node: dict):
     (["--live", "--realtime"], "drop --realtime"),
     (["--scene", "--realtime"], "drop --realtime"),
     (["--live", "--port", "70000"], "--port 70000: must be 0..65535"),
+    (["--live-wait", "5"], "--live-wait goes with --live"),
 ])
 def test_watching_options_that_do_not_go_together_are_one_line_usage_errors(tmp_path, capsys, argv, message):
     from wheelleg.hil import cli

@@ -16,6 +16,8 @@ Foxglove's clock follows the run.
 """
 from __future__ import annotations
 
+import time
+
 import foxglove
 
 from wheelleg.hil.record import can_batch, schemas
@@ -38,7 +40,8 @@ def _json_channel(context, topic: str, schema: dict) -> foxglove.Channel:
 class LiveServer:
     """The Foxglove WebSocket server as a rig watcher (``Rig.watchers``) and a frame sink of its recorder."""
 
-    def __init__(self, rig, host: str, port: int):
+    def __init__(self, rig, host: str, port: int, wait_s: float = 0.0):
+        """``wait_s``: hold the run's start until a client subscribes to /scene, at most this long (s)."""
         self.context = foxglove.Context()
         try:
             self.server = foxglove.start_server(name=f"wheelleg {rig.scenario.name}", host=host, port=port,
@@ -64,6 +67,14 @@ class LiveServer:
         rig.trace.event = self._event  # the trace's events, and each one here as it comes
         print(f"live: Foxglove WebSocket at {self.url} (open it in the Foxglove app; its layout: `wheelleg layout`)",
               flush=True)
+        if wait_s > 0:
+            self._wait_for_client(wait_s)
+
+    def _wait_for_client(self, wait_s: float) -> None:
+        print(f"live: the run starts when a client subscribes to {SCENE_TOPIC} (at most {wait_s:g} s)", flush=True)
+        deadline = time.monotonic() + wait_s
+        while not self._scene.has_sinks() and time.monotonic() < deadline:
+            time.sleep(0.05)
 
     # -- a rig watcher ------------------------------------------------------------------
     def on_state(self, rig, state: dict) -> None:

@@ -1,5 +1,5 @@
 """The watching options of ``wheelleg run`` (``--view``, ``--view-fast``, ``--live``, ``--host``, ``--port``,
-``--scene``) and the rig watchers they attach. Nothing of this is imported or built unless asked for."""
+``--live-wait``, ``--scene``) and the rig watchers they attach. Nothing of this is imported or built unless asked for."""
 from __future__ import annotations
 
 import argparse
@@ -29,6 +29,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help=f"with --live: the address to listen on (default {DEFAULT_HOST}: this machine only)")
     parser.add_argument("--port", type=int, default=DEFAULT_PORT,
                         help=f"with --live: the port to listen on (default {DEFAULT_PORT}; 0: any free one)")
+    parser.add_argument("--live-wait", type=float, default=0.0, metavar="S",
+                        help="with --live: start the run when a client subscribes to /scene, waiting at most "
+                             "S s (default 0: at once)")
     parser.add_argument("--scene", action="store_true",
                         help="also record /scene (the robot as a Foxglove 3D scene, 50 Hz) into the trace, "
                              "+5 %% of its size")
@@ -42,6 +45,8 @@ def check(args: argparse.Namespace) -> None:
     watching = view or getattr(args, "live", False) or getattr(args, "scene", False)
     if watching and getattr(args, "realtime", False):
         raise ValueError("--view, --live and --scene follow the lockstep run: drop --realtime")
+    if getattr(args, "live_wait", 0.0) and not getattr(args, "live", False):
+        raise ValueError("--live-wait goes with --live")
     if not 0 <= getattr(args, "port", 0) <= 65535:
         raise ValueError(f"--port {args.port}: must be 0..65535")
 
@@ -57,7 +62,7 @@ def attach(rig, args: argparse.Namespace) -> list:
         if getattr(args, "live", False):
             from wheelleg.hil.watch.live import LiveServer  # noqa: PLC0415
 
-            watchers.append(LiveServer(rig, args.host, args.port))
+            watchers.append(LiveServer(rig, args.host, args.port, getattr(args, "live_wait", 0.0)))
         if getattr(args, "view", False):
             from wheelleg.hil.watch.viewer import RunViewer, ViewerError  # noqa: PLC0415
 
