@@ -254,6 +254,16 @@ def rig_run(request, rig_cache):
     return run
 
 
+def _bug_report(run) -> str:
+    """A run's lines in a failing test's report; a finished run's with a video of its failing moment."""
+    if not isinstance(run, RigRun):
+        return run.describe()
+    from wheelleg.hil.watch.failure_video import bug_report_video  # noqa: PLC0415 (renders: only on failure)
+
+    head, _, checks = run.describe().partition("\n  [")
+    return f"{head}\n{bug_report_video(run.trace_path)}" + (f"\n  [{checks}" if checks else "")
+
+
 def _with_line_numbers(tb: types.TracebackType | None) -> types.TracebackType | None:
     """The traceback with a line number in every entry.
 
@@ -279,5 +289,5 @@ def pytest_runtest_makereport(item, call):
     if report.failed and report.when == "call":
         runs = item.stash.get(_RUNS_OF_ITEM, [])
         if runs:
-            report.sections.append(("wheelleg rig", "\n\n".join(r.describe() for r in runs)))
+            report.sections.append(("wheelleg rig", "\n\n".join(_bug_report(r) for r in runs)))
     return report

@@ -108,7 +108,12 @@ def run_job(job: Job, settings: RunSettings) -> dict:
         row["error"] = f"{type(exc).__name__}: {exc}".splitlines()[0]
     row["wall_s"] = round(time.perf_counter() - wall0, 3)
     row["cpu_s"] = round(time.process_time() - cpu0, 3)  # this worker process's CPU: the run, its checks
-    return finish_files(row, job, settings)
+    row = finish_files(row, job, settings)
+    if not row["passed"] and row["trace"] and not row.get("error"):
+        from wheelleg.hil.watch.failure_video import add_failure_video  # noqa: PLC0415
+
+        add_failure_video(row, settings.out_dir)  # after cpu_s: the video is not the run's cost
+    return row
 
 
 def failed_row(job: Job, error: str | None) -> dict:

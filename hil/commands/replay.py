@@ -10,6 +10,7 @@ import sys
 from pathlib import Path
 
 from wheelleg.hil import robots
+from wheelleg.hil.watch import options as watch_options
 
 NAME = "replay"
 HELP = "replay a trace (.mcap) or candump log into a fresh controller and compare what it sends"
@@ -37,6 +38,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "`wheelleg run --program`)")
     robots.add_argument(parser, "whose recording, replayed into that robot's controller (default: the "
                                 "trace's record, else the wheel-legged robot)")
+    watch_options.add_view_arguments(parser)  # after the comparison: the trace's poses in MuJoCo's viewer
 
 
 def run(args: argparse.Namespace) -> int:
@@ -77,4 +79,21 @@ def run(args: argparse.Namespace) -> int:
     if args.update is not None:
         out = write_reference(result, args.update)
         print(f"replay: new reference written to {out}")
+    if args.view:
+        shown = _view(args)
+        if shown is not None:
+            return shown
     return 0 if result.identical else 1
+
+
+def _view(args: argparse.Namespace) -> int | None:
+    """The trace's recorded poses in MuJoCo's viewer (paced unless --view-fast); 2 if they cannot be shown."""
+    from wheelleg.hil.watch.scene import SceneError, recorded_motion
+    from wheelleg.hil.watch.viewer import ViewerError, play_motion
+
+    try:
+        play_motion(recorded_motion(args.trace), fast=args.view_fast)
+    except (SceneError, ViewerError) as exc:
+        print(f"replay: --view: {exc}", file=sys.stderr)
+        return 2
+    return None

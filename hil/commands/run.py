@@ -20,6 +20,7 @@ from wheelleg.hil.run.rig import Rig, RigConfig
 from wheelleg.hil.run.schedule import CONTACT_S, NoController
 from wheelleg.hil.record.rundata import load_run
 from wheelleg.hil.bus.transport import BusOpenError
+from wheelleg.hil.watch import options as watch_options
 
 NAME = "run"
 HELP = "run a scenario in the rig; writes DIR/SCENARIO.mcap, .log and .png and checks the run"
@@ -80,6 +81,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="change the plant's truth for this run (the controller keeps its belief); "
                              "repeatable; the keys are listed below")
     add_bus_arguments(parser, DEFAULT_INTERFACE, DEFAULT_CHANNELS)
+    watch_options.add_arguments(parser)
     parser.formatter_class = argparse.RawDescriptionHelpFormatter
     parser.epilog = ("plant overrides (--plant KEY=VALUE):\n" + help_text()
                      + "\n\nexit status: 0 every check passed, 1 a check failed (or the buses could not be "
@@ -130,6 +132,7 @@ def execute(args: argparse.Namespace, started_s: float | None = None):
         buses = bus_choice(args, DEFAULT_INTERFACE, DEFAULT_CHANNELS)
         plant = plant_config(getattr(args, "plant", None) or [])
         robots.get(scenario.robot).check_overrides(plant.overrides_dict())  # what its plant models
+        watch_options.check(args)
     except ValueError as exc:
         raise UsageError(str(exc)) from exc
     if args.external_controller and buses.interface == "virtual":
@@ -153,6 +156,7 @@ def execute(args: argparse.Namespace, started_s: float | None = None):
         print(f"run: waiting for the controller on {buses.interface} {'/'.join(buses.channels)} "
               f"(`wheelleg controller{'' if args.realtime else ' --sync'} -i {buses.interface} "
               f"-c {' -c '.join(buses.channels)}`){limit}", file=sys.stderr, flush=True)
+    watchers = _watch(rig, args)
     first_tick_s = time.perf_counter()
     try:
         outcome = rig.run()
@@ -168,6 +172,10 @@ def execute(args: argparse.Namespace, started_s: float | None = None):
         raise
     finally:
         progress.close()
+        watch_options.detach(watchers)
+    if rig.stop_requested:
+        print(f"run: the viewer was closed at {outcome.sim_s:.2f} s: the run is judged as it stands",
+              file=sys.stderr)
     run = load_run(outcome.trace_path)
     results = [check(run) for check in (*scenario.checks, *program_checks(run.program))]
     outcome = replace(outcome, startup_s=first_tick_s - started_s,
@@ -175,8 +183,20 @@ def execute(args: argparse.Namespace, started_s: float | None = None):
     if not args.no_plot:
         from wheelleg.hil.analyze.plot import plot_run  # noqa: PLC0415 (matplotlib: ~1 s of start-up, only to plot)
 
-        plot_run(run, args.out / f"{scenario.name}.png", title=f"{scenario.name}: {scenario.summary}")
+        plot_run(run, args.out / f"{scenario.name}.png", title=f"{scenario.name}: {scenario.summary}",
+                 trace=outcome.trace_path)
     return outcome, results, run
+
+
+def _watch(rig: Rig, args: argparse.Namespace) -> list:
+    """The viewer and live server ``args`` ask for (none by default); UsageError if one cannot start."""
+    try:
+        return watch_options.attach(rig, args)
+    except BaseException as exc:
+        rig.close()  # its buses and files, before the error
+        if isinstance(exc, watch_options.WatchError):
+            raise UsageError(str(exc)) from exc
+        raise
 
 
 def run(args: argparse.Namespace) -> int:

@@ -34,6 +34,7 @@ from wheelleg.hil.record.run_metadata import run_record
 from wheelleg.hil.record.trace import TraceWriter
 from wheelleg.hil.run.scenario import Scenario
 from wheelleg.hil.run.schedule import HeldLockstep, Lockstep, NoController
+from wheelleg.hil.watch.scene import QposRecorder
 
 _SYNC = load_file("rig.dbc").get_message_by_name("SYNC")  # every robot's lockstep frame
 _SYNC_CODEC = MessageCodec.of(_SYNC)  # compiled: cantools' encode costs ~10 us a tick
@@ -148,6 +149,9 @@ class Rig:
         if config.in_process_controller and not config.realtime:  # real time: hil/run/realtime.py
             self.controller = config.program.node_factory(robot)(
                 {role: _open_bus(config, name) for role, name in self.names.items()}, True, config.period_s)
+        self.qpos = QposRecorder(self.physics.model, self.physics.data.qpos)  # /sim/qpos: drawing it again
+        self.watchers = []  # objects with ``on_state(rig, state)``, each period after the state (hil/watch/)
+        self.stop_requested = False  # a watcher ends the run early (the viewer's window closed)
         self.deadline_misses = 0
         self.controller_died = False  # the in-process controller raised (see service_controller)
         self.tick = 0
@@ -214,7 +218,12 @@ class Rig:
 
     def record_state(self) -> None:
         """The physics' ground truth at the clock's time."""
-        self.trace.sim_state(self.clock.now_ns, self.physics.ground_truth())
+        now_ns = self.clock.now_ns
+        state = self.physics.ground_truth()
+        self.trace.sim_state(now_ns, state)
+        self.qpos.maybe(self.trace, now_ns)
+        for watcher in self.watchers:
+            watcher.on_state(self, state)
 
     def service_controller(self) -> None:
         """Give the in-process controller its turn; an exception kills it, as it would the robot's program.
@@ -321,6 +330,8 @@ class Rig:
             self.close()
         wall_s = time.perf_counter() - wall0
         if report is None:  # lockstep
+            if self.stop_requested:  # ended early by a watcher: the ticks run
+                ticks = self.tick + 1
             return RunOutcome(self.trace_path, self.log_path, ticks, self.deadline_misses, wall_s,
                               ticks * self.config.period_s)
         ticks, sim_s, wall_s, timing = report

@@ -80,6 +80,8 @@ class Lockstep:
     def run(self, rig, ticks: int) -> None:
         for tick in range(ticks):
             self.step_tick(rig, tick)
+            if rig.stop_requested:  # a watcher ended the run (the viewer's window closed)
+                break
 
     def step_tick(self, rig, tick: int) -> None:
         t_s = tick * self.period_s
