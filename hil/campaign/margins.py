@@ -23,12 +23,14 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
+from wheelleg.hil.campaign.sampling import SIGNIFICANT_DIGITS
+
 GATE = 1.5  # an edge nearer than this many box half-widths from nominal is flagged: the box must sit well inside
 SIDES = ("below", "above")
-SIGNIFICANT_DIGITS = 6  # a probed value is rounded so its rerun command (k=v) is the very same run
 
 
 def rounded(value: float) -> float:
+    """A probed value rounded as a campaign's draws are, so its rerun command (k=v) is the very same run."""
     return float(f"{value:.{SIGNIFICANT_DIGITS}g}")
 
 
