@@ -124,7 +124,6 @@ class BalanceStand:
                                     P.DISTRIBUTION_REGULARISATION, P.FRICTION)
         return JointCommands.hold(q, P.STANCE_KP, P.STANCE_KD, tau)
 
-
     def body_attitude(self, sensed: Sensed) -> tuple[float, float]:
         """The body's roll and pitch (rad): the IMU's less the estimated mount tilt."""
         return float(sensed.rpy[0] - self.mount_tilt[0]), float(sensed.rpy[1] - self.mount_tilt[1])

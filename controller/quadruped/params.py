@@ -38,6 +38,7 @@ HEIGHT_RATE = 0.15  # m/s, slew of the height set point (6 cm in 0.4 s)
 ATTITUDE_KI = 4.0  # 1/s, roll/pitch/yaw error -> pose trim rate
 HEIGHT_KI = 4.0  # 1/s, height error -> pose trim rate
 ATTITUDE_TRIM_LIMIT = math.radians(5.0)  # rad
+HEIGHT_TRIM_LIMIT = 0.02  # m
 # The IMU's mount is not the body's: a board tilted by a degree or so (the tolerance box,
 # emulators/quadruped/README.md) would hold every pose off by as much. Standing on four feet, the
 # plane through them gives the body's roll and pitch from the encoders alone; their slow
@@ -45,7 +46,6 @@ ATTITUDE_TRIM_LIMIT = math.radians(5.0)  # rad
 # is fast, the legs for what is constant). A level floor is assumed where the robot stands.
 MOUNT_TILT_TAU = 0.5  # s, time constant of the tilt estimate (several times the stand's attitude loop)
 MOUNT_TILT_LIMIT = math.radians(4.0)  # rad, the largest tilt taken for a mount's (more is a slope or a fault)
-HEIGHT_TRIM_LIMIT = 0.02  # m
 
 # --- force distribution -------------------------------------------------------------------------
 ATTITUDE_KP = (40.0, 60.0, 20.0)  # N m/rad, roll, pitch, yaw: body torque asked of the stance feet
