@@ -122,6 +122,11 @@ YAW_RATE_LIMIT = 4.0  # rad/s
 # keeps the nominal push and lets balance win when they disagree.
 TRAVEL_TORQUE_LIMIT = 5.5
 
+# rad/s, the hips' Coulomb feed-forward (constants.HIP_FRICTION) fades to zero inside
+# this joint speed (friction.coulomb_feed_forward): at rest the speed is noise about 0
+HIP_FRICTION_BAND = 1.0
+HIP_FRICTION_TORQUE_BAND = 0.2  # N m
+
 # --- torque limits ----------------------------------------------------------------
 HIP_TORQUE_LIMIT = 10.0  # N m, normal clamp below the CyberGear's 12 (docs/control.md)
 WHEEL_TORQUE_LIMIT = 5.5  # N m, below the C620's 20 A x 0.3 N m/A
@@ -148,7 +153,7 @@ SLIP_TRAVEL_TORQUE_LIMIT = 1.0
 # its spot. 3 cm of CoM offset needs ~0.15 rad of lean at 0.17 m.
 BALANCE_POINT_TAU_LEARN = 0.05  # s, lag of the hold torque while learning after start-up
 BALANCE_POINT_LEARN_S = 0.6  # s of standing still learnt at that pace
-BALANCE_POINT_TAU = 0.3  # s, lag afterwards
+BALANCE_POINT_TAU = 3.0  # s, lag afterwards
 # m/s: nothing learnt faster than this nor for SETTLE_S after. A 5 N s sudden push in the
 # learning window (tolerance sample: CoM 2.4 cm back, mass x0.83) took the hold torque from
 # -0.27 to -0.11 N m and `push` ended 1.15 m from its spot; gated, 0.32 m. Start-up with
