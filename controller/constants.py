@@ -102,11 +102,11 @@ HIP_ARMATURE = CG_ROTOR_INERTIA * CG_GEAR**2  # kg m^2 at the joint (1.2e-3)
 # Dry friction of a hip joint (gearbox, seals), at the joint: not published for the
 # CyberGear, and not yet measured on this robot. A MuJoCo identification of its
 # successors (RobStride RS00, RS02, RS05) fits 0.16, 0.16 and 0.38 N m. The hips'
-# Coulomb feed-forward (friction.py) adds this much back: believe the figure measured
-# on the robot's own hips (docs/control.md, friction), never more. Compensating more
-# than the joint has is negative friction: with 0.3 N m believed and none real
-# `balance` with the CoM 3 cm back wobbled +-2 deg and drifted 13.9 cm. 0 until measured.
-HIP_FRICTION = 0.0  # N m at the joint
+# Coulomb feed-forward (friction.py) adds this much back, so it must never exceed the
+# real figure (more is negative friction: believing 0.3 N m of frictionless hips,
+# `balance` with the CoM 3 cm back wobbled +-2 deg, 13.9 cm). 0.1 N m: below every
+# identified figure; replace it with the robot's own (docs/control.md, friction).
+HIP_FRICTION = 0.1  # N m at the joint
 CG_HOST_ID = 0xFD  # the host id the controller puts in bits 15..8 (debugger's)
 
 # --- C620 + M3508 wheel drives on CAN1 [DJI: frames, the motor and ESC] ---------------------
