@@ -15,6 +15,9 @@ defined here only.
 The quadruped (``QUADRUPED_BUS_FILES``) has two buses too, under the same two
 names: CAN1 is its bus 0 (front legs' CyberGears, IMU, remote), CAN2 its bus 1
 (rear legs' CyberGears); its remote frame is ``quadruped.dbc``'s QuadOperator.
+Every robot's buses name their files (``wheelleg.hil.robots.Bus.dbc_files``: these
+tables for the rig's own robots, a plug-in robot's own files by path), and
+``load_files`` loads any such list.
 """
 from __future__ import annotations
 
@@ -37,7 +40,7 @@ QUADRUPED_BUS_FILES = {
     CAN1: ("cybergear.dbc", "rig.dbc", "quadruped.dbc"),
     CAN2: ("cybergear.dbc", "rig.dbc"),
 }
-ROBOT_BUS_FILES = {"wheel-legged": BUS_FILES, "quadruped": QUADRUPED_BUS_FILES}
+ROBOT_BUS_FILES = {"wheel-legged": BUS_FILES, "quadruped": QUADRUPED_BUS_FILES}  # the rig's own robots
 CYBERGEAR_FILES = {"12.5": "cybergear.dbc", "4pi": "cybergear_4pi.dbc"}
 
 
@@ -76,11 +79,27 @@ def load_bus(bus: str, position_range: str = "12.5", robot: str = "wheel-legged"
         raise ValueError(f"unknown robot {robot!r}; expected one of {sorted(ROBOT_BUS_FILES)}")
     if bus not in files:
         raise ValueError(f"unknown bus {bus!r}; expected one of {sorted(files)}")
+    return load_files(tuple(CYBERGEAR_FILES[position_range] if n == "cybergear.dbc" else n for n in files[bus]))
+
+
+def resolve(file: str | Path) -> Path:
+    """A bus's DBC file: a bare name is one of this package's (``dbc_path``), a path is taken as it is."""
+    return dbc_path(file) if isinstance(file, str) and "/" not in file else Path(file)
+
+
+@functools.lru_cache(maxsize=None)
+def load_files(files: tuple[str | Path, ...]) -> cantools.database.Database:
+    """One cantools database of ``files`` (``resolve``: the rig's by name, a plug-in robot's by path);
+    a missing or malformed file raises one line with its name."""
     db = cantools.database.Database()
-    for name in files[bus]:
-        if name == "cybergear.dbc":
-            name = CYBERGEAR_FILES[position_range]
-        db.add_dbc_file(str(dbc_path(name)))
+    for file in files:
+        path = resolve(file)
+        try:
+            db.add_dbc_file(str(path))
+        except OSError as exc:
+            raise FileNotFoundError(f"no DBC file {path}: {exc.strerror}") from None
+        except cantools.database.UnsupportedDatabaseFormatError as exc:
+            raise ValueError(f"{path}: not a valid DBC file: {exc}") from None
     return db
 
 

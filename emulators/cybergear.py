@@ -44,7 +44,9 @@ over-temperature fault at 80 degC. The back-EMF line's speed scales with the
 supply (``vbus_v``, 24 V nominal). ``kt_scale`` is the shaft's true torque
 over the torque the firmware means to make (its torque constant wrong, a plant
 override): the shaft gets ``kt_scale`` times it, the feedback reports what
-the firmware believes it makes.
+the firmware believes it makes. ``zero_offset_rad`` is where the zero was set by
+hand (a plant override): the motor reports the shaft angle minus it until a type 6
+moves the zero. ``set_supply_voltage`` follows a sagging battery.
 """
 from __future__ import annotations
 
@@ -157,7 +159,7 @@ class CyberGear(EmulatedDevice):
 
     def __init__(self, motor_id: int = 0x7F, position_range: str = "12.5", uid: int | None = None,
                  ambient_c: float = 25.0, host_id: int = 0x00, vbus_v: float = D.SUPPLY_NOMINAL_V,
-                 shaft: Shaft | None = None, kt_scale: float = 1.0):
+                 shaft: Shaft | None = None, kt_scale: float = 1.0, zero_offset_rad: float = 0.0):
         super().__init__(shaft)
         if not 0 <= motor_id <= MAX_MOTOR_ID:
             raise ValueError(f"CyberGear motor id must be 0..{MAX_MOTOR_ID}, got {motor_id}")
@@ -173,9 +175,8 @@ class CyberGear(EmulatedDevice):
         self.temperature_c = ambient_c
         if not (vbus_v > 0.0 and kt_scale > 0.0):
             raise ValueError(f"vbus_v and kt_scale must be > 0, got {vbus_v!r}, {kt_scale!r}")
-        self.vbus_v = vbus_v
         self.kt_scale = kt_scale
-        self.speed_limit_rad_s = SPEED_LIMIT_RAD_S * (vbus_v / D.SUPPLY_NOMINAL_V)  # back-EMF: no drive beyond
+        self.set_supply_voltage(vbus_v)
         self.host_id = host_id  # CAN_MASTER: the one host in 0..127 this motor answers
         self.last_host = host_id
         self._sent: deque = deque(maxlen=ECHO_MEMORY)  # (id, data) of own frames not yet heard back
@@ -184,7 +185,7 @@ class CyberGear(EmulatedDevice):
         self.baud_code = 1
         self._faults: frozenset = frozenset()
         self._feedback_ids: dict[tuple, int] = {}  # (motor, host, mode, faults) -> type-2 id
-        self._zero_rad = 0.0  # shaft angle that reads 0 (type 6, volatile)
+        self._zero_rad = zero_offset_rad  # shaft angle that reads 0 (set by hand, or type 6: volatile)
         self._motion = (0.0, 0.0, 0.0, 0.0, 0.0)  # p_ref rad, v_ref rad/s, kp, kd, tau_ff N m
         self._speed_integral_a = 0.0
         self._quick_move_rad_s = 0.0  # run_mode 7 target speed (0 when its run flag is 0)
@@ -216,6 +217,17 @@ class CyberGear(EmulatedDevice):
     def mech_pos(self) -> float:
         """rad, load-side multi-turn angle from the zero (0x7019)."""
         return self.shaft.angle - self._zero_rad
+
+    def set_supply_voltage(self, vbus_v: float) -> None:
+        """The supply the motor sees now (V): its back-EMF speed limit follows, VBUS reports it."""
+        self.vbus_v = vbus_v
+        self.speed_limit_rad_s = SPEED_LIMIT_RAD_S * (vbus_v / D.SUPPLY_NOMINAL_V)  # back-EMF: no drive beyond
+
+    def supply_power_w(self, now_s: float) -> float:
+        """W drawn from the supply now: shaft power plus the windings' copper loss (three phases at the
+        firmware's current, each half the line resistance), negative when braking feeds it back."""
+        current_a = self.firmware_torque() / D.CG_TORQUE_CONSTANT_NM_PER_A
+        return self.output_torque(now_s) * self.shaft.speed + 1.5 * D.CG_LINE_RESISTANCE_OHM * current_a * current_a
 
     @property
     def warn_over_temp(self) -> bool:

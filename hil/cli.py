@@ -6,7 +6,7 @@ and ``run(args) -> int`` (cantools' layout); the table below wires them in.
 Exit status, the same for every subcommand: 0 done (every check passed),
 1 failed (a check, a comparison, a bus that cannot be opened), 2 bad input
 (usage: an unknown name, a bad value, an output that cannot be written),
-130 interrupted, 141 the reader of the output went away (``| head``).
+130 interrupted (Ctrl-C), 143 stopped by SIGTERM (cleaned up as after Ctrl-C), 141 the reader of the output went away (``| head``).
 """
 from __future__ import annotations
 
@@ -14,15 +14,18 @@ import argparse
 import importlib
 import importlib.metadata
 import os
+import signal
 import sys
+import threading
 import time
+import warnings
 
 # The command's clock starts when this module loads: importing the rig (MuJoCo, numpy,
 # cantools) and building the model count as the run's start-up (`wheelleg run` prints it).
 STARTED_S = time.perf_counter()
 
 SUBCOMMANDS = ("run", "list", "campaign", "emulate", "controller", "replay", "inspect", "decode", "export", "recover",
-               "vcan")
+               "vcan", "new-robot")
 
 
 def build_parser(command: str | None = None) -> argparse.ArgumentParser:
@@ -41,7 +44,7 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
         if command is not None and name != command:
             sub.add_parser(name)
             continue
-        module = importlib.import_module(f"wheelleg.hil.commands.{name}")
+        module = importlib.import_module(f"wheelleg.hil.commands.{name.replace('-', '_')}")
         p = sub.add_parser(module.NAME, help=module.HELP, description=module.HELP)
         module.add_arguments(p)
         p.set_defaults(func=module.run)
@@ -62,22 +65,61 @@ def version() -> str:
         return "unknown (not installed)"
 
 
+_FORMAT_WARNING = warnings.formatwarning
+
+
+def one_line_warning(message, category, filename, lineno, line=None) -> str:
+    """A broken robot plug-in (``wheelleg.hil.robots.RobotPluginWarning``) is one line on stderr, not Python's
+    two with the source line of the rig that noticed it; every other warning as Python writes it."""
+    if category.__name__ == "RobotPluginWarning":
+        return f"wheelleg: warning: {message}\n"
+    return _FORMAT_WARNING(message, category, filename, lineno, line)
+
+
 def main(argv: list[str] | None = None) -> int:
+    warnings.formatwarning = one_line_warning
     # No subcommand renders: without this MuJoCo loads an OpenGL back end (glfw) on import, ~0.3 s
     # of every command's start-up. A value the user set is kept.
     os.environ.setdefault("MUJOCO_GL", "disable")
     argv = sys.argv[1:] if argv is None else argv
     args = build_parser(named_command(argv)).parse_args(argv)
+    previous = terminate_as_interrupt()
     try:
         status = int(args.func(args) or 0)
         sys.stdout.flush()  # a closed pipe shows here, inside the handler, not at interpreter exit
         return status
+    except Terminated:
+        return 128 + signal.SIGTERM
     except KeyboardInterrupt:
         return 130
     except BrokenPipeError:  # `wheelleg ... | head -1`: the reader left; the files are written already
         # Python would complain again flushing stdout at exit: point it at /dev/null first.
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 141
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM (a CI job cancelled, ``timeout``, a process manager), raised in the main thread.
+
+    A KeyboardInterrupt, so whatever cleans up after Ctrl-C (the rig closing and indexing its
+    trace, flushing its log, a campaign's journal) does the same after SIGTERM, and a command
+    that says where it stopped says so for both.
+    """
+
+
+def _raise_terminated(signum, frame):
+    raise Terminated(f"stopped by signal {signal.Signals(signum).name}")
+
+
+def terminate_as_interrupt():
+    """SIGTERM raises ``Terminated`` in the main thread from now on; the previous handler, or None
+    when not in the main thread (signals can only be handled there: nothing changed)."""
+    if threading.current_thread() is not threading.main_thread():
+        return None
+    return signal.signal(signal.SIGTERM, _raise_terminated)
 
 
 if __name__ == "__main__":

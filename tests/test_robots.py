@@ -29,13 +29,15 @@ def main(args: argparse.Namespace) -> int:
 
 @pytest.fixture
 def fake_robot(monkeypatch):
-    """A second robot in the table: the default one's description under another name, period and
+    """A second robot registered: the default one's description under another name, period and
     program, without scenarios."""
     fake = dataclasses.replace(robots.get(), name="fake", control_period_s=0.004, controller_program=__name__,
                                scenario_modules=())
-    monkeypatch.setitem(robots.ROBOTS, "fake", (__name__, "FAKE"))
+    robots.reset()
+    monkeypatch.setitem(robots.entries(), "fake", robots.Entry("fake", f"{__name__}:FAKE", "tests", "0"))
     monkeypatch.setattr(sys.modules[__name__], "FAKE", fake, raising=False)
-    return fake
+    yield fake
+    robots.reset()
 
 
 def test_the_default_robot_comes_first_and_an_unknown_one_is_a_one_line_error():
@@ -62,6 +64,8 @@ def test_a_scenario_module_of_another_robot_is_refused(monkeypatch, fake_robot):
     foreign = Scenario("x", "a scenario of the default robot", 1.0, start=lambda physics: None)
     monkeypatch.setattr(sys.modules[__name__], "SCENARIOS", (foreign,), raising=False)
     monkeypatch.setattr(sys.modules[__name__], "FAKE", dataclasses.replace(fake_robot, scenario_modules=(__name__,)))
+    robots.reset()
+    monkeypatch.setitem(robots.entries(), "fake", robots.Entry("fake", f"{__name__}:FAKE", "tests", "0"))
     with pytest.raises(ValueError, match="runs on 'wheel-legged', not on 'fake'"):
         scenarios.all_scenarios("fake")
 
@@ -84,7 +88,7 @@ def test_list_groups_the_scenarios_by_robot(capsys):
     lines = capsys.readouterr().out.splitlines()
     heads = [i for i, line in enumerate(lines) if not line.startswith("  ")]
     assert [lines[i].split(" ")[0] for i in heads] == list(robots.names())
-    assert lines[0].startswith("wheel-legged (the default): ")
+    assert lines[0].startswith("wheel-legged (the default) from wheelleg-hil ")
     wheel = lines[heads[0] + 1:heads[1] if len(heads) > 1 else None]
     assert len(wheel) == len(scenarios.all_scenarios()) and wheel[0].split()[0] == "balance"
 

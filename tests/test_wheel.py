@@ -11,6 +11,7 @@ from pathlib import Path
 import pytest
 
 from sharing import same_fixture
+from throwaway_venv import make_venv, pip_install
 
 pytestmark = pytest.mark.slow  # a wheel build and a venv: scheduled first (tests/conftest.py)
 
@@ -34,19 +35,25 @@ def test_the_wheel_has_one_top_level_package(wheel):
     assert tops == {"wheelleg"}
     # the data the package reads at run time travels with it
     assert {"wheelleg/dbc/cybergear.dbc", "wheelleg/emulators/robot/robot.xml", "wheelleg/hil/bus/uml/uml-vcan.sh",
-            "wheelleg/hil/bus/uml/uml-vcan-init.sh", "wheelleg/hil/bus/uml/uml_xstate_shim.c"} <= set(names)
+            "wheelleg/hil/bus/uml/uml-vcan-init.sh", "wheelleg/hil/bus/uml/uml_xstate_shim.c",
+            "wheelleg/hil/scaffold/template/pyproject.toml.tmpl",
+            "wheelleg/hil/scaffold/template/package/robot.xml.tmpl"} <= set(names)
+    # the firmware's sources, so an installed wheel builds it (wheelleg.hil.firmware_build)
+    firmware = {"wheelleg/firmware/" + str(path.relative_to(REPO / "firmware"))
+                for pattern in ("Makefile", "**/*.c", "**/*.h") for path in (REPO / "firmware").glob(pattern)
+                if "build" not in path.relative_to(REPO / "firmware").parts}
+    assert len(firmware) > 30 and firmware <= set(names), sorted(firmware - set(names))
+    with zipfile.ZipFile(wheel) as zf:  # its robots, registered as any robot package registers its own
+        points = zf.read(next(n for n in names if n.endswith(".dist-info/entry_points.txt"))).decode()
+    assert "[wheelleg.robots]\nquadruped = wheelleg.hil.robots.quadruped:ROBOT\n" in points
 
 
 @same_fixture("wheel")
 def test_a_project_with_its_own_controller_and_hil_uses_rig_run(wheel, tmp_path):
     """The collision the editable install hid: a team's own ``controller``/``hil`` packages."""
-    venv = tmp_path / "venv"
-    # the dependencies come from this interpreter's site-packages; the package only from the wheel.
-    # No pip of its own (ensurepip: ~2 s CPU, 3 s wall): this interpreter's pip installs into it
-    subprocess.run([sys.executable, "-m", "venv", "--system-site-packages", "--without-pip", str(venv)], check=True)
-    py = venv / "bin" / "python"
-    subprocess.run([sys.executable, "-m", "pip", "--python", str(py), "install", "-q", "--no-deps", "--force-reinstall",
-                    str(wheel)], check=True, capture_output=True, text=True)
+    # the dependencies come from this interpreter's site-packages; the package only from the wheel
+    py = make_venv(tmp_path / "venv")
+    pip_install(py, "--no-deps", "--force-reinstall", str(wheel))
     project = tmp_path / "team"
     for package in ("controller", "hil"):
         (project / package).mkdir(parents=True)

@@ -20,13 +20,21 @@ from wheelleg.hil.record.sources import Recording
 
 
 
+def installed_dbcs(robot: str) -> dict:
+    """File name -> path of every DBC file installed for a recording of ``robot``: the rig's (dbc/) and its
+    robot's own (``Robot.dbc_paths``: a plug-in's in its package), as a run attaches them."""
+    files = {p.name: p for p in dbc.all_dbc_files()}
+    files.update({p.name: p for p in robots.get(robot).dbc_paths()})
+    return files
+
+
 def bug_report_gaps(source: Recording) -> list[str]:
     """What the trace lacks to be replayed on another machine ([] for a complete rig trace)."""
     if source.kind != "mcap":
         return ["a candump log carries no DBC files, MJCF, parameters, scenario, seed or revision: "
                 "replay uses what is installed here"]
     gaps = [f"run metadata '{key}'" for key in REPLAY_KEYS if not source.run.get(key)]
-    gaps += [f"attachment {p.name}" for p in dbc.all_dbc_files() if p.name not in source.attachments]
+    gaps += [f"attachment {name}" for name in installed_dbcs(source.robot) if name not in source.attachments]
     if not any(name.endswith(".xml") for name in source.attachments):
         gaps.append("MJCF attachment (*.xml)")
     return gaps
@@ -35,14 +43,14 @@ def bug_report_gaps(source: Recording) -> list[str]:
 def environment_warnings(source: Recording) -> list[str]:
     """Where this machine differs from the one that recorded: DBC files, revision, parameters."""
     out = [f"trace lacks {gap}" for gap in bug_report_gaps(source)] if source.kind == "mcap" else []
-    installed = {p.name: p for p in dbc.all_dbc_files()}
+    installed = installed_dbcs(source.robot)
     for name, data in sorted(source.attachments.items()):
         if not name.endswith(".dbc"):
             continue
         if name not in installed:
-            out.append(f"the trace's {name} is not installed in dbc/ (replay uses the installed files)")
+            out.append(f"the trace's {name} is not installed (replay uses the installed files)")
         elif installed[name].read_bytes() != data:
-            out.append(f"the trace's {name} differs from the installed dbc/{name}: replay encodes and "
+            out.append(f"the trace's {name} differs from the installed {installed[name]}: replay encodes and "
                        "decodes with the installed one, so ids or scales may have changed")
     recorded = source.run.get("git_revision")
     here = git_revision()

@@ -24,6 +24,14 @@ class PassRate:
         return self.passed / self.runs if self.runs else float("nan")
 
 
+def cpu_per_sim_second(rows: list[dict]) -> float | None:
+    """CPU seconds the runs took (each in its worker process) per simulated second, over the rows
+    that say both (older journals do not); None when none does."""
+    timed = [r for r in rows if r.get("cpu_s") is not None and r.get("sim_s")]
+    sim_s = sum(r["sim_s"] for r in timed)
+    return sum(r["cpu_s"] for r in timed) / sim_s if sim_s else None
+
+
 @dataclass(frozen=True)
 class CheckSummary:
     """One check of one scenario over the campaign: its failures and the spread of its figure."""

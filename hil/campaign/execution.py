@@ -84,13 +84,14 @@ def run_job(job: Job, settings: RunSettings) -> dict:
     from wheelleg.hil.run.rig import Rig
 
     where = run_dir(job, settings)
-    wall0 = time.perf_counter()
+    wall0, cpu0 = time.perf_counter(), time.process_time()
     row = failed_row(job, None)
     try:
         scenario = scenarios.get(job.scenario)
         if settings.duration_s is not None:
             scenario = replace(scenario, duration_s=settings.duration_s)
         outcome = Rig(scenario, rig_config(job.seed, job.overrides, settings.epoch_ns), where).run()
+        row["sim_s"] = outcome.sim_s
         results = [check(load_run(outcome.trace_path)) for check in scenario.checks]
         row["checks"] = [{"name": r.name, "passed": r.passed, "figure": first_number(r.detail),
                           "detail": r.detail} for r in results]
@@ -98,6 +99,7 @@ def run_job(job: Job, settings: RunSettings) -> dict:
     except Exception as exc:  # noqa: BLE001 - a run that cannot run has failed, with the reason kept
         row["error"] = f"{type(exc).__name__}: {exc}".splitlines()[0]
     row["wall_s"] = round(time.perf_counter() - wall0, 3)
+    row["cpu_s"] = round(time.process_time() - cpu0, 3)  # this worker process's CPU: the run, its checks
     return finish_files(row, job, settings)
 
 
@@ -123,6 +125,22 @@ def finish_files(row: dict, job: Job, settings: RunSettings) -> dict:
 Runner = Callable[[Job, RunSettings], dict]
 
 
+LOOPBACK = "127.0.0.1"
+WORKER_ENV = {name: "1" for name in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")}
+
+
+def dashboard_address(text: str | None) -> str | None:
+    """``--dashboard``'s value as Dask's dashboard address: None (no dashboard), ``""`` (loopback,
+    a free port), ``PORT`` or ``HOST:PORT`` (the host the user names, else loopback)."""
+    if text is None:
+        return None
+    host, _, port = text.rpartition(":") if ":" in text else ("", "", text)
+    port = port or "0"
+    if not port.isdigit() or int(port) > 65535:
+        raise ValueError(f"--dashboard {text!r}: expected [HOST:]PORT, e.g. 8787 or 0.0.0.0:8787")
+    return f"{host or LOOPBACK}:{port}"
+
+
 class Engine:
     """A Dask client: a local cluster of ``workers`` single-thread processes, or ``address``'s cluster.
 
@@ -130,7 +148,8 @@ class Engine:
     runners that share nothing, such as tests' fakes).
     """
 
-    def __init__(self, address: str | None = None, workers: int | None = None, processes: bool = True):
+    def __init__(self, address: str | None = None, workers: int | None = None, processes: bool = True,
+                 dashboard: str | None = None):
         from dask.distributed import Client, LocalCluster
 
         self.cluster = None
@@ -139,9 +158,14 @@ class Engine:
             # processes start with SIGINT ignored, which Python keeps across their start.
             previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
             try:
+                # Every listener on loopback: the scheduler, the workers and their nannies, and
+                # the dashboard only when asked for (Dask's default serves it on all interfaces).
+                # One worker per core, one thread each, their BLAS pools at one thread
+                # (WORKER_ENV): a run is one thread of Python and MuJoCo, more would oversubscribe.
                 self.cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1,
-                                            processes=processes, dashboard_address=":0", memory_limit=0,
-                                            silence_logs=logging.ERROR)
+                                            processes=processes, dashboard_address=dashboard,
+                                            memory_limit=0, silence_logs=logging.ERROR,
+                                            **({"host": LOOPBACK, "env": WORKER_ENV} if processes else {}))
             finally:
                 signal.signal(signal.SIGINT, previous)
             self.client = Client(self.cluster)

@@ -34,6 +34,9 @@ def pass_rate_section(rows: list[dict], ranges: dict) -> list[str]:
              "| scenario | runs | passed | rate | could not run |", "| --- | --- | --- | --- | --- |"]
     lines += [f"| {p.scenario} | {p.runs} | {p.passed} | {p.rate:.1%} | {p.errors} |"
               for p in analysis.pass_rates(rows)]
+    cost = analysis.cpu_per_sim_second(rows)
+    if cost is not None:
+        lines += ["", f"Cost: {cost:.2f} CPU s per simulated s (each run in its worker process, checks included)."]
     return lines + ["", f"![pass/fail over the two most telling overrides]({PLOT})", ""]
 
 

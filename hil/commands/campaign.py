@@ -39,6 +39,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--workers", type=int, default=None, help="local worker processes (default: all cores)")
     parser.add_argument("--address", default=None,
                         help="join an existing Dask scheduler (tcp://HOST:8786) instead of a local cluster")
+    parser.add_argument("--dashboard", nargs="?", const="", default=None, metavar="[HOST:]PORT",
+                        help="serve Dask's dashboard of the local cluster (default: none; with no value "
+                             "on 127.0.0.1 at a free port; a HOST only when you name one)")
     parser.add_argument("--keep-passing", action="store_true", help="keep passing runs' traces and logs too")
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
 
@@ -90,6 +93,7 @@ def run(args: argparse.Namespace, runner: execution.Runner = execution.run_job, 
     try:
         spec = campaign_spec(args)
         journal.check_spec(args.out, spec)
+        args.dashboard = execution.dashboard_address(getattr(args, "dashboard", None))
     except ValueError as exc:
         print(f"campaign: {exc}")
         return 2
@@ -114,6 +118,9 @@ def run(args: argparse.Namespace, runner: execution.Runner = execution.run_job, 
     path = report.write_report(args.out, rows, spec, canonical_command(args))
     for rate in analysis.pass_rates(rows):
         print(f"{rate.scenario}: {rate.passed}/{rate.runs} passed ({rate.rate:.1%})")
+    cost = analysis.cpu_per_sim_second(rows)
+    if cost is not None:
+        print(f"cost: {cost:.2f} CPU s per simulated s")
     print(f"report {path}")
     return 0 if all(r["passed"] for r in rows) else 1
 
@@ -124,7 +131,9 @@ def run_jobs(args, todo, settings, log, runner, processes, done: int, total: int
         return
     bar = Progress(total, done, enabled=not args.quiet)
     try:
-        with execution.Engine(args.address, args.workers, processes) as engine:
+        with execution.Engine(args.address, args.workers, processes, args.dashboard) as engine:
+            if engine.cluster is not None and args.dashboard is not None:
+                print(f"campaign: dashboard {engine.client.dashboard_link}", flush=True)
             for row in engine.map(runner, todo, settings):
                 log.append(row)
                 bar.update(row["passed"])

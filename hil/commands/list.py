@@ -1,12 +1,13 @@
-"""``wheelleg list``: the scenarios of every robot, grouped by robot, and what each checks."""
+"""``wheelleg list``: every installed robot with the package it came from, its scenarios and what each checks."""
 from __future__ import annotations
 
 import argparse
+import sys
 
 from wheelleg.hil import robots, scenarios
 
 NAME = "list"
-HELP = "list the scenarios, grouped by robot"
+HELP = "list the installed robots (with their packages) and their scenarios"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -15,13 +16,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    names = (args.robot,) if getattr(args, "robot", None) else robots.names()
-    tables = {name: scenarios.all_scenarios(name) for name in names}
-    width = max(len(n) for table in tables.values() for n in table)
+    if getattr(args, "robot", None):
+        try:
+            tables = {args.robot: scenarios.all_scenarios(args.robot)}
+        except KeyError as exc:  # a broken plug-in: its one line
+            print(f"wheelleg list: {str(exc).strip(chr(39))}", file=sys.stderr)
+            return 2
+    else:
+        tables = scenarios.by_robot()  # a broken plug-in is a warning and left out
+    width = max((len(n) for table in tables.values() for n in table), default=0)
     for robot_name, table in tables.items():
         robot = robots.get(robot_name)
         default = " (the default)" if robot_name == robots.DEFAULT else f" (run as {robot_name}/NAME or --robot {robot_name})"
-        print(f"{robot_name}{default}: {robot.summary}; {len(table)} scenarios")
+        print(f"{robot_name}{default} from {robots.origin(robot_name)}: {robot.summary}; {len(table)} scenarios")
         for name, scenario in table.items():
             print(f"  {name:<{width}}  {scenario.duration_s:5.1f} s  {scenario.summary}")
             if args.verbose:

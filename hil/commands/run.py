@@ -128,6 +128,12 @@ def execute(args: argparse.Namespace, started_s: float | None = None):
         outcome = rig.run()
     except NoController as exc:
         raise SystemExit(f"run: {exc}") from exc
+    except KeyboardInterrupt as stop:  # Ctrl-C or SIGTERM (hil/cli.py): rig.run closed and indexed the files
+        progress.close()
+        print(f"run: {str(stop) or 'interrupted (Ctrl-C)'} at {rig.clock.now_ns / 1e9:.3f} s of "
+              f"{scenario.duration_s:g} s simulated; trace {rig.trace_path} (closed, readable), "
+              f"log {rig.log_path}", file=sys.stderr, flush=True)
+        raise
     finally:
         progress.close()
     run = load_run(outcome.trace_path)

@@ -9,10 +9,11 @@ numbers, NaN where a frame lacks a field, and NaN for a value that is not
 finite (JSON writes it as null). ``wheelleg export`` writes those topics into a
 copy of the trace for Foxglove.
 
-The databases come from the trace itself: each bus's DBC files
-(``wheelleg.dbc.ROBOT_BUS_FILES`` of the robot in the ``run`` record) are read
-from the trace's attachments, so a trace decodes with the layouts it was
-recorded with; a file the trace lacks is taken from this package.
+The databases come from the trace itself: each bus's DBC files (the
+``Bus.dbc_files`` of the robot in the ``run`` record, wheelleg.hil.robots) are
+read from the trace's attachments by file name, so a trace decodes with the
+layouts it was recorded with; a file the trace lacks is read where the robot
+keeps it.
 """
 from __future__ import annotations
 
@@ -23,6 +24,7 @@ import cantools
 import numpy as np
 
 from wheelleg import dbc
+from wheelleg.hil import robots
 from wheelleg.hil.record.decode import FrameDecoder
 from wheelleg.hil.record.frame import FrameColumns
 
@@ -33,21 +35,22 @@ def attached_dbs(attachments: dict[str, bytes], run: dict[str, str]) -> dict[str
     ``run``: the trace's ``run`` record (its ``robot`` and the interface name of each role);
     {} when the record names no channel (a trace not written by a run).
     """
-    files = dbc.ROBOT_BUS_FILES.get(run.get("robot") or "wheel-legged")
-    if files is None:
+    try:
+        files = robots.bus_files(run.get("robot") or robots.DEFAULT)
+    except KeyError:  # a robot this rig cannot load: no layouts to decode with
         return {}
     out = {}
     for role, names in files.items():
         channel = run.get(role)
         if channel:
-            texts = tuple(_dbc_text(attachments, name) for name in names)
+            texts = tuple(_dbc_text(attachments, dbc.resolve(file)) for file in names)
             out[channel] = _database(texts)
     return out
 
 
-def _dbc_text(attachments: dict[str, bytes], name: str) -> str:
-    data = attachments.get(name)
-    return data.decode() if data is not None else dbc.dbc_path(name).read_text()
+def _dbc_text(attachments: dict[str, bytes], path) -> str:
+    data = attachments.get(path.name)
+    return data.decode() if data is not None else path.read_text()
 
 
 @functools.lru_cache(maxsize=16)

@@ -143,7 +143,8 @@ class Recording:
 
 def robot_dbs(robot: str) -> dict:
     """Role -> the cantools database of that bus of ``robot`` (the default robot's: ``DBS``)."""
-    return DBS if robot == robots.DEFAULT else {role: dbc.load_bus(role, robot=robot) for role in ROLES}
+    return DBS if robot == robots.DEFAULT else {role: dbc.load_files(files)
+                                                for role, files in robots.bus_files(robot).items()}
 
 
 # -- which frames are the controller's ------------------------------------------------------
@@ -331,9 +332,11 @@ def _robot_of(recording: Recording, given: str | None) -> str:
     if given is not None and recorded is not None and given != recorded:
         raise TraceError(f"{recording.path}: a recording of the {recorded} robot, not of the {given} robot")
     name = given or recorded or robots.DEFAULT
-    if name not in robots.ROBOTS:
-        raise TraceError(f"{recording.path}: a recording of robot {name!r}, which this rig does not know "
-                         f"(known: {', '.join(robots.names())})")
+    try:
+        robots.check_known(name)
+    except KeyError as exc:  # not installed, or its plug-in is broken
+        raise TraceError(f"{recording.path}: a recording of robot {name!r}, which this rig cannot load: "
+                         f"{str(exc).strip(chr(39))}") from None
     return name
 
 

@@ -12,7 +12,7 @@ from pathlib import Path
 
 from wheelleg.controller.quadruped.modes import Mode
 from wheelleg.controller.quadruped.telemetry import DEBUG_FIELDS
-from wheelleg.dbc import CAN1, CAN2
+from wheelleg.dbc import CAN1, CAN2, QUADRUPED_BUS_FILES
 from wheelleg.emulators.quadruped import description as D
 from wheelleg.hil.record.schemas import POSE_FIELDS, described_schema
 from wheelleg.hil.robots import Bus, Device, Robot
@@ -48,8 +48,8 @@ ROBOT = Robot(
     summary="12 CyberGear joints (FR, FL, RR, RL x abduction, thigh, calf), CyberDog 2 class, 10 kg",
     buses=(
         Bus(CAN1, "bus 0: front legs' CyberGears, IMU, remote",
-            (*_motors(0), Device("imu", "imu"), Device("remote", "remote"))),
-        Bus(CAN2, "bus 1: rear legs' CyberGears", _motors(1)),
+            (*_motors(0), Device("imu", "imu"), Device("remote", "remote")), QUADRUPED_BUS_FILES[CAN1]),
+        Bus(CAN2, "bus 1: rear legs' CyberGears", _motors(1), QUADRUPED_BUS_FILES[CAN2]),
     ),
     model_dir=MODEL_DIR,
     scenario_modules=("wheelleg.hil.scenarios.quadruped", "wheelleg.hil.scenarios.quadruped_faults"),
@@ -65,7 +65,7 @@ ROBOT = Robot(
     offline_bits=(*(f"{leg} motors" for leg in D.LEGS), "imu", "remote"),  # controller.quadruped.node.heartbeat_mask
     debug_schema=described_schema("wheelleg.QuadrupedControllerDebug", DEBUG_FIELDS),
     plant_override_keys=frozenset({
-        "body_mass_scale", "com_x_m", "com_z_m", "inertia_scale", "imu_tilt_pitch_deg", "imu_tilt_roll_deg",
+        "body_mass_scale", "com_x_m", "com_y_m", "com_z_m", "inertia_scale", "imu_tilt_pitch_deg", "imu_tilt_roll_deg",
         "hip_kt_scale", "imu_gyro_bias", "imu_gyro_bias_x", "imu_gyro_bias_y", "imu_gyro_bias_z",
         "imu_noise_scale", "feedback_delay_s", "command_delay_s", "supply_voltage_v"}),
 )

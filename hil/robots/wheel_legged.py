@@ -13,7 +13,7 @@ from wheelleg.controller.constants import DEVICES
 from wheelleg.controller.modes import Mode
 from wheelleg.controller.node import ControllerNode
 from wheelleg.controller.telemetry import DEBUG_FIELDS
-from wheelleg.dbc import CAN1, CAN2
+from wheelleg.dbc import BUS_FILES, CAN1, CAN2
 from wheelleg.emulators.robot import description as D
 from wheelleg.hil.record.schemas import SIM_STATE_FIELDS, described_schema
 from wheelleg.hil.robots import Bus, Device, Robot
@@ -44,8 +44,9 @@ ROBOT = Robot(
     buses=(
         Bus(CAN1, "wheels, IMU, remote",
             (*(Device(w.name, "c620", w.esc_id) for w in D.WHEEL_DRIVES), Device("imu", "imu"),
-             Device("remote", "remote"))),
-        Bus(CAN2, "CyberGear hip motors", tuple(Device(m.name, "cybergear", m.motor_id) for m in D.HIP_MOTORS)),
+             Device("remote", "remote")), BUS_FILES[CAN1]),
+        Bus(CAN2, "CyberGear hip motors", tuple(Device(m.name, "cybergear", m.motor_id) for m in D.HIP_MOTORS),
+            BUS_FILES[CAN2]),
     ),
     model_dir=MODEL_DIR,
     scenario_modules=tuple(f"wheelleg.hil.scenarios.{m}" for m in ("basic", "airborne", "collisions", "ground",

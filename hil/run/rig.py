@@ -160,7 +160,8 @@ class Rig:
                                   robot=self.robot.name)}
 
     def _attachments(self) -> list:
-        files = [(p.name, p.read_bytes(), "text/x-dbc") for p in all_dbc_files()]
+        dbcs = {p.name: p for p in (*all_dbc_files(), *self.robot.dbc_paths())}  # the rig's and its robot's
+        files = [(name, p.read_bytes(), "text/x-dbc") for name, p in dbcs.items()]
         files += [(p.name, p.read_bytes(), "application/xml") for p in self.robot.model_files()]
         return files
 

@@ -29,8 +29,17 @@ def all_scenarios(robot: str | None = None) -> dict[str, Scenario]:
 
 
 def by_robot() -> dict[str, dict[str, Scenario]]:
-    """Robot -> its scenarios (``all_scenarios``), the default robot first."""
-    return {name: all_scenarios(name) for name in robots.names()}
+    """Robot -> its scenarios (``all_scenarios``), the default robot first; a robot that does not load, or
+    whose scenarios do not, is left out with one ``RobotPluginWarning`` (``robots.usable``)."""
+    tables = {}
+    for name in robots.usable():
+        try:
+            tables[name] = all_scenarios(name)
+        except Exception as exc:  # noqa: BLE001 - a third party's module: its package is named, the rest goes on
+            if name in robots.BUILTIN:
+                raise
+            robots.warn_broken(name, f"its scenarios: {type(exc).__name__}: {exc}")
+    return tables
 
 
 def get(name: str, robot: str | None = None) -> Scenario:
