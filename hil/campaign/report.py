@@ -15,16 +15,21 @@ def fmt(value: float) -> str:
     return "-" if value is None or (isinstance(value, float) and math.isnan(value)) else f"{value:.4g}"
 
 
-def write_report(out_dir: Path, rows: list[dict], spec: dict, command: str) -> Path:
-    """Write report.md and pass_fail.png for ``rows``; returns the report's path."""
+def write_report(out_dir: Path, rows: list[dict], spec: dict, command: str, margins: list[str] = ()) -> Path:
+    """Write report.md and pass_fail.png for ``rows``, then ``margins`` (the robustness margins'
+    section, margins.render_markdown); returns the report's path."""
     ranges = {k: tuple(v) for k, v in spec["ranges"].items()}
     clusters = analysis.clustering(rows, ranges)
     plot_pass_fail(out_dir / PLOT, rows, clusters)
     text = "\n".join(["# Campaign report", "", f"    {command}", "",
                       *pass_rate_section(rows, ranges), *checks_section(rows),
-                      *clustering_section(clusters), *failures_section(rows)])
+                      *clustering_section(clusters), *failures_section(rows),
+                      *(["", *margins] if margins else [])])
     path = out_dir / REPORT
     path.write_text(text + "\n")
+    from wheelleg.hil.watch.report_html import write_html  # noqa: PLC0415
+
+    write_html(out_dir, rows, spec, command, out_dir / PLOT)  # report.html: the same, for the eye
     return path
 
 

@@ -94,20 +94,21 @@ class Job:
     overrides: dict
 
 
-def parse_range(text: str) -> tuple[str, tuple[float, float]]:
-    """``KEY=LOW..HIGH`` -> (key, (low, high)); ValueError (one line) when malformed or LOW > HIGH."""
+def parse_range(text: str, option: str = "--vary") -> tuple[str, tuple[float, float]]:
+    """``KEY=LOW..HIGH`` -> (key, (low, high)); ValueError (one line, naming ``option``) when malformed
+    or LOW > HIGH."""
     key, sep, span = text.partition("=")
     low_text, dots, high_text = span.partition("..")
     if not sep or not dots or not key.strip():
-        raise ValueError(f"--vary {text!r}: expected KEY=LOW..HIGH, e.g. com_x_m=-0.03..0.03")
+        raise ValueError(f"{option} {text!r}: expected KEY=LOW..HIGH, e.g. com_x_m=-0.03..0.03")
     try:
         low, high = float(low_text), float(high_text)
     except ValueError:
-        raise ValueError(f"--vary {text!r}: LOW and HIGH must be numbers") from None
+        raise ValueError(f"{option} {text!r}: LOW and HIGH must be numbers") from None
     if not (np.isfinite(low) and np.isfinite(high)):
-        raise ValueError(f"--vary {text!r}: LOW and HIGH must be finite")
+        raise ValueError(f"{option} {text!r}: LOW and HIGH must be finite")
     if low > high:
-        raise ValueError(f"--vary {text!r}: LOW {low:g} > HIGH {high:g}")
+        raise ValueError(f"{option} {text!r}: LOW {low:g} > HIGH {high:g}")
     return key.strip(), (low, high)
 
 

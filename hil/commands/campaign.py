@@ -11,8 +11,9 @@ import argparse
 from pathlib import Path
 
 from wheelleg.hil import robots, scenarios
-from wheelleg.hil.campaign import analysis, execution, journal, report, sampling
+from wheelleg.hil.campaign import analysis, execution, journal, margin_runs, margins, report, sampling
 from wheelleg.hil.campaign.progress import Progress
+from wheelleg.hil.commands import margins as margins_command
 from wheelleg.hil.commands.run import add_epoch_argument
 from wheelleg.hil.record.run_metadata import epoch_text
 
@@ -39,10 +40,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--workers", type=int, default=None, help="local worker processes (default: all cores)")
     parser.add_argument("--address", default=None,
                         help="join an existing Dask scheduler (tcp://HOST:8786) instead of a local cluster")
+    parser.add_argument("--program", default="python", metavar="P",
+                        help="the program every run tests: python (default), firmware or PATH.so (in-process kinds "
+                             "of `wheelleg run --program`)")
     parser.add_argument("--dashboard", nargs="?", const="", default=None, metavar="[HOST:]PORT",
                         help="serve Dask's dashboard of the local cluster (default: none; with no value "
                              "on 127.0.0.1 at a free port; a HOST only when you name one)")
     parser.add_argument("--keep-passing", action="store_true", help="keep passing runs' traces and logs too")
+    parser.add_argument("--margins", action="store_true",
+                        help="also find each key's robustness margins against the campaign's box (as `wheelleg "
+                             "margins`, the campaign's seed as every run's seed): DIR/margins.md, "
+                             "DIR/margins.json and a section of report.md")
+    margins_command.add_runs_per_key(parser)
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
 
 
@@ -57,6 +66,8 @@ def canonical_command(args: argparse.Namespace) -> str:
         words += ["--duration", f"{args.duration:g}"]
     if args.epoch:
         words += ["--epoch", epoch_text(args.epoch)]
+    if args.margins:
+        words += ["--margins", "--runs-per-key", str(args.runs_per_key)]
     return " ".join(words + ["--out", str(args.out)])
 
 
@@ -81,11 +92,24 @@ def campaign_spec(args: argparse.Namespace) -> dict:
         raise ValueError(f"--workers {args.workers}: need at least 1")
     ranges = sampling.campaign_ranges(args.preset, args.vary)
     execution.check_ranges(ranges)
+    if args.margins:
+        margin_spec(args, ranges)  # bad input is told before any run
     spec = {"scenarios": list(args.scenarios), "seed": args.seed, "duration_s": args.duration,
             "ranges": {k: list(v) for k, v in ranges.items()}}
     if args.epoch:  # only when given: a campaign directory from before --epoch resumes as it was
         spec["epoch_s"] = epoch_text(args.epoch)
+    program = getattr(args, "program", "python")
+    if program != "python":  # only when given, as --epoch
+        program_to_run(program)  # checked here: one line
+        spec["program"] = program
     return spec
+
+
+def program_to_run(program: str) -> str:
+    """What the workers load for ``--program``: a library (``firmware`` built here, once) by its absolute path."""
+    if program == "python":
+        return program
+    return str(execution.rig_config(0, {}, 0, program).program.path)
 
 
 def run(args: argparse.Namespace, runner: execution.Runner = execution.run_job, processes: bool = True) -> int:
@@ -101,7 +125,7 @@ def run(args: argparse.Namespace, runner: execution.Runner = execution.run_job, 
     jobs = sampling.plan(args.scenarios, args.samples, args.seed, spec["ranges"])
     todo = [job for job in jobs if not log.finished((job.scenario, job.sample))]
     settings = execution.RunSettings(args.out.resolve(), args.duration, args.keep_passing,  # workers may run elsewhere
-                                     args.epoch)
+                                     args.epoch, program_to_run(getattr(args, "program", "python")))
     if len(todo) < len(jobs):
         print(f"campaign: resuming, {len(jobs) - len(todo)} of {len(jobs)} runs already judged in {log.path}")
     try:
@@ -115,7 +139,12 @@ def run(args: argparse.Namespace, runner: execution.Runner = execution.run_job, 
         return 2
     log.rewrite(args.scenarios)
     rows = [r for r in log.ordered(args.scenarios) if r["sample"] < args.samples]
-    path = report.write_report(args.out, rows, spec, canonical_command(args))
+    try:
+        margin_lines = find_margins(args, spec, settings, runner, processes) if args.margins else []
+    except KeyboardInterrupt:
+        print("\ncampaign: interrupted in the margins; the runs are kept, no report written")
+        return 130
+    path = report.write_report(args.out, rows, spec, canonical_command(args), margin_lines)
     for rate in analysis.pass_rates(rows):
         print(f"{rate.scenario}: {rate.passed}/{rate.runs} passed ({rate.rate:.1%})")
     cost = analysis.cpu_per_sim_second(rows)
@@ -139,3 +168,23 @@ def run_jobs(args, todo, settings, log, runner, processes, done: int, total: int
                 bar.update(row["passed"])
     finally:
         bar.close()
+
+
+def margin_spec(args: argparse.Namespace, ranges: dict) -> margin_runs.MarginSpec:
+    """The margins search of ``--margins``: the campaign's scenarios, its box, its seed; ValueError on bad input."""
+    spec = margin_runs.MarginSpec(tuple(args.scenarios), {k: tuple(v) for k, v in ranges.items()}, args.seed,
+                                  margins_command.runs_per_side(args.runs_per_key))
+    if not spec.boxes:
+        raise ValueError("--margins needs a box: --preset or --vary")
+    margin_runs.check_robots_take(spec.scenarios, spec.boxes)
+    return spec
+
+
+def find_margins(args, spec: dict, settings: execution.RunSettings, runner, processes) -> list[str]:
+    """The margins search on the campaign's engine (runs, and their journal, under DIR/margins/);
+    the report's section."""
+    search = margin_spec(args, spec["ranges"])
+    where = execution.RunSettings(settings.out_dir / "margins", settings.duration_s, False, settings.epoch_ns)
+    results = margins_command.run_search(search, where, args.workers, args.quiet, runner, processes, args.address)
+    margins_command.write_results(args.out, results, search, canonical_command(args))
+    return margins.render_markdown(results, search.runs_per_side)
