@@ -185,7 +185,7 @@ def test_the_compiled_wire_time_is_busloads():
 
 @compiled
 def test_a_run_records_the_same_bytes_on_either_path(tmp_path):
-    """The rig's own frames through both paths: the candump log and every /can/ and /bus/load message."""
+    """The rig's own frames through both paths: the candump log and every /can/, /bus/load and float record."""
     from wheelleg.hil.record.trace import TraceReader
     scenario = replace(scenarios.get("balance"), duration_s=0.3)
     outs = {}
@@ -198,7 +198,30 @@ def test_a_run_records_the_same_bytes_on_either_path(tmp_path):
     logs = [outs[k].log_path.read_bytes() for k in ("python", "compiled")]
     assert logs[0].count(b"\n") > 2500 and logs[0] == logs[1]
     readers = [TraceReader(outs[k].trace_path) for k in ("python", "compiled")]
-    topics = [t for t in readers[0].topics if t.startswith(("/can/", "/bus/load"))]
-    assert len(topics) == 3 and topics == [t for t in readers[1].topics if t.startswith(("/can/", "/bus/load"))]
+    kinds = ("/can/", "/bus/load", "/sim/state", "/controller/debug")
+    topics = [t for t in readers[0].topics if t.startswith(kinds)]
+    assert len(topics) == 5 and topics == [t for t in readers[1].topics if t.startswith(kinds)]
     for topic in topics:
         assert readers[0].records(topic) == readers[1].records(topic), topic
+
+
+@compiled
+def test_the_compiled_float_records_are_the_python_ones(python_path):
+    import math
+
+    import numpy as np
+
+    from wheelleg.hil.record.float_records import FloatLayout
+    layout = FloatLayout("wheelleg/msg/X", ("a", "b", "c"), "")
+    cases = [{"a": 1.5, "b": -0.0, "c": math.inf}, {"a": 2, "b": True}, {"a": np.float64(0.1), "c": math.nan},
+             {"a": None, "b": 1.0}, {"a": np.int32(7)}, {"a": 10**400}, {"a": "x"}, {}]
+    for values in cases:
+        packed = {}
+        for forced in (True, False):
+            fast.force_python(forced)
+            try:
+                packed[forced] = layout.pack(values, "/t")
+            except TypeError as exc:
+                packed[forced] = str(exc)
+        assert packed[False] == packed[True], values
+    assert isinstance(packed[True], bytes) and len(packed[True]) == 4 + 3 * 8  # the empty dict: NaNs

@@ -1142,7 +1142,52 @@ done:
     return result;
 }
 
+/* float_records.FloatLayout.pack: CDR_LE, then each field's value (a missing field NaN) as a
+ * little-endian float64, converted as struct's "d" converts it; None when a value is not a float or
+ * an int (None, a str, ...): the Python packer then packs or raises its error. */
+static PyObject *pack_floats(PyObject *self, PyObject *args) {
+    PyObject *fields, *values;
+    if (!PyArg_ParseTuple(args, "O!O!", &PyTuple_Type, &fields, &PyDict_Type, &values))
+        return NULL;
+    Py_ssize_t n = PyTuple_GET_SIZE(fields);
+    PyObject *out = PyBytes_FromStringAndSize(NULL, 4 + 8 * n);
+    if (!out)
+        return NULL;
+    unsigned char *p = (unsigned char *)PyBytes_AS_STRING(out);
+    p[0] = 0; p[1] = 1; p[2] = 0; p[3] = 0;  /* CDR_LE */
+    for (Py_ssize_t i = 0; i < n; i++) {
+        PyObject *v = PyDict_GetItemWithError(values, PyTuple_GET_ITEM(fields, i));
+        double x;
+        if (v == NULL) {
+            if (PyErr_Occurred()) {
+                Py_DECREF(out);
+                return NULL;
+            }
+            x = Py_NAN;
+        } else if (PyFloat_Check(v)) {
+            x = PyFloat_AS_DOUBLE(v);
+        } else if (PyLong_CheckExact(v) || PyBool_Check(v)) {  /* what struct converts through int.__float__ */
+            x = PyLong_AsDouble(v);
+            if (x == -1.0 && PyErr_Occurred()) {
+                PyErr_Clear();
+                Py_DECREF(out);
+                Py_RETURN_NONE;
+            }
+        } else {
+            Py_DECREF(out);
+            Py_RETURN_NONE;
+        }
+        if (PyFloat_Pack8(x, (char *)p + 4 + 8 * i, 1) < 0) {
+            Py_DECREF(out);
+            return NULL;
+        }
+    }
+    return out;
+}
+
 static PyMethodDef module_methods[] = {
+    {"pack_floats", pack_floats, METH_VARARGS,
+     "pack_floats(fields, values): float_records.FloatLayout.pack's bytes, or None to leave it to Python."},
     {"frame_bits", py_frame_bits, METH_VARARGS, "frame_bits(id, extended, data): busload.frame_bits of a data frame."},
     {"candump_lines", candump_lines, METH_VARARGS,
      "candump_lines(frames, epoch_ns, checked_channels, start): (text, next index)."},
