@@ -225,3 +225,26 @@ def test_the_compiled_float_records_are_the_python_ones(python_path):
                 packed[forced] = str(exc)
         assert packed[False] == packed[True], values
     assert isinstance(packed[True], bytes) and len(packed[True]) == 4 + 3 * 8  # the empty dict: NaNs
+
+
+@pytest.mark.parametrize("forced", [True, False])
+def test_a_trace_refuses_an_unknown_field_or_a_non_number_on_either_path(tmp_path, forced):
+    from wheelleg.hil.record import schemas
+    from wheelleg.hil.record.trace import TraceWriter
+    fast.force_python(forced)
+    try:
+        schema = schemas.described_schema("wheelleg.ControllerDebug", {"a": "[m] a", "b": "[N] b"})
+        with TraceWriter(tmp_path / "t.mcap", metadata={}) as trace:
+            trace.numbers("/controller/debug", 1_000, {"a": 1.0, "b": 2}, schema)
+            with pytest.raises(ValueError, match=r"\['c'\] not among the fields"):
+                trace.numbers("/controller/debug", 2_000, {"a": 1.0, "c": 2.0}, schema)
+            with pytest.raises(ValueError, match=r"\['t'\] not among the fields"):
+                trace.numbers("/controller/debug", 2_000, {"a": 1.0, "t": 2.0}, schema)  # no time field here
+            with pytest.raises(TypeError, match=r"\['b'\] must be a number"):
+                trace.numbers("/controller/debug", 2_000, {"a": 1.0, "b": "x"}, schema)
+            trace.numbers("/controller/debug", 3_000, {"b": None}, schema)
+    finally:
+        fast.force_python(None)
+    from wheelleg.hil.record.trace import TraceReader
+    rows = TraceReader(tmp_path / "t.mcap").topic("/controller/debug")
+    assert rows == [(1_000, {"a": 1.0, "b": 2.0}), (3_000, {"a": None, "b": None})]

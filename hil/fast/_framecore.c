@@ -1146,10 +1146,16 @@ done:
  * little-endian float64, converted as struct's "d" converts it; None when a value is not a float or
  * an int (None, a str, ...): the Python packer then packs or raises its error. */
 static PyObject *pack_floats(PyObject *self, PyObject *args) {
-    PyObject *fields, *values;
-    if (!PyArg_ParseTuple(args, "O!O!", &PyTuple_Type, &fields, &PyDict_Type, &values))
+    PyObject *fields, *values, *extra = NULL;
+    if (!PyArg_ParseTuple(args, "O!O!|O", &PyTuple_Type, &fields, &PyDict_Type, &values, &extra))
         return NULL;
-    Py_ssize_t n = PyTuple_GET_SIZE(fields);
+    Py_ssize_t n = PyTuple_GET_SIZE(fields), found = 0;
+    if (extra) {  /* strict: None unless every key of ``values`` is a field or ``extra`` */
+        int has = PyDict_Contains(values, extra);
+        if (has < 0)
+            return NULL;
+        found = has;
+    }
     PyObject *out = PyBytes_FromStringAndSize(NULL, 4 + 8 * n);
     if (!out)
         return NULL;
@@ -1164,7 +1170,7 @@ static PyObject *pack_floats(PyObject *self, PyObject *args) {
                 return NULL;
             }
             x = Py_NAN;
-        } else if (PyFloat_Check(v)) {
+        } else if (found++, PyFloat_Check(v)) {
             x = PyFloat_AS_DOUBLE(v);
         } else if (PyLong_CheckExact(v) || PyBool_Check(v)) {  /* what struct converts through int.__float__ */
             x = PyLong_AsDouble(v);
@@ -1182,12 +1188,17 @@ static PyObject *pack_floats(PyObject *self, PyObject *args) {
             return NULL;
         }
     }
+    if (extra && found != PyDict_GET_SIZE(values)) {  /* a key that is no field */
+        Py_DECREF(out);
+        Py_RETURN_NONE;
+    }
     return out;
 }
 
 static PyMethodDef module_methods[] = {
     {"pack_floats", pack_floats, METH_VARARGS,
-     "pack_floats(fields, values): float_records.FloatLayout.pack's bytes, or None to leave it to Python."},
+     "pack_floats(fields, values[, extra]): float_records.FloatLayout.pack's bytes, or None to leave it to "
+     "Python; with ``extra`` also None when a key of ``values`` is neither a field nor ``extra``."},
     {"frame_bits", py_frame_bits, METH_VARARGS, "frame_bits(id, extended, data): busload.frame_bits of a data frame."},
     {"candump_lines", candump_lines, METH_VARARGS,
      "candump_lines(frames, epoch_ns, checked_channels, start): (text, next index)."},

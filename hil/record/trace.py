@@ -380,6 +380,13 @@ class TraceWriter:
         self._field_sets[topic] = frozenset(layout.fields) | {layout.time_field} - {""}
 
     def _put_floats(self, topic: str, layout, t_ns: int, values: dict, what: str) -> None:
+        record = None if self._finished else layout.pack_known(values)  # every key known, every value a number
+        if record is not None:
+            try:
+                self._mcap.add_message(self._topic_ids[topic], t_ns, record)
+            except struct.error as exc:
+                raise ValueError(f"t_ns must be an int >= 0 (ns), got {t_ns!r}") from exc
+            return
         unknown = values.keys() - self._field_sets[topic]
         if unknown:
             raise ValueError(f"{what}: {sorted(unknown)} not among the fields of its first record "
