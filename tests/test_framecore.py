@@ -43,13 +43,14 @@ def test_forcing_the_python_path_leaves_the_recorder_without_its_core(monkeypatc
 
 
 class Sink:
-    """A recorder sink keeping what it gets: (t_ns, channel, id, extended, data, error) per frame."""
+    """A recorder sink keeping what it gets: every field of each frame, with its type."""
 
     def __init__(self):
         self.frames, self.stopped = [], False
 
     def on_frames(self, frames):
-        self.frames += [(f.t_ns, f.channel, f.arbitration_id, f.is_extended, f.data, f.is_error) for f in frames]
+        assert all(type(f) is Frame for f in frames)
+        self.frames += [tuple((getattr(f, k), type(getattr(f, k))) for k in Frame.__slots__) for f in frames]
 
     def stop(self):
         self.stopped = True

@@ -278,6 +278,10 @@ typedef struct {
     Py_ssize_t batch;
     Noted *noted;
     Py_ssize_t nnoted, capnoted;
+    /* Frame made slot by slot (its dataclass __init__ is Python code): the 13 slots' offsets, in
+     * field order, and the defaults of the last three; 0 offsets: call the class instead */
+    Py_ssize_t slot[13];
+    PyObject *defaults[4];  /* bus, fd_flags, direction, line_no as the class sets them */
 } Core;
 
 static PyObject *s_now_ns, *s_t_ns, *s_arbitration_id, *s_is_extended_id, *s_is_error_frame,
@@ -458,6 +462,8 @@ static int core_traverse(Core *c, visitproc visit, void *arg) {
     Py_VISIT(c->on_load);
     Py_VISIT(c->on_full);
     Py_VISIT(c->wire_ns_py);
+    for (int i = 0; i < 4; i++)
+        Py_VISIT(c->defaults[i]);
     return 0;
 }
 
@@ -472,6 +478,8 @@ static int core_clear(Core *c) {
     Py_CLEAR(c->on_load);
     Py_CLEAR(c->on_full);
     Py_CLEAR(c->wire_ns_py);
+    for (int i = 0; i < 4; i++)
+        Py_CLEAR(c->defaults[i]);
     return 0;
 }
 
@@ -483,6 +491,48 @@ static void core_dealloc(Core *c) {
     Py_CLEAR(c->channels);
     Py_CLEAR(c->index);
     Py_TYPE(c)->tp_free((PyObject *)c);
+}
+
+/* The Frame class's slot offsets (``__slots__`` member descriptors, in the dataclass's field order) and
+ * the defaults an instance made with the 10 leading fields gets; left 0 when the class is not laid out
+ * so (then frames are made by calling it). */
+static int core_find_slots(Core *c) {
+    static const char *names[13] = {"t_ns", "channel", "arbitration_id", "is_extended", "data", "dlc", "bus",
+                                    "is_error", "is_remote", "is_fd", "fd_flags", "direction", "line_no"};
+    PyTypeObject *type = (PyTypeObject *)c->frame_type;
+    if (!PyType_Check(c->frame_type) || type->tp_init == NULL || type->tp_alloc == NULL)
+        return 0;
+    Py_ssize_t slot[13];
+    for (int i = 0; i < 13; i++) {
+        PyObject *d = PyDict_GetItemString(type->tp_dict, names[i]);
+        if (!d || Py_TYPE(d) != &PyMemberDescr_Type)
+            return 0;
+        PyMemberDef *m = ((PyMemberDescrObject *)d)->d_member;
+        if (m->type != T_OBJECT_EX || (m->flags & READONLY))
+            return 0;
+        slot[i] = m->offset;
+    }
+    PyObject *empty = PyBytes_FromStringAndSize("", 0);
+    PyObject *probe = empty ? PyObject_CallFunction(c->frame_type, "iOiOOiOOOO", 0, s_empty, 0, Py_False, empty, 0,
+                                                    s_empty, Py_False, Py_False, Py_False) : NULL;
+    Py_XDECREF(empty);
+    if (!probe) {
+        PyErr_Clear();
+        return 0;
+    }
+    int defaulted[4] = {6, 10, 11, 12};  /* bus (as given), fd_flags, direction, line_no (the class's) */
+    for (int i = 0; i < 4; i++) {
+        PyObject *v = *(PyObject **)((char *)probe + slot[defaulted[i]]);
+        if (!v) {
+            Py_DECREF(probe);
+            return 0;
+        }
+        Py_INCREF(v);
+        Py_XSETREF(c->defaults[i], v);
+    }
+    Py_DECREF(probe);
+    memcpy(c->slot, slot, sizeof(slot));
+    return 0;
 }
 
 static int core_init(Core *c, PyObject *args, PyObject *kw) {
@@ -503,6 +553,8 @@ static int core_init(Core *c, PyObject *args, PyObject *kw) {
     if (!c->channels || !c->index)
         return -1;
     Py_INCREF(frame_type); c->frame_type = frame_type;
+    if (core_find_slots(c) < 0)
+        return -1;
     Py_INCREF(clock); c->clock = clock;
     Py_INCREF(wire_ns_py); c->wire_ns_py = wire_ns_py;
     Py_INCREF(on_load); c->on_load = on_load;
@@ -564,8 +616,22 @@ static Item *core_item(Core *c, int ch, PyObject *msg) {
     PyObject *zero = PyLong_FromLong(0);
     if (!zero)
         goto done;
-    PyObject *argv[10] = {zero, name, id_o, ext_o, payload, dlc_o, s_empty, err_o, rtr_o, fd_o};
-    PyObject *frame = PyObject_Vectorcall(c->frame_type, argv, 10, NULL);
+    PyObject *frame;
+    if (c->slot[0]) {  /* the Frame the class's __init__ makes, slot by slot */
+        PyTypeObject *type = (PyTypeObject *)c->frame_type;
+        frame = type->tp_alloc(type, 0);
+        if (frame) {
+            PyObject *values[13] = {zero, name, id_o, ext_o, payload, dlc_o, c->defaults[0], err_o, rtr_o, fd_o,
+                                    c->defaults[1], c->defaults[2], c->defaults[3]};
+            for (int i = 0; i < 13; i++) {
+                Py_INCREF(values[i]);
+                *(PyObject **)((char *)frame + c->slot[i]) = values[i];
+            }
+        }
+    } else {
+        PyObject *argv[10] = {zero, name, id_o, ext_o, payload, dlc_o, s_empty, err_o, rtr_o, fd_o};
+        frame = PyObject_Vectorcall(c->frame_type, argv, 10, NULL);
+    }
     Py_DECREF(zero);
     if (!frame)
         goto done;
@@ -741,9 +807,14 @@ static int core_emit(Core *c, int64_t now_ns, int all, PyObject *out) {
             tmp[at].frame = it->frame;
             Py_INCREF(it->frame);
             PyObject *t = PyLong_FromLongLong(it->end_ns);
-            if (!t || PyObject_SetAttr(it->frame, s_t_ns, t) < 0)
+            if (t && c->slot[0]) {  /* t_ns's slot, as setting the attribute does */
+                PyObject **at = (PyObject **)((char *)it->frame + c->slot[0]);
+                Py_XSETREF(*at, t);
+            } else if (!t || PyObject_SetAttr(it->frame, s_t_ns, t) < 0) {
                 rc = -1;
-            Py_XDECREF(t);
+            }
+            if (!c->slot[0])
+                Py_XDECREF(t);
             Py_DECREF(it);
             at++;
         }
