@@ -95,11 +95,10 @@ class FloatLayout:
                 raise TypeError(f"{topic}[{bad!r}] must be a number, got {values[bad]!r}") from None
             return struct.pack(f"<4s{len(self.fields)}d", CDR_LE, *numbers)
 
-    def pack_known(self, values: dict) -> bytes | None:
+    def pack_known(self, values: dict, compiled) -> bytes | None:
         """``pack`` of ``values`` whose every key is a field or the time field and every value a float or an
-        int, in C (``wheelleg.hil.fast``); None otherwise or without it (the caller checks and packs)."""
-        compiled = fast.core()
-        if compiled is None or type(values) is not dict or type(self.fields) is not tuple:
+        int, by ``compiled`` (``wheelleg.hil.fast.core()``); None otherwise (the caller checks and packs)."""
+        if type(values) is not dict or type(self.fields) is not tuple:
             return None
         return compiled.pack_floats(self.fields, values, self.time_field or _NO_FIELD)
 

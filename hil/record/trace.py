@@ -52,6 +52,7 @@ from typing import Sequence
 
 from mcap.records import Schema
 
+from wheelleg.hil import fast
 from wheelleg.hil.record import can_batch, float_records, schemas
 from wheelleg.hil.record.decode import FrameDecoder
 from wheelleg.hil.record.frame import Frame
@@ -116,6 +117,7 @@ class TraceWriter:
         self._file = None
         self._mcap: ChunkedMcapWriter | None = None
         self._finished = False
+        self._compiled = fast.core()  # float records packed in C when it is built (``wheelleg.hil.fast``)
         self._can_ids: dict[str, int] = {}  # channel -> MCAP channel id of /can/<channel>
         self._topic_ids: dict[str, int] = {}  # any topic -> MCAP channel id
         self._decoded_ids: dict[object, int] = {}  # DecodePlan (one per channel and message) -> id
@@ -380,7 +382,8 @@ class TraceWriter:
         self._field_sets[topic] = frozenset(layout.fields) | {layout.time_field} - {""}
 
     def _put_floats(self, topic: str, layout, t_ns: int, values: dict, what: str) -> None:
-        record = None if self._finished else layout.pack_known(values)  # every key known, every value a number
+        # every key known, every value a number: packed in C; anything else checked and packed below
+        record = None if self._finished or self._compiled is None else layout.pack_known(values, self._compiled)
         if record is not None:
             try:
                 self._mcap.add_message(self._topic_ids[topic], t_ns, record)
