@@ -121,7 +121,7 @@ def _frames(r: random.Random, n: int, plain: bool) -> list[Frame]:
         if not plain and r.random() < 0.1:  # the other forms, and frames the writers turn away
             f = replace(f, **r.choice([{"is_error": True}, {"is_remote": True, "data": b""}, {"is_fd": True, "fd_flags": 1},
                                        {"channel": "bad name"}, {"arbitration_id": 0x800, "is_extended": False},
-                                       {"data": bytearray(f.data)}, {"t_ns": -5 * 10**12}]))
+                                       {"data": bytearray(f.data)}, {"t_ns": -5 * 10**12}, {"t_ns": 1 << 70}]))
         out.append(f)
     return out
 
@@ -144,13 +144,14 @@ def _candump(frames: list[Frame], epoch_ns: int) -> tuple[str, str | None]:
 def test_the_compiled_candump_lines_are_the_python_ones(plain, python_path):
     r = random.Random(5)
     for trial in range(20):
-        frames, epoch = _frames(r, 300, plain), r.choice([0, 1_700_000_000 * 10**9])
+        frames, epoch = _frames(r, 300, plain), r.choice([0, 1_700_000_000 * 10**9, -10**12, 1 << 63])
         fast.force_python(True)
         want = _candump(frames, epoch)
         fast.force_python(False)
         got = _candump(frames, epoch)
         assert got == want
-        assert plain == (want[1] is None) or not plain
+        if plain and epoch >= 0:  # nothing to turn away: every line written
+            assert want[1] is None and want[0].count("\n") == 300
 
 
 @compiled

@@ -714,18 +714,22 @@ static int core_note(Core *c, int ch, Item *it, Item *answers, int received) {
     return 0;
 }
 
-static PyObject *core_sent(Core *c, PyObject *const *args, Py_ssize_t nargs) {
-    if (nargs < 2 || nargs > 3) {
+static PyObject *core_sent(Core *c, PyObject *const *args, Py_ssize_t nargs, PyObject *kwnames) {
+    Py_ssize_t nkw = kwnames ? PyTuple_GET_SIZE(kwnames) : 0;
+    PyObject *answers_o = nargs == 3 ? args[2] : Py_None;
+    if (nkw == 1 && nargs == 2 && PyUnicode_CompareWithASCIIString(PyTuple_GET_ITEM(kwnames, 0), "answers") == 0)
+        answers_o = args[2];
+    else if (nkw || nargs < 2 || nargs > 3) {
         PyErr_SetString(PyExc_TypeError, "sent(channel, msg, answers=None)");
         return NULL;
     }
     Item *answers = NULL;
-    if (nargs == 3 && args[2] != Py_None) {
-        if (Py_TYPE(args[2]) != &ItemType) {
+    if (answers_o != Py_None) {
+        if (Py_TYPE(answers_o) != &ItemType) {
             PyErr_SetString(PyExc_TypeError, "answers: a handle from received()");
             return NULL;
         }
-        answers = (Item *)args[2];
+        answers = (Item *)answers_o;
     }
     int ch = core_channel(c, args[0]);
     if (ch < 0)
@@ -958,7 +962,7 @@ static PyObject *core_get_channels(Core *c, void *closure) {
 }
 
 static PyMethodDef core_methods[] = {
-    {"sent", (PyCFunction)(void (*)(void))core_sent, METH_FASTCALL,
+    {"sent", (PyCFunction)(void (*)(void))core_sent, METH_FASTCALL | METH_KEYWORDS,
      "sent(channel, msg, answers=None): note a frame the plant side put on ``channel``."},
     {"received", (PyCFunction)(void (*)(void))core_received, METH_FASTCALL,
      "received(channel, msg): note a frame the plant side took off ``channel``; its handle."},
@@ -1066,8 +1070,9 @@ static PyObject *candump_lines(PyObject *self, PyObject *args) {
             fields_release(&f);
             goto fail;
         }
-        if (!plain || f.id < 0 || f.id > (f.ext ? 0x1FFFFFFF : 0x7FF) || f.t_ns > INT64_MAX - epoch
-            || f.t_ns + epoch < 0) {
+        long long t;
+        if (!plain || f.id < 0 || f.id > (f.ext ? 0x1FFFFFFF : 0x7FF) || __builtin_add_overflow(f.t_ns, epoch, &t)
+            || t < 0) {
             fields_release(&f);
             break;
         }
@@ -1092,7 +1097,6 @@ static PyObject *candump_lines(PyObject *self, PyObject *args) {
             }
             buf = nb;
         }
-        long long t = f.t_ns + epoch;
         char *p = buf + used;
         p += sprintf(p, "(%010lld.%06lld) ", t / 1000000000LL, t % 1000000000LL / 1000LL);
         memcpy(p, cname, clen);

@@ -150,7 +150,8 @@ class CandumpWriter:
         self._flush_at = time.monotonic() + flush_interval_s if flush_interval_s else float("inf")
         self.frames = 0
         compiled = fast.core()  # the plain frames' lines in C (``wheelleg.hil.fast``); the same text
-        self._lines = compiled.candump_lines if compiled is not None else None
+        in_range = -(1 << 63) <= self.epoch_ns < 1 << 63  # C's 64-bit nanoseconds
+        self._lines = compiled.candump_lines if compiled is not None and in_range else None
 
     def write(self, frame: Frame) -> None:
         """One frame line: ``(sec.usec) channel frame``."""
