@@ -5,4 +5,6 @@ runs its pure-Python path (``wheelleg.hil.fast``).
 """
 from setuptools import Extension, setup
 
-setup(ext_modules=[Extension("wheelleg.hil.fast._framecore", ["hil/fast/_framecore.c"], optional=True)])
+SOURCES = ["hil/fast/_framecore.c", "hil/fast/wire.c", "hil/fast/frames.c", "hil/fast/record_core.c", "hil/fast/sinks.c"]
+setup(ext_modules=[Extension("wheelleg.hil.fast._framecore", SOURCES, depends=["hil/fast/framecore.h"],
+                             optional=True)])
