@@ -1,4 +1,4 @@
-"""The compiled record path (hil/fast/_framecore.c) against the Python one (the reference): the same
+"""The compiled record path (hil/fast/, C) against the Python one (the reference): the same
 settled frames, load windows, candump text and /can/ records from the same frames; the fallback forced."""
 from __future__ import annotations
 
@@ -18,7 +18,7 @@ from wheelleg.hil.record.candump import CandumpWriter
 from wheelleg.hil.record.frame import Frame
 from wheelleg.hil.run import rig as rig_module
 
-compiled = pytest.mark.skipif(not fast.available(), reason="hil/fast/_framecore.c not built (no C compiler?)")
+compiled = pytest.mark.skipif(not fast.available(), reason="hil/fast/ not built (no C compiler?)")
 SYNC = recorder_module.SYNC_ID
 
 

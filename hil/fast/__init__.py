@@ -1,6 +1,6 @@
 """The rig's per-frame record path compiled: which implementation runs.
 
-``_framecore`` (``_framecore.c``, a CPython extension built by ``pip install``
+``_framecore`` (the C files here, a CPython extension built by ``pip install``
 when a C compiler is at hand; optional, so the install succeeds without one)
 does the recorder's wire model (``hil/bus/recorder.py``, ``wire_order.py``),
 the candump lines (``hil/record/candump.py``) and the ``/can/`` records
