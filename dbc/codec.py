@@ -150,11 +150,11 @@ class MessageCodec:
         if len(muxes) != 1 or any(s.multiplexer_signal not in (None, muxes[0].name) for s in message.signals):
             raise ValueError(f"{message.name}: only one level of multiplexing is supported")
         mux = muxes[0]
-        common = [s for s in message.signals if s.multiplexer_ids is None and s is not mux]
         values = sorted({i for s in message.signals for i in (s.multiplexer_ids or ())})
         self.multiplexer = self.signals[mux.name]
-        self.branches = {i: MessageCodec(message, [mux, *common, *(s for s in message.signals
-                                                                     if i in (s.multiplexer_ids or ()))])
+        # each branch keeps the message's signal order (cantools': by start bit), as its decode does
+        self.branches = {i: MessageCodec(message, [s for s in message.signals
+                                                   if s.multiplexer_ids is None or i in s.multiplexer_ids])
                          for i in values}
 
     def _by_branch(self):

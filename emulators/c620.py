@@ -18,6 +18,7 @@ Choices where the sources are silent:
   482 rpm, so 3 N m / 13 rpm = 2.2 N m s/rad; the torque falls to zero at the
   no-load speed. Braking is not limited. The no-load speed is the 24 V one;
   it scales with ``supply_v`` (a DC motor's speed at zero torque is V / ke).
+* ``set_supply_voltage``: a sagging battery (plant override) moves the no-load speed.
 * ``kt_scale``: the motor's true torque constant over the datasheet's
   0.3 N m/A (a plant override). The feedback reports the current the motor
   carries, so a host that believes 0.3 N m/A misjudges the torque.
@@ -75,13 +76,24 @@ class C620(EmulatedDevice):
             raise ValueError(f"supply_v and kt_scale must be > 0, got {supply_v!r}, {kt_scale!r}")
         self.esc_id = esc_id
         self.torque_constant = D.M3508_TORQUE_CONSTANT_NM_PER_A * kt_scale  # N m/A, true
-        self.no_load_speed = D.M3508_NO_LOAD_SPEED_RAD_S * (supply_v / D.SUPPLY_NOMINAL_V)  # rad/s, output
+        self.set_supply_voltage(supply_v)
         self.command_timeout_s = command_timeout_s
         self.rotor_offset_rad = rotor_offset_rad
         self.ambient_c = ambient_c
         self.temperature_c = ambient_c
         self.command_raw = 0
         self.last_command_s: float | None = None
+
+    def set_supply_voltage(self, supply_v: float) -> None:
+        """The supply the ESC sees now (V): the no-load speed (rad/s, output) follows it."""
+        self.supply_v = supply_v
+        self.no_load_speed = D.M3508_NO_LOAD_SPEED_RAD_S * (supply_v / D.SUPPLY_NOMINAL_V)
+
+    def supply_power_w(self, now_s: float) -> float:
+        """W drawn from the supply now: shaft power plus the loss of the DC-motor line the back-EMF
+        limit draws (torque^2 / BACK_EMF_NM_S_PER_RAD, i.e. I^2 R with R = Kt^2 / K_EMF)."""
+        tau = self.output_torque(now_s)
+        return tau * self.shaft.speed + tau * tau / BACK_EMF_NM_S_PER_RAD
 
     # -- frames ------------------------------------------------------------------
     def _handle(self, msg: can.Message, now_s: float) -> list[can.Message]:

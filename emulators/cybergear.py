@@ -44,7 +44,9 @@ over-temperature fault at 80 degC. The back-EMF line's speed scales with the
 supply (``vbus_v``, 24 V nominal). ``kt_scale`` is the shaft's true torque
 over the torque the firmware means to make (its torque constant wrong, a plant
 override): the shaft gets ``kt_scale`` times it, the feedback reports what
-the firmware believes it makes.
+the firmware believes it makes. ``zero_offset_rad`` is where the zero was set by
+hand (a plant override): the motor reports the shaft angle minus it until a type 6
+moves the zero. ``set_supply_voltage`` follows a sagging battery.
 """
 from __future__ import annotations
 
@@ -53,10 +55,10 @@ from collections import deque
 
 import can
 
-from wheelleg.dbc import CYBERGEAR_FILES, load_file
+from wheelleg.dbc import CYBERGEAR_FILES
 from wheelleg.dbc import cybergear as cg
-from wheelleg.dbc.codec import MessageCodec
 from wheelleg.emulators.cybergear_config import StoredTable
+from wheelleg.emulators.cybergear_family import Layouts, MotorLine
 from wheelleg.emulators.device import EmulatedDevice, Shaft, frame, is_data_frame
 from wheelleg.emulators.robot import description as D
 
@@ -69,7 +71,8 @@ SPEED_LOOP_MODES = (RUN_POSITION, RUN_SPEED, RUN_ZERO, RUN_QUICK_MOVE)  # speed 
 CALIBRATION_S = 2.0
 ELEC_OFFSET_RAD = 0.4537
 MAX_MOTOR_ID = cg.MAX_MOTOR_ID  # parameter CAN_ID 0x200A range
-ECHO_MEMORY = 16  # own frames remembered to recognise their echo (docs/protocols.md, reply storms)
+ECHO_MEMORY = 160  # own frames remembered to recognise their echo (docs/protocols.md, reply storms): a whole
+# type-19 table answer (114 frames) and more, since a table request is answered whatever its payload
 CURRENT_LIMIT_A = 23.0  # peak phase current; iq_ref / limit_cur range
 FULL_DLC = 8
 
@@ -109,88 +112,80 @@ FAULT_WORD = {"FaultOverTemp": "FaultOverTemp", "FaultUnderVoltage": "FaultUnder
 BAUD_CODES = (1, 2, 3, 4)  # type 22: 1M, 500k, 250k, 125k
 
 
+CYBERGEAR_LINE = MotorLine(D.CG_TORQUE_LIMIT_NM, SPEED_LIMIT_RAD_S, BACK_EMF_NM_S_PER_RAD,
+                           D.CG_TORQUE_CONSTANT_NM_PER_A, CURRENT_LIMIT_A, THERMAL_TAU_S, HEAT_K_PER_A2,
+                           D.CG_OVER_TEMP_C, D.CG_WARN_TEMP_C, D.SUPPLY_NOMINAL_V, D.CG_LINE_RESISTANCE_OHM)
+
+
 def _clamp(x: float, lo: float, hi: float) -> float:
     return lo if x < lo else hi if x > hi else x
 
 
-class _Layouts:
-    """cantools messages and codecs of one CyberGear DBC, built once per position range."""
-
-    _cache: dict[str, "_Layouts"] = {}
-
-    def __init__(self, position_range: str):
-        db = load_file(CYBERGEAR_FILES[position_range])
-        msg = db.get_message_by_name
-        self.motion = MessageCodec.of(msg("CG_MotionCmd"))
-        self.motion_fields = tuple(self.motion.signals[name] for name in ("PosRef", "VelRef", "Kp", "Kd"))
-        self.feedback = MessageCodec.of(msg("CG_Feedback"))
-        # the type-2 payload from the four values, each by the manual's truncating float_to_uint
-        self.feedback_payload = self.feedback.encoder(dict.fromkeys(("Pos", "Vel", "Torque", "Temp"), "truncated"))
-        self.device_id = MessageCodec.of(msg("CG_DeviceId"))
-        self.stop = MessageCodec.of(msg("CG_Stop"))
-        self.set_zero = MessageCodec.of(msg("CG_SetZero"))
-        self.set_baud = MessageCodec.of(msg("CG_SetBaud"))
-        self.fault_warn = MessageCodec.of(msg("CG_FaultWarn"))
-        self.calibration = MessageCodec.of(msg("CG_Calibration"))
-        write, read = msg("CG_ParamWrite"), msg("CG_ParamRead")
-        self.index = MessageCodec(write, [write.get_signal_by_name("Index")])
-        # a type-18 write of run_mode 7, in cybergear_id.dbc: the type alone does not select it
-        self.quick_move = MessageCodec.of(load_file(cg.ID_DBC).get_message_by_name("CG_QuickMove"))
-        self.params = {}  # index -> (name, index, write codec, read-reply codec)
-        for sig in write.signals:
-            for index in sig.multiplexer_ids or ():
-                self.params[index] = (
-                    sig.name, index, MessageCodec(write, [write.get_signal_by_name("Index"), sig]),
-                    MessageCodec(read, [read.get_signal_by_name("Index"), read.get_signal_by_name(sig.name)]))
-
-    @classmethod
-    def get(cls, position_range: str) -> "_Layouts":
-        if position_range not in CYBERGEAR_FILES:
-            raise ValueError(f"position_range must be one of {sorted(CYBERGEAR_FILES)}, got {position_range!r}")
-        if position_range not in cls._cache:
-            cls._cache[position_range] = cls(position_range)
-        return cls._cache[position_range]
-
-
 class CyberGear(EmulatedDevice):
-    """One CyberGear on a CAN bus (29-bit ids); see the module docstring for the rules."""
+    """One CyberGear on a CAN bus (29-bit ids); see the module docstring for the rules.
+
+    A member of the protocol family (emulators/robstride.py) changes the class
+    attributes below, ``_layouts``, ``_handler_table`` and ``_id_torque``.
+    """
+
+    LINE = CYBERGEAR_LINE
+    UID_BASE = 0x4347_0000_0000_0000  # "CG": the default MCU UID is this | motor id
+    DEFAULT_PARAMS = DEFAULT_PARAMS
+    RUN_MODES = RUN_MODES
+    SPEED_LOOP_MODES = SPEED_LOOP_MODES
+    READ_ONLY = READ_ONLY
 
     def __init__(self, motor_id: int = 0x7F, position_range: str = "12.5", uid: int | None = None,
                  ambient_c: float = 25.0, host_id: int = 0x00, vbus_v: float = D.SUPPLY_NOMINAL_V,
-                 shaft: Shaft | None = None, kt_scale: float = 1.0):
+                 shaft: Shaft | None = None, kt_scale: float = 1.0, zero_offset_rad: float = 0.0):
         super().__init__(shaft)
         if not 0 <= motor_id <= MAX_MOTOR_ID:
             raise ValueError(f"CyberGear motor id must be 0..{MAX_MOTOR_ID}, got {motor_id}")
-        self._lay = _Layouts.get(position_range)
+        self._lay = self._layouts(position_range)
         self.position_range = position_range
         self.motor_id = motor_id
         if uid is not None and not 0 <= uid <= 0xFFFF_FFFF_FFFF_FFFF:
             raise ValueError(f"CyberGear uid must fit the 64-bit MCU id of the type-0 reply, got {uid:#x}")
         if not 0 <= host_id <= 0xFF:
             raise ValueError(f"CyberGear host id must be 0..255, got {host_id}")
-        self.uid = (0x4347_0000_0000_0000 | motor_id) if uid is None else uid
+        self.uid = (self.UID_BASE | motor_id) if uid is None else uid
         self.ambient_c = ambient_c
         self.temperature_c = ambient_c
         if not (vbus_v > 0.0 and kt_scale > 0.0):
             raise ValueError(f"vbus_v and kt_scale must be > 0, got {vbus_v!r}, {kt_scale!r}")
-        self.vbus_v = vbus_v
         self.kt_scale = kt_scale
-        self.speed_limit_rad_s = SPEED_LIMIT_RAD_S * (vbus_v / D.SUPPLY_NOMINAL_V)  # back-EMF: no drive beyond
+        self.set_supply_voltage(vbus_v)
+        # LINE's two numbers firmware_torque reads ~10 times a control period, one attribute each
+        self._peak_nm, self._back_emf = self.LINE.torque_limit_nm, self.LINE.back_emf_nm_s_per_rad
         self.host_id = host_id  # CAN_MASTER: the one host in 0..127 this motor answers
         self.last_host = host_id
         self._sent: deque = deque(maxlen=ECHO_MEMORY)  # (id, data) of own frames not yet heard back
         self.mode = MODE_RESET
-        self.params = dict(DEFAULT_PARAMS)
+        self.params = dict(self.DEFAULT_PARAMS)
         self.baud_code = 1
         self._faults: frozenset = frozenset()
         self._feedback_ids: dict[tuple, int] = {}  # (motor, host, mode, faults) -> type-2 id
-        self._zero_rad = 0.0  # shaft angle that reads 0 (type 6, volatile)
+        self._zero_rad = zero_offset_rad  # shaft angle that reads 0 (set by hand, or type 6: volatile)
         self._motion = (0.0, 0.0, 0.0, 0.0, 0.0)  # p_ref rad, v_ref rad/s, kp, kd, tau_ff N m
         self._speed_integral_a = 0.0
         self._quick_move_rad_s = 0.0  # run_mode 7 target speed (0 when its run flag is 0)
         self._calibration_done_s: float | None = None  # when the type-5 result is due
-        self.table = StoredTable(position_range)  # 0x0000-0x302F, types 8, 9 and 19
-        self._handlers = {
+        self.table = self._stored_table(position_range)  # 0x0000-0x302F, types 8, 9 and 19
+        self._handlers = self._handler_table()
+        self._fixed_dlc = {cg.T_MOTION, cg.T_SET_ZERO, cg.T_PARAM_READ, cg.T_PARAM_WRITE, cg.T_SET_BAUD}
+
+    @staticmethod
+    def _stored_table(position_range: str) -> StoredTable | None:
+        return StoredTable(position_range)
+
+    def _layouts(self, position_range: str) -> Layouts:
+        if position_range not in CYBERGEAR_FILES:
+            raise ValueError(f"position_range must be one of {sorted(CYBERGEAR_FILES)}, got {position_range!r}")
+        return Layouts.get(CYBERGEAR_FILES[position_range])
+
+    def _handler_table(self) -> dict:
+        """Communication type -> the method that answers it."""
+        return {
             cg.T_DEVICE_ID: self._on_device_id, cg.T_MOTION: self._on_motion,
             cg.T_FEEDBACK: self._on_poll, cg.T_ENABLE: self._on_enable, cg.T_STOP: self._on_stop,
             cg.T_SET_ZERO: self._on_set_zero, cg.T_SET_ID: self._on_set_id,
@@ -200,7 +195,6 @@ class CyberGear(EmulatedDevice):
             cg.T_PARAM_TABLE: self._on_table, cg.T_CONFIG_READ: self._on_config_read,
             cg.T_CONFIG_WRITE: self._on_config_write,
         }
-        self._fixed_dlc = {cg.T_MOTION, cg.T_SET_ZERO, cg.T_PARAM_READ, cg.T_PARAM_WRITE, cg.T_SET_BAUD}
 
     # -- state -----------------------------------------------------------------
     @property
@@ -217,9 +211,21 @@ class CyberGear(EmulatedDevice):
         """rad, load-side multi-turn angle from the zero (0x7019)."""
         return self.shaft.angle - self._zero_rad
 
+    def set_supply_voltage(self, vbus_v: float) -> None:
+        """The supply the motor sees now (V): its back-EMF speed limit follows, VBUS reports it."""
+        self.vbus_v = vbus_v
+        line = self.LINE
+        self.speed_limit_rad_s = line.speed_limit_rad_s * (vbus_v / line.supply_v)  # back-EMF: no drive beyond
+
+    def supply_power_w(self, now_s: float) -> float:
+        """W drawn from the supply now: shaft power plus the windings' copper loss (three phases at the
+        firmware's current, each half the line resistance), negative when braking feeds it back."""
+        current_a = self.firmware_torque() / self.LINE.torque_constant
+        return self.output_torque(now_s) * self.shaft.speed + 1.5 * self.LINE.line_resistance_ohm * current_a * current_a
+
     @property
     def warn_over_temp(self) -> bool:
-        return self.temperature_c >= D.CG_WARN_TEMP_C
+        return self.temperature_c >= self.LINE.warn_temp_c
 
     def inject_fault(self, name: str) -> None:
         """Latch a fault as the firmware would: torque off, reset mode, bit in every type-2 id."""
@@ -245,14 +251,14 @@ class CyberGear(EmulatedDevice):
         """
         # The plant asks ~10 times a control period per motor: the clamps are written out
         # (each as ``_clamp``, ``min`` and ``max`` decide, NaN included).
-        mode, faults, speed = self.mode, self._faults, self.shaft.speed
+        mode, faults, speed, peak = self.mode, self._faults, self.shaft.speed, self._peak_nm
         if mode != MODE_RUN or faults:
             if mode == MODE_BRAKE and not faults:
-                return _clamp(-BACK_EMF_NM_S_PER_RAD * speed, -D.CG_TORQUE_LIMIT_NM, D.CG_TORQUE_LIMIT_NM)
+                return _clamp(-self._back_emf * speed, -peak, peak)
             return 0.0
         limit = self.params["limit_torque"]
-        if D.CG_TORQUE_LIMIT_NM < limit:  # min(limit_torque, the motor's)
-            limit = D.CG_TORQUE_LIMIT_NM
+        if peak < limit:  # min(limit_torque, the motor's)
+            limit = peak
         if self.params["run_mode"] == RUN_OPERATION:  # _demand_torque's MIT law, inline
             p_ref, v_ref, kp, kd, tau_ff = self._motion
             tau = kp * (p_ref - (self.shaft.angle - self._zero_rad)) + kd * (v_ref - speed) + tau_ff
@@ -260,7 +266,7 @@ class CyberGear(EmulatedDevice):
             tau = self._demand_torque()
         tau = -limit if tau < -limit else limit if tau > limit else tau
         if tau * speed > 0.0:  # driving, not braking: back-EMF limit
-            available = BACK_EMF_NM_S_PER_RAD * (self.speed_limit_rad_s - abs(speed))
+            available = self._back_emf * (self.speed_limit_rad_s - abs(speed))
             if not available > 0.0:  # max(0.0, available)
                 available = 0.0
             tau = -available if tau < -available else available if tau > available else tau
@@ -272,10 +278,11 @@ class CyberGear(EmulatedDevice):
             p_ref, v_ref, kp, kd, tau_ff = self._motion
             return kp * (p_ref - self.mech_pos) + kd * (v_ref - self.shaft.speed) + tau_ff
         if run_mode == 3:
-            return _clamp(p["iq_ref"], -CURRENT_LIMIT_A, CURRENT_LIMIT_A) * D.CG_TORQUE_CONSTANT_NM_PER_A
+            limit_a = self.LINE.current_limit_a
+            return _clamp(p["iq_ref"], -limit_a, limit_a) * self.LINE.torque_constant
         limit_cur = p["limit_cur"]
         iq = p["spd_kp"] * (self._speed_ref() - self.shaft.speed) + self._speed_integral_a
-        return _clamp(iq, -limit_cur, limit_cur) * D.CG_TORQUE_CONSTANT_NM_PER_A
+        return _clamp(iq, -limit_cur, limit_cur) * self.LINE.torque_constant
 
     def _speed_ref(self) -> float:
         p = self.params
@@ -283,20 +290,21 @@ class CyberGear(EmulatedDevice):
             target = p["loc_ref"] if p["run_mode"] == RUN_POSITION else 0.0
             return _clamp(p["loc_kp"] * (target - self.mech_pos), -p["limit_spd"], p["limit_spd"])
         speed = self._quick_move_rad_s if p["run_mode"] == RUN_QUICK_MOVE else p["spd_ref"]
-        return _clamp(speed, -SPEED_LIMIT_RAD_S, SPEED_LIMIT_RAD_S)
+        return _clamp(speed, -self.LINE.speed_limit_rad_s, self.LINE.speed_limit_rad_s)
 
     def advance(self, dt_s: float, now_s: float) -> None:
         if not dt_s > 0.0:
             return
-        if self.mode == MODE_RUN and self.params["run_mode"] in SPEED_LOOP_MODES:
+        if self.mode == MODE_RUN and self.params["run_mode"] in self.SPEED_LOOP_MODES:
             limit = self.params["limit_cur"]
             err = self._speed_ref() - self.shaft.speed
             self._speed_integral_a = _clamp(
                 self._speed_integral_a + self.params["spd_ki"] * SPEED_LOOP_HZ * err * dt_s, -limit, limit)
-        current = self.firmware_torque() / D.CG_TORQUE_CONSTANT_NM_PER_A
-        settle = self.ambient_c + HEAT_K_PER_A2 * current * current
-        self.temperature_c += (settle - self.temperature_c) * (1.0 - math.exp(-dt_s / THERMAL_TAU_S))
-        if self.temperature_c >= D.CG_OVER_TEMP_C and "FaultOverTemp" not in self._faults:
+        line = self.LINE
+        current = self.firmware_torque() / line.torque_constant
+        settle = self.ambient_c + line.heat_k_per_a2 * current * current
+        self.temperature_c += (settle - self.temperature_c) * (1.0 - math.exp(-dt_s / line.thermal_tau_s))
+        if self.temperature_c >= line.over_temp_c and "FaultOverTemp" not in self._faults:
             self.inject_fault("FaultOverTemp")
 
     # -- frames in ---------------------------------------------------------------
@@ -344,8 +352,13 @@ class CyberGear(EmulatedDevice):
             raw = self._lay.motion.decode_raw(data)
             pos, vel, kp, kd = self._lay.motion_fields
             self._motion = (pos.value(raw["PosRef"]), vel.value(raw["VelRef"]), kp.value(raw["Kp"]),
-                            kd.value(raw["Kd"]), cg.motion_torque(can_id))
+                            kd.value(raw["Kd"]), self._id_torque(can_id))
         return [self._feedback_frame(self.last_host, now_s)]
+
+    @staticmethod
+    def _id_torque(can_id: int) -> float:
+        """N m of a type-1 id's feed-forward field."""
+        return cg.motion_torque(can_id)
 
     def _on_poll(self, can_id: int, data: bytes, now_s: float) -> list[can.Message]:
         return [self._feedback_frame(self.last_host, now_s)]
@@ -420,15 +433,15 @@ class CyberGear(EmulatedDevice):
 
     def _on_write(self, can_id: int, data: bytes, now_s: float) -> list[can.Message]:
         entry = self._lay.params.get(self._lay.index.decode_raw(data)["Index"])
-        if entry is not None and entry[0] == "run_mode" and data[4] == RUN_QUICK_MOVE:
+        if entry is not None and entry[0] == "run_mode" and data[4] == RUN_QUICK_MOVE and self._lay.quick_move:
             self._quick_move(self._lay.quick_move.decode(data))
-        elif entry is not None and entry[0] not in READ_ONLY:
+        elif entry is not None and entry[0] not in self.READ_ONLY:
             name, _, write_codec, _ = entry
             self._write_param(name, write_codec.decode_raw(data)[name], write_codec.signals[name])
         return [self._feedback_frame(self.last_host, now_s)]
 
     def _on_table(self, can_id: int, data: bytes, now_s: float) -> list[can.Message]:
-        return self.table.dump(data, self.uid, self._live_table(), self.motor_id, self.last_host, now_s)
+        return self.table.dump(self._live_table(), self.motor_id, self.last_host, now_s)
 
     def _on_config_read(self, can_id: int, data: bytes, now_s: float) -> list[can.Message]:
         return self.table.read(data, self._live_table(), self.motor_id, self.last_host, now_s)
@@ -439,7 +452,7 @@ class CyberGear(EmulatedDevice):
 
     def _live_table(self) -> dict:
         """Stored-table entries that are the motor's own state (docs/protocols.md, parameter table)."""
-        iq_a = self.firmware_torque() / D.CG_TORQUE_CONSTANT_NM_PER_A
+        iq_a = self.firmware_torque() / self.LINE.torque_constant
         return {"CAN_ID": self.motor_id, "CAN_MASTER": self.host_id,
                 "motorTemp": round(self.temperature_c * 10), "vBus_mv": round(self.vbus_v * 1000),
                 "VBUS": self.vbus_v, "v_bus": self.vbus_v, "rotation": self._read_param("rotation"),
@@ -456,10 +469,14 @@ class CyberGear(EmulatedDevice):
         return [frame(cg.reply_id(cg.T_FAULT_WARN, self.motor_id, self.last_host), payload, True, now_s)]
 
     def _quick_move(self, jog: dict) -> None:
-        """run_mode 7, the debugger's jog: taken in any mode (the public driver sends it enabled)."""
+        """run_mode 7, the debugger's jog: taken in any mode (the public driver sends it enabled); its
+        run flag turns a stopped motor without a separate enable, as the debugger's jog buttons do."""
         self.params["run_mode"] = RUN_QUICK_MOVE
+        if jog["Run"] == 1 and self.mode == MODE_RESET and not self._faults:
+            self.mode = MODE_RUN
+            self._speed_integral_a = 0.0
         speed = jog["Speed"] if jog["Run"] == 1 else 0.0
-        self._quick_move_rad_s = _clamp(speed, -SPEED_LIMIT_RAD_S, SPEED_LIMIT_RAD_S)
+        self._quick_move_rad_s = _clamp(speed, -self.LINE.speed_limit_rad_s, self.LINE.speed_limit_rad_s)
 
     # -- parameters --------------------------------------------------------------
     def _read_param(self, name: str):
@@ -468,7 +485,7 @@ class CyberGear(EmulatedDevice):
         if name == "mechVel":
             return self.shaft.speed
         if name == "iqf":
-            return self.firmware_torque() / D.CG_TORQUE_CONSTANT_NM_PER_A
+            return self.firmware_torque() / self.LINE.torque_constant
         if name == "VBUS":
             return self.vbus_v
         if name == "rotation":
@@ -477,7 +494,7 @@ class CyberGear(EmulatedDevice):
 
     def _write_param(self, name: str, value, signal) -> None:
         if name == "run_mode":
-            if self.mode == MODE_RESET and value in RUN_MODES:
+            if self.mode == MODE_RESET and value in self.RUN_MODES:
                 self.params[name] = int(value)
             return
         if name == "rotation":  # keep the angle within the turn, move the turn count
@@ -485,7 +502,8 @@ class CyberGear(EmulatedDevice):
             return
         if not math.isfinite(value):
             return
-        self.params[name] = float(_clamp(float(value), signal.minimum, signal.maximum))
+        value = _clamp(value, signal.minimum, signal.maximum)
+        self.params[name] = float(value) if signal.float_format is not None else int(value)
 
     # -- frames out --------------------------------------------------------------
     def _feedback_frame(self, host: int, now_s: float) -> can.Message:

@@ -2,15 +2,16 @@
 
 None of the three is in the manual; each follows the public driver that uses it:
 
-* Type 19 (0x13), the debugger's "parameter table": the request carries the
-  motor's 64-bit MCU UID (python-cybergear sends the type-0 answer back); the
-  motor answers the whole table 0x0000-0x302F in index order, a numeric entry
-  as one frame (fragment 4), a string as fragment 0 then 6, 7 and 8 with six
-  characters each (the python-cybergear parser). A request with another UID,
-  or shorter than 8 bytes, is for another motor: silence.
-* Type 9, read one entry: answered with a type-9 frame of the same layout as
-  a numeric type-19 frame (the CyberGearDriver parser). Strings and unknown
-  indices: silence.
+* Type 19 (0x13), the debugger's "parameter table": the motor answers the
+  whole table 0x0000-0x302F in index order, a numeric entry as one frame
+  (fragment 4), a string as fragment 0 then 6, 7 and 8 with six characters
+  each (the python-cybergear parser), whatever the request's payload: the
+  motor's 64-bit MCU UID (python-cybergear sends the type-0 answer back) or
+  the debugger's fixed bytes.
+* Type 9, read one entry: a type-9 frame with the index, the entry's data-type
+  code in byte 2 (``TYPE_CODES``, CyberGearDriver's) and the value from byte 4;
+  a string entry as four frames of four characters (part 0..3 in byte 3).
+  Unknown indices: silence.
 * Type 8, write one entry: taken when the entry is writable and the value
   within the manual's range; no answer (no source gives one). The stored
   values are what types 8, 9 and 19 see; the runtime 0x70xx parameters the
@@ -37,6 +38,8 @@ FRAGMENT_VALUE, FRAGMENT_START, TEXT_FRAGMENTS = 4, 0, (6, 7, 8)
 TEXT_BYTES = 6  # characters per string fragment
 FULL_DLC = 8
 VALUE_BYTES = {"u8": 1, "u16": 2, "i16": 2, "u32": 4, "i32": 4, "f32": 4}
+TYPE_CODES = {"u8": 0x00, "u16": 0x02, "i16": 0x03, "u32": 0x04, "i32": 0x05, "f32": 0x06, "str": 0x0A}
+READ_TEXT_PARTS, READ_TEXT_BYTES = 4, 4  # a type-9 string answer: four frames of four characters
 
 
 class StoredTable:
@@ -48,6 +51,7 @@ class StoredTable:
         self._read = MessageCodec.of(db.get_message_by_name("CG_ConfigRead"))
         self._write = MessageCodec.of(db.get_message_by_name("CG_ConfigWrite"))
         self._text = MessageCodec.of(load_file(cg.ID_DBC).get_message_by_name("CG_ParamTableText"))
+        self._read_text = MessageCodec.of(load_file(cg.ID_DBC).get_message_by_name("CG_ConfigReadText"))
         self.values = {e.name: e.default for e in TABLE}
 
     def value(self, entry: Entry, live: Mapping):
@@ -67,18 +71,23 @@ class StoredTable:
             self.values[entry.name] = value
 
     def read(self, data: bytes, live: Mapping, motor: int, host: int, now_s: float) -> list[can.Message]:
-        """Type 9: one entry, or silence for a string, an unknown index or a short request."""
+        """Type 9: one entry (a string in four frames), or silence for an unknown index or a short request."""
         entry = BY_INDEX.get(int.from_bytes(data[:2], "little")) if len(data) >= 2 else None
-        if entry is None or entry.kind == "str":
+        if entry is None:
             return []
-        payload = self._read.encode_raw({"Index": entry.index, entry.name: self._raw(entry, live)})
-        return [frame(cg.reply_id(cg.T_CONFIG_READ, motor, host), payload, True, now_s)]
+        can_id = cg.reply_id(cg.T_CONFIG_READ, motor, host)
+        if entry.kind == "str":
+            text = self._text_bytes(entry).ljust(READ_TEXT_PARTS * READ_TEXT_BYTES, b"\0")
+            return [frame(can_id, self._read_text.encode_raw(
+                        {"Index": entry.index, "TypeCode": TYPE_CODES["str"], "Part": part,
+                         "Text": int.from_bytes(text[part * READ_TEXT_BYTES:(part + 1) * READ_TEXT_BYTES], "little")}),
+                          True, now_s) for part in range(READ_TEXT_PARTS)]
+        payload = self._read.encode_raw({"Index": entry.index, "TypeCode": TYPE_CODES[entry.kind],
+                                         entry.name: self._raw(entry, live)})
+        return [frame(can_id, payload, True, now_s)]
 
-    def dump(self, data: bytes, uid: int, live: Mapping, motor: int, host: int,
-             now_s: float) -> list[can.Message]:
-        """Type 19: the whole table when the request carries this motor's UID, else silence."""
-        if len(data) != FULL_DLC or int.from_bytes(data, "little") != uid:
-            return []
+    def dump(self, live: Mapping, motor: int, host: int, now_s: float) -> list[can.Message]:
+        """Type 19: the whole table (whatever the request carried)."""
         frames = []
         for entry in TABLE:
             if entry.kind == "str":
@@ -92,8 +101,11 @@ class StoredTable:
         value = self.value(entry, live)
         return float(value) if entry.kind == "f32" else int(value)
 
+    def _text_bytes(self, entry: Entry) -> bytes:
+        return str(self.value(entry, {})).encode("latin-1")
+
     def _text_frames(self, entry: Entry, motor: int, host: int, now_s: float) -> list[can.Message]:
-        text = str(self.value(entry, {})).encode("latin-1")[:TEXT_BYTES * len(TEXT_FRAGMENTS)]
+        text = self._text_bytes(entry)[:TEXT_BYTES * len(TEXT_FRAGMENTS)]
         frames = [frame(cg.table_id(FRAGMENT_START, motor, host),
                         self._text.encode_raw({"Index": entry.index, "Text": 0}), True, now_s)]
         for n, fragment in enumerate(TEXT_FRAGMENTS):

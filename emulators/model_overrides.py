@@ -1,9 +1,11 @@
 """Plant overrides that change the MuJoCo model itself, applied to the spec before it compiles.
 
-Keys (emulators/overrides.py): body_mass_scale, inertia_scale, com_x_m, com_z_m
-(the body's inertial frame), friction (floor, terrain of the floor's friction,
-tyres), wheel_radius_scale (the tyre geoms; their inertia follows), hip_damping
-and hip_frictionloss (the hip joints), imu_tilt_pitch_deg and imu_tilt_roll_deg
+Keys (emulators/overrides.py): body_mass_scale, inertia_scale, com_x_m, com_y_m,
+com_z_m (the body's inertial frame), friction (floor, terrain of the floor's friction,
+tyres), wheel_radius_scale (the tyre geoms; their inertia follows), hip_damping,
+hip_frictionloss (+ _left/_right) and hip_armature (the hip joints), wheel_damping and
+wheel_frictionloss (+ _left/_right) (the wheel joints: the M3508's gearbox, whose
+armature is its rotor's), imu_tilt_pitch_deg and imu_tilt_roll_deg
 (the IMU site's orientation, which its three sensors read in). A key at its
 default leaves the spec untouched, so the nominal model compiles bit for bit
 as before.
@@ -23,6 +25,16 @@ from wheelleg.emulators.terrain import GROUND_GROUP
 _NOMINAL_FRICTION = 1.0  # robot.xml / scene.xml: tyre and floor sliding friction
 _WHEELS = tuple(w.name for w in D.WHEEL_DRIVES)  # also their geoms' names
 _HIPS = tuple(m.name for m in D.HIP_MOTORS)
+_SIDES = ("left", "right")
+_HIPS_BY_SIDE = {side: tuple(m.name for m in D.HIP_MOTORS if m.leg == side) for side in _SIDES}
+_WHEELS_BY_SIDE = {side: tuple(w.name for w in D.WHEEL_DRIVES if w.leg == side) for side in _SIDES}
+# (joints by side, joint attribute, the keys whose sum it is ({side}: that side's key))
+_JOINT_LOSSES = (
+    (_HIPS_BY_SIDE, "damping", ("hip_damping",)),
+    (_HIPS_BY_SIDE, "frictionloss", ("hip_frictionloss", "hip_frictionloss_{side}")),
+    (_WHEELS_BY_SIDE, "damping", ("wheel_damping",)),
+    (_WHEELS_BY_SIDE, "frictionloss", ("wheel_frictionloss", "wheel_frictionloss_{side}")),
+)
 
 
 def override_model(spec: mujoco.MjSpec, overrides: Mapping[str, float]) -> None:
@@ -37,18 +49,23 @@ def override_model(spec: mujoco.MjSpec, overrides: Mapping[str, float]) -> None:
     if changed("body_mass_scale") or changed("inertia_scale"):
         body.mass = body.mass * value("body_mass_scale")
         body.inertia = np.asarray(body.inertia) * value("body_mass_scale") * value("inertia_scale")
-    if changed("com_x_m") or changed("com_z_m"):
-        body.ipos = np.asarray(body.ipos) + [value("com_x_m"), 0.0, value("com_z_m")]
+    if changed("com_x_m") or changed("com_y_m") or changed("com_z_m"):
+        body.ipos = np.asarray(body.ipos) + [value("com_x_m"), value("com_y_m"), value("com_z_m")]
     if changed("friction"):
         _set_friction(spec, value("friction"))
     if changed("wheel_radius_scale"):
         for name in _WHEELS:
             geom = spec.geom(name)
             geom.size = [geom.size[0] * value("wheel_radius_scale"), *geom.size[1:]]
-    for key, attr in (("hip_damping", "damping"), ("hip_frictionloss", "frictionloss")):
-        if changed(key):
-            for name in _HIPS:
-                _set_first(spec.joint(name), attr, value(key))
+    for joints, attr, total in _JOINT_LOSSES:
+        for side, names in joints.items():
+            keys = [key.format(side=side) for key in total]
+            if any(changed(key) for key in keys):
+                for name in names:
+                    _set_first(spec.joint(name), attr, sum(value(key) for key in keys))
+    if changed("hip_armature"):
+        for name in _HIPS:
+            spec.joint(name).armature = value("hip_armature")
     if changed("imu_tilt_pitch_deg") or changed("imu_tilt_roll_deg"):
         spec.site("imu").quat = imu_mount_quat(value("imu_tilt_pitch_deg"), value("imu_tilt_roll_deg"))
 

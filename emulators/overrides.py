@@ -65,6 +65,30 @@ OVERRIDES: dict[str, OverrideSpec] = {
                              "(taken at the plant's next service instant, every physics step)"),
     "supply_voltage_v": _spec("V", D.SUPPLY_NOMINAL_V, *D.SUPPLY_RANGE_V, "battery voltage: the motors' "
                               "no-load speeds (back-EMF limits) scale with it; the CyberGears report it"),
+    # --- the imperfections of geared actuators and of a real build (docs/robot.md, the tolerance box) ---
+    "hip_armature": _spec("kg m^2", D.HIP_ARMATURE_KG_M2, 0.0, 0.05, "reflected inertia of rotor and gearbox "
+                          "at each hip joint (MuJoCo joint armature)"),
+    "wheel_damping": _spec("N m s/rad", 0.0, 0.0, 0.5, "viscous damping of each wheel drive (M3508 gearbox)"),
+    "wheel_frictionloss": _spec("N m", 0.0, 0.0, 1.0, "dry friction of each wheel drive (M3508 gearbox)"),
+    **{f"hip_zero_offset_{m.name.removesuffix('_hip')}": _spec(
+        "rad", 0.0, -0.2, 0.2, f"{m.name}'s encoder zero set this far off the mechanical stop: the "
+        "CyberGear reports the shaft angle minus it") for m in D.HIP_MOTORS},
+    **{key: spec for side in ("left", "right") for key, spec in (
+        (f"hip_kt_scale_{side}", _spec("", 1.0, 0.5, 1.5, f"the {side} hips' true torque per commanded "
+                                       "torque, times hip_kt_scale")),
+        (f"wheel_kt_scale_{side}", _spec("", 1.0, 0.5, 1.5, f"the {side} M3508's true torque constant over "
+                                         "the datasheet's, times wheel_kt_scale")),
+        (f"hip_frictionloss_{side}", _spec("N m", 0.0, 0.0, 3.0, f"dry friction in each {side} hip joint, "
+                                           "added to hip_frictionloss")),
+        (f"wheel_frictionloss_{side}", _spec("N m", 0.0, 0.0, 1.0, f"dry friction of the {side} wheel drive, "
+                                             "added to wheel_frictionloss")))},
+    "com_y_m": _spec("m", 0.0, -0.1, 0.1, "body CoM moved left (+) or right along body y"),
+    "battery_resistance_ohm": _spec("ohm", 0.0, 0.0, 0.5, "battery and cabling resistance: the motors' supply "
+                                    "sags by it times the current they draw (the CyberGears report it)"),
+    "hip_torque_lag_s": _spec("s", 0.0, 0.0, 0.02, "first-order lag (time constant) of each hip's torque "
+                              "behind its command (the motor's current loop)"),
+    "wheel_torque_lag_s": _spec("s", 0.0, 0.0, 0.02, "first-order lag (time constant) of each wheel's torque "
+                                "behind its command (the C620's current loop)"),
 }
 
 

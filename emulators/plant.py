@@ -21,6 +21,7 @@ import numpy as np
 from wheelleg.dbc import CAN1, CAN2
 from wheelleg.emulators.c620 import C620
 from wheelleg.emulators.cybergear import CyberGear
+from wheelleg.emulators.drive import TorqueLag, sagged_voltage
 from wheelleg.emulators.imu import Imu, ImuNoise
 from wheelleg.emulators.node import DeviceNode
 from wheelleg.emulators.overrides import OVERRIDES, check_overrides
@@ -77,11 +78,12 @@ def motors_in_order(motors: Mapping[str, object], physics) -> tuple:
     return tuple(motors.values())
 
 
-def step_motors(physics, motors, imu, now_s: float, dt_s: float) -> None:
+def step_motors(physics, motors, imu, now_s: float, dt_s: float, lag: TorqueLag | None = None) -> None:
     """One physics step of a plant from ``now_s`` (s), ``dt_s`` long: each motor device's torque
-    in (``motors``, in the physics' ``MOTORS`` order), the step, the devices advanced to its end,
-    their shafts and the IMU's truth read back (``sync_shafts``)."""
-    physics.set_motor_torques([dev.output_torque(now_s) for dev in motors])
+    in (``motors``, in the physics' ``MOTORS`` order; through ``lag`` when given), the step, the
+    devices advanced to its end, their shafts and the IMU's truth read back (``sync_shafts``)."""
+    torques = [dev.output_torque(now_s) for dev in motors]
+    physics.set_motor_torques(torques if lag is None else lag(torques))
     physics.step()
     end_s = now_s + dt_s
     for dev in motors:
@@ -105,10 +107,12 @@ class Plant:
         config = config or PlantConfig()
         self.physics = physics
         volts = config.value("supply_voltage_v")
-        self.joints = {m.name: CyberGear(motor_id=m.motor_id, vbus_v=volts, kt_scale=config.value("hip_kt_scale"))
+        self.joints = {m.name: CyberGear(motor_id=m.motor_id, vbus_v=volts,
+                                         kt_scale=config.value("hip_kt_scale") * config.value(f"hip_kt_scale_{m.leg}"),
+                                         zero_offset_rad=config.value(f"hip_zero_offset_{m.name.removesuffix('_hip')}"))
                        for m in D.HIP_MOTORS}
-        self.wheels = {w.name: C620(esc_id=w.esc_id, command_timeout_s=config.esc_command_timeout_s,
-                                    supply_v=volts, kt_scale=config.value("wheel_kt_scale"))
+        self.wheels = {w.name: C620(esc_id=w.esc_id, command_timeout_s=config.esc_command_timeout_s, supply_v=volts,
+                                    kt_scale=config.value("wheel_kt_scale") * config.value(f"wheel_kt_scale_{w.leg}"))
                        for w in D.WHEEL_DRIVES}
         self.imu = Imu(period_s=config.imu_period_s, noise=config.true_imu_noise(), rng=rng)
         self.remote = Remote()
@@ -120,6 +124,9 @@ class Plant:
         }
         self._motors = motors_in_order({**self.joints, **self.wheels}, physics)
         self._dt = physics.model.opt.timestep  # s, one physics step
+        self._lag = torque_lag(config, ["hip_torque_lag_s" if isinstance(dev, CyberGear) else "wheel_torque_lag_s"
+                                        for dev in self._motors], self._dt)
+        self._battery = (volts, config.value("battery_resistance_ohm"))  # open-circuit V, ohm
         sync_shafts(self.physics, self._motors, self.imu)
 
     @property
@@ -127,5 +134,18 @@ class Plant:
         return {**self.joints, **self.wheels, "imu": self.imu, "remote": self.remote}
 
     def step(self, now_s: float) -> None:
-        """One physics step from ``now_s``: device torques in, new state out."""
-        step_motors(self.physics, self._motors, self.imu, now_s, self._dt)
+        """One physics step from ``now_s``: device torques in, new state out, the supply sagged
+        by what the motors draw (``battery_resistance_ohm``)."""
+        step_motors(self.physics, self._motors, self.imu, now_s, self._dt, self._lag)
+        open_circuit_v, resistance = self._battery
+        if resistance:
+            end_s = now_s + self._dt
+            volts = sagged_voltage(open_circuit_v, resistance, sum(dev.supply_power_w(end_s) for dev in self._motors))
+            for dev in self._motors:
+                dev.set_supply_voltage(volts)
+
+
+def torque_lag(config: PlantConfig, keys: list[str], dt_s: float) -> TorqueLag | None:
+    """The lag of each motor (its override key in ``keys``, motor order), None when every one is 0."""
+    constants = [config.value(key) for key in keys]
+    return TorqueLag(constants, dt_s) if any(constants) else None

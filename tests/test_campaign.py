@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import io
 import json
+import re
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -69,16 +71,39 @@ def test_plan_gives_each_sample_one_seed_and_one_set_of_overrides_in_every_scena
     assert sampling.plan(["balance"], 5, 1, {"com_x_m": (-0.01, 0.01)})[:3] == jobs[::2]
 
 
-def test_tolerance_preset_is_the_issue_box():
-    box = sampling.PRESETS["tolerance"]
+def test_tolerance_v1_preset_is_issue_12s_box():
+    box = sampling.PRESETS["tolerance-v1"]
     assert box["body_mass_scale"] == (0.8, 1.4) and box["com_x_m"] == (-0.03, 0.03)
     assert box["com_z_m"] == (-0.02, 0.02) and box["friction"] == (0.5, 1.5)
     assert box["hip_kt_scale"] == box["wheel_kt_scale"] == (0.85, 1.15)
     assert box["imu_tilt_pitch_deg"] == box["imu_tilt_roll_deg"] == (-3.0, 3.0)
     assert box["imu_gyro_bias"] == (-0.05, 0.05) and box["supply_voltage_v"] == (22.0, 26.0)
     assert box["feedback_delay_s"] == box["command_delay_s"] == (0.0, 0.002)
-    ranges = sampling.campaign_ranges("tolerance", ["friction=0.3..0.4"])
+    ranges = sampling.campaign_ranges("tolerance-v1", ["friction=0.3..0.4"])
     assert ranges["friction"] == (0.3, 0.4) and ranges["com_x_m"] == (-0.03, 0.03)
+
+
+def _documented_box() -> dict:
+    """docs/robot.md's tolerance table: `key` -> (low, high), from its "low .. high" column."""
+    text = (Path(__file__).resolve().parents[1] / "docs" / "robot.md").read_text()
+    section = text[text.index("## The tolerance box"):]
+    rows = re.findall(r"^\| (`[^|]+) \| (-?[0-9.]+) \.\. (-?[0-9.]+)", section, flags=re.M)
+    return {key: (float(low), float(high)) for keys, low, high in rows for key in re.findall(r"`([a-z0-9_]+)`", keys)}
+
+
+def test_tolerance_preset_is_the_sourced_box_of_docs_robot_md():
+    from wheelleg.emulators.overrides import OVERRIDES
+
+    box = sampling.PRESETS["tolerance"]
+    assert _documented_box() == box  # every key with its source, and nothing undocumented drawn
+    for key, (low, high) in box.items():
+        spec = OVERRIDES[key]
+        assert spec.low <= low < high <= spec.high, key
+    for side_key in ("hip_frictionloss", "hip_kt_scale", "wheel_frictionloss", "wheel_kt_scale"):
+        assert f"{side_key}_left" in box and f"{side_key}_right" in box and side_key not in box  # drawn apart
+    assert len([k for k in box if k.startswith("hip_zero_offset_")]) == 4
+    drawn = sampling.draw_overrides(1, 0, box)
+    assert drawn["hip_frictionloss_left"] != drawn["hip_frictionloss_right"]
 
 
 @pytest.mark.parametrize("text", ["com_x_m=0.03..-0.03", "com_x_m=0.1", "com_x_m", "=1..2", "com_x_m=a..b",

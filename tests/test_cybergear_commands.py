@@ -126,6 +126,21 @@ def test_quick_move_runs_at_the_jog_speed_and_its_stop_halts_it():
     assert abs(motor.shaft.speed) < 0.1 and motor.run_mode == 7
 
 
+def test_the_jog_turns_a_stopped_motor_without_an_enable():
+    """The debugger's jog buttons send only the run_mode-7 write: its run flag starts a motor in reset mode."""
+    motor = CyberGear(motor_id=1)
+    fb = ask(motor, request(WRITE, data=quick_move(1, 0x9554)))
+    assert cg.parse_reply_id(fb.arbitration_id).mode == 2  # the answer already says run
+    t, _ = run(motor, 1.0)
+    assert motor.shaft.speed == pytest.approx(5.0, abs=0.2)
+    ask(motor, request(WRITE, data=quick_move(0, 0x7FFF)))
+    run(motor, 1.0, t)
+    assert abs(motor.shaft.speed) < 0.1
+    motor.inject_fault("FaultOverTemp")
+    ask(motor, request(WRITE, data=quick_move(1, 0x9554)))
+    assert motor.mode == 0  # a latched fault still keeps it stopped
+
+
 def test_quick_move_from_the_dbc_reads_back_run_mode_7_and_runs_backwards():
     motor = CyberGear(motor_id=1)
     jog = load_file(cg.ID_DBC).get_message_by_name("CG_QuickMove")

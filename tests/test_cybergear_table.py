@@ -60,9 +60,15 @@ def test_the_dbc_decodes_every_table_frame():
         assert layout.decode(bytes(f.data))["Index"] == int.from_bytes(f.data[:2], "little")
 
 
-@pytest.mark.parametrize("payload", [bytes(8), (0x4347_0000_0000_0005).to_bytes(8, "little")[:7]])
-def test_a_table_request_with_another_uid_or_short_is_silent(payload):
-    assert CyberGear(motor_id=5).handle(request(cg.T_PARAM_TABLE, payload), 0.0) == []
+@pytest.mark.parametrize("payload", [bytes(8), bytes([0x00, 0x01, 0x02, 0x03, 0x04, 0x05, 0x06, 0x07]), b"",
+                                     (0x4347_0000_0000_0005).to_bytes(8, "little")[:7]],
+                         ids=["zeros", "fixed", "empty", "short-uid"])
+def test_a_table_request_is_answered_whatever_its_payload(payload):
+    """The UID form (python-cybergear) and any fixed form (the debugger's) get the same whole table."""
+    motor = CyberGear(motor_id=5)
+    frames = motor.handle(request(cg.T_PARAM_TABLE, payload), 0.0)
+    assert [bytes(f.data) for f in frames] == [bytes(f.data) for f in dump(motor)]
+    assert list(parse_table(frames)) == [e.name for e in TABLE]
 
 
 def test_the_table_follows_the_motor_id_and_its_angle():
@@ -73,11 +79,15 @@ def test_the_table_follows_the_motor_id_and_its_angle():
     assert table["CAN_ID"] == 9 and table["mechPos"] == pytest.approx(1.25)
 
 
+TYPE_CODE = {"u8": 0, "u16": 2, "i16": 3, "u32": 4, "i32": 5, "f32": 6, "str": 0x0A}  # CyberGearDriver's DataType
+
+
 def read_config(motor: CyberGear, index: int):
     replies = motor.handle(request(cg.T_CONFIG_READ, struct.pack("<H6x", index)), 0.0)
     assert len(replies) == 1 and cg.parse_reply_id(replies[0].arbitration_id).ctype == cg.T_CONFIG_READ
     entry = BY_INDEX[index]
     assert int.from_bytes(replies[0].data[:2], "little") == index
+    assert replies[0].data[2] == TYPE_CODE[entry.kind]  # the entry's data-type code in byte 2
     return struct.unpack_from(FORMAT[entry.kind], replies[0].data, 4)[0]
 
 
@@ -110,6 +120,20 @@ def test_type_8_ignores_out_of_range_values_and_read_only_entries(index, value):
     assert read_config(motor, index) == pytest.approx(before)
 
 
-@pytest.mark.parametrize("data", [b"", b"\x0a", struct.pack("<H6x", 0x0000), struct.pack("<H6x", 0x7005)])
-def test_type_9_of_a_string_an_unknown_index_or_no_index_is_silent(data):
+@pytest.mark.parametrize("data", [b"", b"\x0a", struct.pack("<H6x", 0x7005), struct.pack("<H6x", 0x2FFF)])
+def test_type_9_of_an_unknown_index_or_no_index_is_silent(data):
     assert CyberGear(motor_id=5).handle(request(cg.T_CONFIG_READ, data), 0.0) == []
+
+
+@pytest.mark.parametrize("entry", [e for e in TABLE if e.kind == "str"], ids=lambda e: e.name)
+def test_type_9_of_a_string_is_four_frames_of_four_characters(entry):
+    motor = CyberGear(motor_id=5)
+    replies = motor.handle(request(cg.T_CONFIG_READ, struct.pack("<H6x", entry.index)), 0.0)
+    assert len(replies) == 4
+    for part, reply in enumerate(replies):
+        assert cg.parse_reply_id(reply.arbitration_id).ctype == cg.T_CONFIG_READ
+        assert bytes(reply.data[:4]) == struct.pack("<HBB", entry.index, 0x0A, part)
+    text = b"".join(bytes(r.data[4:8]) for r in replies)
+    assert text == str(entry.default).encode("latin-1")[:16].ljust(16, b"\0")
+    decoded = [load_file(cg.ID_DBC).get_message_by_name("CG_ConfigReadText").decode(bytes(r.data)) for r in replies]
+    assert [d["Part"] for d in decoded] == [0, 1, 2, 3]

@@ -59,8 +59,9 @@ def _close(sig, got, want) -> bool:
 
 # -- loading -----------------------------------------------------------------------------
 def test_every_dbc_is_found():
-    assert {p.name for p in FILES} == {"c620.dbc", "cybergear.dbc", "cybergear_4pi.dbc", "cybergear_id.dbc",
-                                        "quadruped.dbc", "rig.dbc"}
+    assert {p.name for p in FILES} == {"c610.dbc", "c620.dbc", "cybergear.dbc", "damiao.dbc", "cybergear_4pi.dbc", "cybergear_id.dbc",
+                                        "gm6020.dbc", "quadruped.dbc", "rig.dbc", "robstride_rs01.dbc",
+                                        "robstride_rs02.dbc", "robstride_rs03.dbc", "robstride_rs04.dbc"}
 
 
 @pytest.mark.parametrize("path", FILES, ids=lambda p: p.name)

@@ -31,7 +31,7 @@ def test_from_overrides_takes_strings_and_numbers():
 
 
 @pytest.mark.parametrize("mapping, words", [
-    ({"com_y_m": 0.01}, ["unknown plant override 'com_y_m'", "com_x_m", "supply_voltage_v"]),
+    ({"com_w_m": 0.01}, ["unknown plant override 'com_w_m'", "com_x_m", "supply_voltage_v"]),
     ({"com_x_m": 0.5}, ["com_x_m", "impossible", "-0.1..0.1 m"]),
     ({"friction": "abc"}, ["friction", "not a number"]),
     ({"friction": math.nan}, ["friction", "impossible"]),
@@ -69,6 +69,7 @@ from wheelleg.emulators.robot import description as D  # noqa: E402
 
 C620_DB = load_file("c620.dbc")
 HIPS = [m.name for m in D.HIP_MOTORS]
+WHEELS = [w.name for w in D.WHEEL_DRIVES]
 
 
 def _model(**overrides) -> mujoco.MjModel:
@@ -99,6 +100,10 @@ def _dof(m, joint: str) -> int:
     ("wheel_radius_scale", 1.1, lambda m: m.geom("right_wheel").size[0]),
     ("hip_damping", 0.2, lambda m: m.dof_damping[_dof(m, "left_rear_hip")]),
     ("hip_frictionloss", 0.3, lambda m: m.dof_frictionloss[_dof(m, "right_front_hip")]),
+    ("com_y_m", 0.01, lambda m: m.body("body").ipos[1]),
+    ("hip_armature", 0.014, lambda m: [m.dof_armature[_dof(m, name)] for name in HIPS]),
+    ("wheel_damping", 0.004, lambda m: [m.dof_damping[_dof(m, name)] for name in WHEELS]),
+    ("wheel_frictionloss", 0.1, lambda m: [m.dof_frictionloss[_dof(m, name)] for name in WHEELS]),
 ])
 def test_model_overrides_change_the_compiled_model(key, value, read):
     nominal, changed = np.atleast_1d(read(NOMINAL)), np.atleast_1d(read(_model(**{key: value})))
@@ -106,6 +111,8 @@ def test_model_overrides_change_the_compiled_model(key, value, read):
         "body_mass_scale": lambda: [D.MASS_BODY_KG * 1.3, nominal[1] * 1.3],
         "inertia_scale": lambda: [D.MASS_BODY_KG, nominal[1] * 1.5],
         "friction": lambda: [0.4, 0.4], "wheel_radius_scale": lambda: [D.WHEEL_RADIUS_M * 1.1],
+        "hip_armature": lambda: [0.014] * 4, "wheel_damping": lambda: [0.004] * 2,
+        "wheel_frictionloss": lambda: [0.1] * 2,
     }.get(key, lambda: [value])()
     np.testing.assert_allclose(changed, expected, rtol=1e-12)
     assert not np.allclose(changed, nominal)

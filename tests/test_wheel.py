@@ -38,6 +38,11 @@ def test_the_wheel_has_one_top_level_package(wheel):
             "wheelleg/hil/bus/uml/uml-vcan-init.sh", "wheelleg/hil/bus/uml/uml_xstate_shim.c",
             "wheelleg/hil/scaffold/template/pyproject.toml.tmpl",
             "wheelleg/hil/scaffold/template/package/robot.xml.tmpl"} <= set(names)
+    # the firmware's sources, so an installed wheel builds it (wheelleg.hil.firmware_build)
+    firmware = {"wheelleg/firmware/" + str(path.relative_to(REPO / "firmware"))
+                for pattern in ("Makefile", "**/*.c", "**/*.h") for path in (REPO / "firmware").glob(pattern)
+                if "build" not in path.relative_to(REPO / "firmware").parts}
+    assert len(firmware) > 30 and firmware <= set(names), sorted(firmware - set(names))
     with zipfile.ZipFile(wheel) as zf:  # its robots, registered as any robot package registers its own
         points = zf.read(next(n for n in names if n.endswith(".dist-info/entry_points.txt"))).decode()
     assert "[wheelleg.robots]\nquadruped = wheelleg.hil.robots.quadruped:ROBOT\n" in points

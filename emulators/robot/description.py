@@ -67,6 +67,8 @@ CG_OVER_TEMP_C = 80.0  # over-temperature fault
 CG_WARN_TEMP_C = 75.0  # warning
 CG_GEAR = 7.75
 CG_ROTOR_INERTIA_KG_M2 = 2.0e-5  # motor side [derived: ~0.08 kg pancake rotor at 22 mm]
+HIP_ARMATURE_KG_M2 = CG_ROTOR_INERTIA_KG_M2 * CG_GEAR ** 2  # at the joint, rotor alone (robot.xml's hip armature)
+CG_LINE_RESISTANCE_OHM = 0.45  # winding, line to line (+-10 %)
 
 # --- C620 + M3508 wheel drives [DJI] ---------------------------------------------
 M3508_GEAR = 3591 / 187  # rotor to output shaft

@@ -16,11 +16,56 @@ import numpy as np
 
 # Named boxes of plant overrides, key -> (low, high) in the key's unit (see
 # wheelleg.emulators.plant.OVERRIDES). `tolerance` is what a real robot of this
-# build differs from its model by: mass and CoM from the battery and cabling,
-# torque constants from motor-to-motor spread, IMU mounting and bias, bus and
-# driver latency, and the battery's voltage from full to nearly flat (6S).
+# build differs from its model by, each range from a source (a datasheet, a
+# published measurement of the part, a manufacturing tolerance, or a derivation
+# from them): docs/robot.md, "The tolerance box", gives each one's source.
+# Left and right are drawn independently (a key per side, the common key left at
+# its default). `tolerance-v1` is the box before the sources (drawn by the hands
+# that tuned the controller, without the keys the plant lacked then), kept for comparison.
+_HIP_ZERO_RAD = 0.02  # each hip's zero set by hand against its stop
+TOLERANCE = {
+    # mass and CoM: battery and cabling
+    "body_mass_scale": (0.95, 1.20),
+    "inertia_scale": (0.7, 1.3),
+    "com_x_m": (-0.02, 0.02),
+    "com_y_m": (-0.01, 0.01),
+    "com_z_m": (-0.015, 0.015),
+    # CyberGear hips
+    "hip_armature": (0.0012, 0.014),
+    "hip_damping": (0.002, 0.005),
+    "hip_frictionloss_left": (0.15, 0.435),
+    "hip_frictionloss_right": (0.15, 0.435),
+    "hip_kt_scale_left": (0.90, 1.03),
+    "hip_kt_scale_right": (0.90, 1.03),
+    **{f"hip_zero_offset_{leg}_{hip}": (-_HIP_ZERO_RAD, _HIP_ZERO_RAD)
+       for leg in ("left", "right") for hip in ("front", "rear")},
+    "hip_torque_lag_s": (0.00016, 0.0027),
+    # M3508 + C620 wheels, tyres, floor
+    "wheel_damping": (0.002, 0.005),
+    "wheel_frictionloss_left": (0.06, 0.16),
+    "wheel_frictionloss_right": (0.06, 0.16),
+    "wheel_kt_scale_left": (0.90, 1.03),
+    "wheel_kt_scale_right": (0.90, 1.03),
+    "wheel_torque_lag_s": (0.00016, 0.001),
+    "wheel_radius_scale": (0.96, 1.01),
+    "friction": (0.5, 1.0),
+    # BMI088 IMU and its mount
+    "imu_tilt_pitch_deg": (-1.5, 1.5),
+    "imu_tilt_roll_deg": (-1.5, 1.5),
+    "imu_gyro_bias_x": (-0.0175, 0.0175),
+    "imu_gyro_bias_y": (-0.0175, 0.0175),
+    "imu_gyro_bias_z": (-0.0175, 0.0175),
+    "imu_noise_scale": (1.0, 2.0),
+    # bus and drivers
+    "feedback_delay_s": (0.0, 0.001),
+    "command_delay_s": (0.0, 0.001),
+    # a 6S LiPo from full to flat, new to worn
+    "supply_voltage_v": (21.0, 25.2),
+    "battery_resistance_ohm": (0.018, 0.108),
+}
 PRESETS: dict[str, dict[str, tuple[float, float]]] = {
-    "tolerance": {
+    "tolerance": TOLERANCE,
+    "tolerance-v1": {
         "body_mass_scale": (0.8, 1.4),
         "com_x_m": (-0.03, 0.03),
         "com_z_m": (-0.02, 0.02),

@@ -1,5 +1,8 @@
-"""``wheelleg emulate cybergear|c620|imu``: emulated devices alone on a CAN bus.
+"""``wheelleg emulate NAME``: emulated devices of one family alone on a CAN bus.
 
+NAME is any installed device family (``wheelleg.emulators.family``: the rig's
+own cybergear, c620, c610, gm6020, damiao, robstride, imu, and those of
+installed plug-ins); each family adds its own options after its name.
 ``--id`` may be given several times: ``wheelleg emulate cybergear --id 1 --id
 2 --id 3 --id 4`` serves a robot's whole set of motors from one process.
 
@@ -22,64 +25,39 @@ from collections.abc import Callable
 
 import can
 import can.cli
-import numpy as np
 
 from wheelleg.controller import bus_args
-from wheelleg.emulators.c620 import C620
-from wheelleg.emulators.cybergear import CyberGear
 from wheelleg.emulators.device import EmulatedDevice
-from wheelleg.emulators.imu import Imu, ImuNoise
+from wheelleg.emulators.family import families, int_id
 from wheelleg.emulators.node import DeviceNode
 
 NAME = "emulate"
-HELP = "emulate CyberGears, C620s or an IMU alone on a CAN bus until interrupted"
-DEFAULT_IDS = {"cybergear": 0x7F, "c620": 1, "imu": 0}
+HELP = "emulate devices of one family (CyberGear, C620, Damiao, ...) alone on a CAN bus until interrupted"
 
 log = logging.getLogger(__name__)
 
 
-def _int(text: str) -> int:
-    return int(text, 0)
-
-
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("device", choices=sorted(DEFAULT_IDS), help="which device to emulate")
-    parser.add_argument("--id", type=_int, action="append", default=None, metavar="N",
-                        help="CyberGear motor id 0..127 (default 0x7F) or C620 ESC id 1..8 (default 1); "
-                             "decimal or 0x hex; repeat for several devices in one process")
-    parser.add_argument("--host", type=_int, default=0x00, metavar="N",
-                        help="CyberGear CAN_MASTER: the host id in 0..127 the motors answer (default 0x00); "
-                             "hosts 0x80..0xFF (0xFD, the debugger's) are always answered")
-    parser.add_argument("--position-range", choices=("12.5", "4pi"), default="12.5",
-                        help="CyberGear position field range in rad (default: %(default)s)")
-    parser.add_argument("--uid", type=_int, default=None, metavar="UID",
-                        help="CyberGear 64-bit MCU unique id sent in type-0 replies")
-    parser.add_argument("--command-timeout", type=float, default=None, metavar="S",
-                        help="C620: zero the current when no command came for S seconds "
-                             "(default: hold the last command forever)")
-    parser.add_argument("--imu-period", type=float, default=0.002, metavar="S",
-                        help="IMU frame period (default: %(default)s s)")
-    parser.add_argument("--seed", type=int, default=0, help="IMU noise seed (default: %(default)s)")
-    parser.add_argument("--tick", type=float, default=0.001, metavar="S",
-                        help="shaft integration and periodic-frame tick (default: %(default)s s)")
-    can.cli.add_bus_arguments(parser)
+    sub = parser.add_subparsers(dest="device", required=True, metavar="NAME",
+                                help="device family: " + ", ".join(families()))
+    for name, family in families().items():
+        p = sub.add_parser(name, help=family.summary, description=family.summary)
+        if family.default_ids:
+            p.add_argument("--id", type=int_id, action="append", default=None, metavar="N", help=family.id_help)
+        family.add_arguments(p)
+        p.add_argument("--tick", type=float, default=0.001, metavar="S",
+                       help="shaft integration and periodic-frame tick (default: %(default)s s)")
+        can.cli.add_bus_arguments(p)
+        p.set_defaults(family=family)
 
 
 def make_devices(args: argparse.Namespace) -> list[EmulatedDevice]:
     """The devices the arguments ask for; ValueError on a bad id or option."""
-    ids = [DEFAULT_IDS[args.device]] if args.id is None else args.id
+    family = args.family
+    ids = list(family.default_ids) if getattr(args, "id", None) is None else args.id
     if len(set(ids)) != len(ids):
         raise ValueError(f"--id given twice for the same device: {ids}")
-    if args.device == "imu":
-        if args.id is not None:
-            raise ValueError("the IMU has no --id")
-        return [Imu(period_s=args.imu_period, noise=ImuNoise(), rng=np.random.default_rng(args.seed))]
-    if args.device == "cybergear":
-        if args.uid is not None and len(ids) > 1:
-            raise ValueError("--uid names one motor; give it with a single --id")
-        return [CyberGear(motor_id=i, position_range=args.position_range, uid=args.uid, host_id=args.host)
-                for i in ids]
-    return [C620(esc_id=i, command_timeout_s=args.command_timeout) for i in ids]
+    return family.make(args, ids)
 
 
 # the destinations of can.cli.add_bus_arguments, which can.cli.create_bus_from_namespace reads
@@ -132,10 +110,9 @@ def run(args: argparse.Namespace, stop: threading.Event | None = None) -> int:
 
 
 def _describe(device: EmulatedDevice) -> str:
-    if isinstance(device, CyberGear):
-        return f"motor id 0x{device.motor_id:02X}"
-    if isinstance(device, C620):
-        return f"ESC id {device.esc_id}"
+    for attribute in ("motor_id", "esc_id"):
+        if hasattr(device, attribute):
+            return f"id 0x{getattr(device, attribute):02X}"
     return f"every {device.period_s} s"
 
 

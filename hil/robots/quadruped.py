@@ -65,7 +65,7 @@ ROBOT = Robot(
     offline_bits=(*(f"{leg} motors" for leg in D.LEGS), "imu", "remote"),  # controller.quadruped.node.heartbeat_mask
     debug_schema=described_schema("wheelleg.QuadrupedControllerDebug", DEBUG_FIELDS),
     plant_override_keys=frozenset({
-        "body_mass_scale", "com_x_m", "com_z_m", "inertia_scale", "imu_tilt_pitch_deg", "imu_tilt_roll_deg",
+        "body_mass_scale", "com_x_m", "com_y_m", "com_z_m", "inertia_scale", "imu_tilt_pitch_deg", "imu_tilt_roll_deg",
         "hip_kt_scale", "imu_gyro_bias", "imu_gyro_bias_x", "imu_gyro_bias_y", "imu_gyro_bias_z",
         "imu_noise_scale", "feedback_delay_s", "command_delay_s", "supply_voltage_v"}),
 )
