@@ -25,8 +25,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from wheelleg.hil import fast
-
 from wheelleg.hil.record.schemas import CDR_LE
 
 ENCODING, MESSAGE_ENCODING = "ros2msg", "cdr"
@@ -77,14 +75,7 @@ class FloatLayout:
         return meta
 
     def pack(self, values: dict, topic: str) -> bytes:
-        """One record of ``values`` (field -> number; a field it lacks: NaN); TypeError for a non-number.
-
-        Floats and ints are packed in C where it is built (``wheelleg.hil.fast``): the same bytes."""
-        compiled = fast.core()
-        if compiled is not None and type(values) is dict and type(self.fields) is tuple:
-            record = compiled.pack_floats(self.fields, values)
-            if record is not None:
-                return record
+        """One record of ``values`` (field -> number; a field it lacks: NaN); TypeError for a non-number."""
         numbers = [values.get(k, math.nan) for k in self.fields]
         try:
             return struct.pack(f"<4s{len(self.fields)}d", CDR_LE, *numbers)
@@ -97,7 +88,8 @@ class FloatLayout:
 
     def pack_known(self, values: dict, compiled) -> bytes | None:
         """``pack`` of ``values`` whose every key is a field or the time field and every value a float or an
-        int, by ``compiled`` (``wheelleg.hil.fast.core()``); None otherwise (the caller checks and packs)."""
+        int, in C by ``compiled`` (``wheelleg.hil.fast.core()``): the same bytes; None otherwise (the
+        caller checks and packs)."""
         if type(values) is not dict or type(self.fields) is not tuple:
             return None
         return compiled.pack_floats(self.fields, values, self.time_field or _NO_FIELD)

@@ -382,22 +382,17 @@ class TraceWriter:
         self._field_sets[topic] = frozenset(layout.fields) | {layout.time_field} - {""}
 
     def _put_floats(self, topic: str, layout, t_ns: int, values: dict, what: str) -> None:
-        # every key known, every value a number: packed in C; anything else checked and packed below
+        # every key known, every value a number: packed in C at once; anything else checked here first
         record = None if self._finished or self._compiled is None else layout.pack_known(values, self._compiled)
-        if record is not None:
-            try:
-                self._mcap.add_message(self._topic_ids[topic], t_ns, record)
-            except struct.error as exc:
-                raise ValueError(f"t_ns must be an int >= 0 (ns), got {t_ns!r}") from exc
-            return
-        unknown = values.keys() - self._field_sets[topic]
-        if unknown:
-            raise ValueError(f"{what}: {sorted(unknown)} not among the fields of its first record "
-                             f"{list(layout.fields)}")
-        if self._finished:
-            raise RuntimeError(f"{self.path}: trace already finished")
+        if record is None:
+            unknown = values.keys() - self._field_sets[topic]
+            if unknown:
+                raise ValueError(f"{what}: {sorted(unknown)} not among the fields of its first record "
+                                 f"{list(layout.fields)}")
+            if self._finished:
+                raise RuntimeError(f"{self.path}: trace already finished")
         try:
-            self._mcap.add_message(self._topic_ids[topic], t_ns, layout.pack(values, what))
+            self._mcap.add_message(self._topic_ids[topic], t_ns, layout.pack(values, what) if record is None else record)
         except struct.error as exc:
             raise ValueError(f"t_ns must be an int >= 0 (ns), got {t_ns!r}") from exc
 
