@@ -23,9 +23,8 @@ SYNC = recorder_module.SYNC_ID
 
 
 @pytest.fixture
-def python_path():
-    """Inside: every recorder and writer made takes the Python path."""
-    fast.force_python(True)
+def choice_restored():
+    """The test switches paths with ``force_python``; afterwards the environment decides again."""
     yield
     fast.force_python(None)
 
@@ -141,7 +140,7 @@ def _candump(frames: list[Frame], epoch_ns: int) -> tuple[str, str | None]:
 
 @compiled
 @pytest.mark.parametrize("plain", [True, False])
-def test_the_compiled_candump_lines_are_the_python_ones(plain, python_path):
+def test_the_compiled_candump_lines_are_the_python_ones(plain, choice_restored):
     r = random.Random(5)
     for trial in range(20):
         frames, epoch = _frames(r, 300, plain), r.choice([0, 1_700_000_000 * 10**9, -10**12, 1 << 63])
@@ -155,7 +154,7 @@ def test_the_compiled_candump_lines_are_the_python_ones(plain, python_path):
 
 
 @compiled
-def test_the_compiled_can_records_are_the_python_ones(python_path):
+def test_the_compiled_can_records_are_the_python_ones(choice_restored):
     r = random.Random(6)
     for trial in range(50):
         frames = _frames(r, r.randrange(1, 200), plain=trial % 2 == 0)
@@ -208,7 +207,7 @@ def test_a_run_records_the_same_bytes_on_either_path(tmp_path):
 
 
 @compiled
-def test_the_compiled_float_records_are_the_python_ones(python_path):
+def test_the_compiled_float_records_are_the_python_ones(choice_restored):
     import math
 
     import numpy as np
