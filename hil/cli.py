@@ -24,8 +24,8 @@ import warnings
 # cantools) and building the model count as the run's start-up (`wheelleg run` prints it).
 STARTED_S = time.perf_counter()
 
-SUBCOMMANDS = ("run", "list", "campaign", "emulate", "controller", "replay", "inspect", "decode", "export", "recover",
-               "vcan", "new-robot")
+SUBCOMMANDS = ("run", "list", "campaign", "emulate", "controller", "replay", "diff", "inspect", "decode", "export",
+               "recover", "vcan", "new-robot", "render", "layout")
 
 
 def build_parser(command: str | None = None) -> argparse.ArgumentParser:

@@ -138,10 +138,11 @@ class PlannedRun:
     out_dir: Path
     trace_path: Path
     log_path: Path
+    program: str = "python"  # ``wheelleg run --program``
 
     @property
     def key(self) -> tuple:
-        return self.scenario, self.seed, self.duration, self.overrides
+        return self.scenario, self.seed, self.duration, self.overrides, self.program
 
     def describe(self) -> str:
         """The files a run stopped midway leaves (written up to the stop) and how to run it again."""
@@ -173,7 +174,7 @@ class _RunCache:
         self.executed = 0  # rig runs actually done (the rest came from the cache)
 
     def plan(self, scenario: str, duration: float | None, seed: int, plant: dict | None = None,
-             robot: str | None = None) -> PlannedRun:
+             robot: str | None = None, program: str = "python") -> PlannedRun:
         """The run ``get`` gives for these arguments, with the paths it writes (nothing runs).
 
         ``scenario`` is 'NAME' or 'ROBOT/NAME' (``robot`` says it too); the plan keeps
@@ -188,8 +189,10 @@ class _RunCache:
         duration = None if duration is None else float(duration)
         name = scenarios.qualified_name(found)
         words = [f"{name}-seed{int(seed)}-{duration or 'full'}s", *(f"{k}={v!r}" for k, v in overrides)]
+        if program != "python":
+            words.append(f"program-{program}")
         out_dir = self.out_dir / _dir_name("-".join(words))
-        return PlannedRun(name, int(seed), duration, overrides, out_dir, *run_paths(out_dir, found.name))
+        return PlannedRun(name, int(seed), duration, overrides, out_dir, *run_paths(out_dir, found.name), program)
 
     def get(self, planned: PlannedRun) -> RigRun:
         run = self.runs.get(planned.key)
@@ -209,7 +212,7 @@ class _RunCache:
         args = argparse.Namespace(scenario=scenario, out=planned.out_dir, interface=self.interface,
                                   channel=list(self.channels),
                                   seed=seed, duration=duration, realtime=False, external_controller=False,
-                                  no_plot=True, quiet=True, plant=plant)
+                                  no_plot=True, quiet=True, plant=plant, program=planned.program)
         outcome, results, data = execute(args)
         self.executed += 1
         return RigRun(**vars(data), trace_path=outcome.trace_path, log_path=outcome.log_path,
@@ -228,19 +231,20 @@ def rig_cache(request, tmp_path_factory) -> _RunCache:
 
 @pytest.fixture
 def rig_run(request, rig_cache):
-    """``rig_run(scenario, duration=None, seed=0, plant=None, robot=None) -> RigRun``: run (or reuse) a
-    scenario run; ``scenario`` 'NAME' or 'ROBOT/NAME' (or ``robot=``) for a robot other than the default."""
+    """``rig_run(scenario, duration=None, seed=0, plant=None, robot=None, program="python") -> RigRun``: run
+    (or reuse) a scenario run; ``scenario`` 'NAME' or 'ROBOT/NAME' (or ``robot=``) for a robot other than the
+    default; ``program`` as ``wheelleg run --program`` takes it (python, firmware, PATH.so, a command)."""
     runs = request.node.stash.setdefault(_RUNS_OF_ITEM, [])
 
     def run(scenario: str, duration: float | None = None, seed: int = 0, plant: dict | None = None,
-            robot: str | None = None) -> RigRun:
+            robot: str | None = None, program: str = "python") -> RigRun:
         try:
-            return _planned_and_run(scenario, duration, seed, plant, robot)
+            return _planned_and_run(scenario, duration, seed, plant, robot, program)
         except BaseException as exc:  # re-raised from here: this frame's entry is added again
             raise exc.with_traceback(_with_line_numbers(exc.__traceback__.tb_next))
 
-    def _planned_and_run(scenario, duration, seed, plant, robot) -> RigRun:
-        planned = rig_cache.plan(scenario, duration, seed, plant, robot)
+    def _planned_and_run(scenario, duration, seed, plant, robot, program) -> RigRun:
+        planned = rig_cache.plan(scenario, duration, seed, plant, robot, program)
         runs.append(planned)  # before the run: a test stopped during it still names the files
         result = rig_cache.get(planned)
         runs[:] = [r for r in runs if r is not planned]  # returned: the RigRun says more
@@ -248,6 +252,16 @@ def rig_run(request, rig_cache):
             runs.append(result)
         return result
     return run
+
+
+def _bug_report(run) -> str:
+    """A run's lines in a failing test's report; a finished run's with a video of its failing moment."""
+    if not isinstance(run, RigRun):
+        return run.describe()
+    from wheelleg.hil.watch.failure_video import bug_report_video  # noqa: PLC0415 (renders: only on failure)
+
+    head, _, checks = run.describe().partition("\n  [")
+    return f"{head}\n{bug_report_video(run.trace_path)}" + (f"\n  [{checks}" if checks else "")
 
 
 def _with_line_numbers(tb: types.TracebackType | None) -> types.TracebackType | None:
@@ -275,5 +289,5 @@ def pytest_runtest_makereport(item, call):
     if report.failed and report.when == "call":
         runs = item.stash.get(_RUNS_OF_ITEM, [])
         if runs:
-            report.sections.append(("wheelleg rig", "\n\n".join(r.describe() for r in runs)))
+            report.sections.append(("wheelleg rig", "\n\n".join(_bug_report(r) for r in runs)))
     return report

@@ -13,6 +13,7 @@ from wheelleg.controller import params as P
 from wheelleg.controller.node import Controller
 from wheelleg.dbc import CAN1, CAN2
 from wheelleg.dbc import cybergear as cg
+from wheelleg.hil.program.library import WlFrame, WlStatus  # the ABI's layouts, written once
 from wheelleg.hil.record import sources
 
 BUS_INDEX = {CAN1: 0, CAN2: 1}
@@ -20,14 +21,6 @@ BUS_NAME = {0: CAN1, 1: CAN2}
 PERIOD_US = round(P.CONTROL_PERIOD * 1e6)
 
 
-class WlFrame(ctypes.Structure):
-    _fields_ = [("id", ctypes.c_uint32), ("bus", ctypes.c_uint8), ("extended", ctypes.c_uint8),
-                ("dlc", ctypes.c_uint8), ("pad", ctypes.c_uint8), ("data", ctypes.c_uint8 * 8)]
-
-
-class WlStatus(ctypes.Structure):
-    _fields_ = [("mode", ctypes.c_uint8), ("offline_mask", ctypes.c_uint8), ("pad", ctypes.c_uint16),
-                ("ticks", ctypes.c_uint32)]
 
 
 @dataclass

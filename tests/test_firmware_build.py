@@ -46,7 +46,7 @@ def test_every_port_builds_with_warnings_as_errors_and_the_c_tests_pass(tmp_path
 @same_fixture("firmware library")
 def test_the_library_exports_the_abi_and_nothing_else(library):
     lib = ctypes.CDLL(str(library))
-    assert lib.wl_abi_version() == 1
+    assert lib.wl_abi_version() == 2
     lib.wl_build_id.restype = ctypes.c_char_p
     assert lib.wl_build_id().startswith(b"wheelleg-fw ")
     nm = shutil.which("nm")

@@ -2,10 +2,17 @@
 from __future__ import annotations
 
 import re
+from pathlib import Path
 
 import pytest
 
 from wheelleg.hil.cli import main
+
+
+def offscreen_gl_missing() -> str | None:
+    import ctypes.util
+
+    return None if ctypes.util.find_library("OSMesa") or ctypes.util.find_library("EGL") else "no libosmesa6"
 
 pytest_plugins = ["pytester"]
 
@@ -56,6 +63,11 @@ def test_rig_run_fixture_caches_runs_and_reports_failures(pytester):
     assert f"wheelleg inspect {trace}" in section
     assert "rerun:   wheelleg run balance --seed 1 --duration 0.2" in section
     assert "[PASS]" in section or "[FAIL]" in section  # the scenario's own checks are listed
+    if offscreen_gl_missing() is None:  # a video of the failing moment beside the trace
+        video = re.search(r"video:\s+(\S+\.failure\.mp4) \(the failing moment", section).group(1)
+        assert video == trace.removesuffix(".mcap") + ".failure.mp4" and Path(video).stat().st_size > 1000
+    else:
+        assert "video:   none" in section
     # the replay command the report names works on the trace and on the log
     assert main(["replay", trace]) == 0
     assert main(["replay", log]) == 0

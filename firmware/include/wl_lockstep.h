@@ -1,15 +1,17 @@
-/* The firmware's in-process lockstep ABI, version 1 (docs/firmware.md).
+/* The firmware's in-process lockstep ABI, version 2 (docs/firmware.md).
  *
  * The rig loads libwheelleg_fw.so and calls wl_step once per control period in virtual
  * time: the period's received frames in, the frames to send out. The rig owns SYNC and
- * the heartbeat (it sends the heartbeat from wl_status); the firmware knows neither.
+ * the heartbeat (it sends the heartbeat from wl_status, every field the firmware's own);
+ * the firmware knows neither. Version 2: wl_status carries every Heartbeat field (version
+ * 1 had Mode and OfflineMask only). 
  * C11, no heap: all state is static, reset by wl_init. */
 #ifndef WL_LOCKSTEP_H
 #define WL_LOCKSTEP_H
 
 #include <stdint.h>
 
-#define WL_ABI_VERSION 1
+#define WL_ABI_VERSION 2
 
 typedef struct {
     uint32_t id;        /* 11- or 29-bit identifier */
@@ -20,12 +22,20 @@ typedef struct {
     uint8_t  data[8];
 } wl_frame_t;           /* 16 bytes */
 
+/* The heartbeat's fields (rig.dbc Heartbeat) as the firmware set them this tick, the same
+   values and bits the Python controller sends. */
 typedef struct {
-    uint8_t  mode;          /* the heartbeat's Mode: the same values the Python controller sends (rig.dbc Heartbeat) */
-    uint8_t  offline_mask;  /* the heartbeat's OfflineMask: the same bits as the Python controller's */
-    uint16_t pad;
-    uint32_t ticks;         /* control ticks run since wl_init */
-} wl_status_t;
+    uint8_t  mode;           /* Mode */
+    uint8_t  warning_level;  /* WarningLevel: the highest level among the offline devices, 0 when all is well */
+    uint8_t  offline_count;  /* OfflineCount: devices offline or faulted */
+    uint8_t  offline_mask;   /* OfflineMask: bit i, device i of the detect task offline or faulted */
+    uint8_t  motors_enabled; /* MotorsEnabled: 0 or 1 */
+    uint8_t  off_ground;     /* OffGround: 0 or 1 */
+    uint8_t  fallen;         /* Fallen: 0 or 1 */
+    uint8_t  fault_latched;  /* FaultLatched: 0 or 1 */
+    uint32_t bad_frames;     /* malformed frames seen since wl_init (the heartbeat's BadFrames carries the low 4 bits) */
+    uint32_t ticks;          /* control ticks run since wl_init */
+} wl_status_t;               /* 16 bytes */
 
 int32_t     wl_abi_version(void);        /* returns WL_ABI_VERSION */
 const char *wl_build_id(void);           /* static string: program name, version, source hash, compiler */

@@ -184,6 +184,9 @@ static void test_lockstep(void) {
     wl_status_t st;
     wl_status(&st);
     check(n == 5 && st.mode == 0 && st.offline_mask == 0xFF && st.ticks == 1, "power-on: E-stop (no remote yet), stops and zero current", st.mode * 1000 + st.offline_mask, 255);
+    check(st.offline_count == 8 && st.warning_level == 5 && !st.motors_enabled && !st.off_ground && !st.fallen,
+          "power-on status: all eight devices offline, level 5 (the IMU's), motors off", st.offline_count * 10 + st.warning_level, 85);
+    check(sizeof(wl_status_t) == 16, "wl_status_t is 16 bytes", (int)sizeof(wl_status_t), 16);
     check(tx[0].extended && (tx[0].id >> 24) == 4 && tx[4].id == 0x200 && tx[4].bus == 0, "stop frames first", tx[0].id, 0);
     n = wl_step(2000, NULL, NULL, 0, tx, 3);
     check(n == 3, "max_tx respected", n, 3);

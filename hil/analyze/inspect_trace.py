@@ -77,6 +77,7 @@ class TraceSummary:
     events: dict = field(default_factory=dict)  # kind -> count
     notes: list[str] = field(default_factory=list)
     run: dict = field(default_factory=dict)
+    program: dict = field(default_factory=dict)  # the trace's ``program`` record (hil/program), {} in older traces
     load_series: dict = field(default_factory=dict)  # interface -> (t (n,) s, load (n,))
     heartbeat: dict = field(default_factory=dict)  # 't', 'Mode', 'WarningLevel' -> (n,) arrays
     commands: dict = field(default_factory=dict)  # label -> (t (n,), value (n,)) torques/currents
@@ -232,7 +233,8 @@ def summarize(path_or_source, *, bitrate: int = DEFAULT_BITRATE, window_s: float
     p.run()
     duration = source.duration_s
     summary = TraceSummary(str(source.path), source.kind, dict(source.channels), p.t0 / 1e9, duration,
-                           len(source.frames), run=dict(source.run))
+                           len(source.frames), run=dict(source.run),
+                           program=dict(source.metadata.get("program", {})))
     for (channel, label), (ident, n, first, last) in sorted(p.counts.items(), key=lambda kv: (kv[0][0], kv[1][0], kv[0][1])):
         span = (last - first) / 1e9
         rate = (n - 1) / span if n > 1 and span > 0 else math.nan
@@ -300,6 +302,10 @@ def format_summary(s: TraceSummary, *, signals: bool = True, max_findings: int =
                  f"revision {run.get('git_revision', '?')[:12]}")
     roles = ", ".join(f"{role} = {name}" for role, name in sorted(s.channels.items())) or "bus roles unknown"
     lines = [head, f"duration {s.duration_s:.6f} s, {s.frames} frames; {roles}"]
+    if s.program:
+        from wheelleg.hil.program import describe  # noqa: PLC0415 (ctypes, only for a trace that names one)
+
+        lines.append(f"program: {describe(s.program)}")
     lines += [f"note: {n}" for n in s.notes]
     lines.append("bus load (mean, peak over 100 ms windows):")
     lines += [f"  {ch:<10} {mean * 100:6.2f} %  peak {peak * 100:6.2f} %" for ch, (mean, peak) in s.bus_load.items()]

@@ -1,6 +1,7 @@
 """One PNG per run: attitude, leg lengths (or body height), speed and torques over time."""
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 import matplotlib
@@ -12,11 +13,18 @@ import numpy as np  # noqa: E402
 from wheelleg.hil.run.scenario import RunData  # noqa: E402
 
 
-def plot_run(run: RunData, path: Path | str, title: str = "") -> Path:
-    """Write the four-panel overview of ``run`` to ``path``."""
+def plot_run(run: RunData, path: Path | str, title: str = "", trace: Path | None = None) -> Path:
+    """Write the four-panel overview of ``run`` to ``path``; with its ``trace``, a filmstrip row of the
+    robot at its events above them (hil/watch/clips.py; left out, with a note, where nothing renders)."""
     s = run.state
     t = s["t"]
-    fig, axes = plt.subplots(4, 1, figsize=(10, 11), sharex=True)
+    stills = _stills(trace) if trace is not None else []
+    fig = plt.figure(figsize=(10, 11 + (1.6 if stills else 0)))
+    grid = fig.add_gridspec(5 if stills else 4, 1, height_ratios=[1.6, 2.5, 2.5, 2.5, 2.5] if stills else None)
+    if stills:
+        _filmstrip(fig, grid[0].subgridspec(1, len(stills)), stills)
+    first = fig.add_subplot(grid[1 if stills else 0])
+    axes = [first] + [fig.add_subplot(grid[i], sharex=first) for i in range(2 if stills else 1, 5 if stills else 4)]
     axes[0].plot(t, np.degrees(s["pitch"]), label="pitch")
     axes[0].plot(t, np.degrees(s["roll"]), label="roll")
     axes[0].set_ylabel("deg")
@@ -47,3 +55,23 @@ def plot_run(run: RunData, path: Path | str, title: str = "") -> Path:
     fig.savefig(path, dpi=90)
     plt.close(fig)
     return Path(path)
+
+
+def _stills(trace: Path) -> list:
+    """(t s, image) of the run's filmstrip, [] with a one-line note on stderr when it cannot be drawn."""
+    from wheelleg.hil.watch.clips import filmstrip  # noqa: PLC0415 (MuJoCo's renderer only when drawing)
+    from wheelleg.hil.watch.render import RenderError, SceneError  # noqa: PLC0415
+
+    try:
+        return filmstrip(trace)
+    except (RenderError, SceneError) as exc:
+        print(f"plot: no filmstrip: {exc}", file=sys.stderr)
+        return []
+
+
+def _filmstrip(fig, cells, stills: list) -> None:
+    for cell, (t_s, image) in zip(cells, stills):
+        ax = fig.add_subplot(cell)
+        ax.imshow(image)
+        ax.set_axis_off()
+        ax.set_title(f"{t_s:.2f} s", fontsize=8)

@@ -382,12 +382,13 @@ def _memory_buses() -> dict[str, MemoryBus]:
     return {role: MemoryBus(f"replay-{role}") for role in ROLES}
 
 
-class _SyncDriver:
-    """The robot's real controller node in sync mode on in-memory buses."""
+class SyncDriver:
+    """A program's controller node in sync mode on in-memory buses; ``build_controller``: its node
+    factory (``Robot.build_controller``, ``wheelleg.hil.program.Program.node_factory``)."""
 
-    def __init__(self, robot: robots.Robot, period_s: float, t0_ns: int):
+    def __init__(self, build_controller, period_s: float, t0_ns: int):
         self.buses = _memory_buses()
-        self.node = robot.build_controller(self.buses, True, period_s)
+        self.node = build_controller(self.buses, True, period_s)
 
     def step(self, step: TickStep):
         for f in step.inputs:
@@ -402,13 +403,13 @@ class _SyncDriver:
             bus.shutdown()
 
 
-class _FreeRunDriver:
-    """The robot's controller without I/O (its node's ``controller``: ``on_frame``, ``tick``) with the
+class FreeRunDriver:
+    """A program's controller without I/O (its node's ``controller``: ``on_frame``, ``tick``) with the
     log's timestamps as its clock (ns since the log's first frame)."""
 
-    def __init__(self, robot: robots.Robot, period_s: float, t0_ns: int):
+    def __init__(self, build_controller, period_s: float, t0_ns: int):
         buses = _memory_buses()
-        self.controller = robot.build_controller(buses, False, period_s).controller
+        self.controller = build_controller(buses, False, period_s).controller
         for bus in buses.values():  # the node only made the controller: its buses are never used
             bus.shutdown()
         self.t0_ns = t0_ns
@@ -427,14 +428,25 @@ class _FreeRunDriver:
         pass
 
 
+def driver_for(schedule: Schedule):
+    """The driver class that feeds a program the recording's inputs in its schedule's mode."""
+    return SyncDriver if schedule.mode == "sync" else FreeRunDriver
+
+
+def recorded_period(source: Recording, period_s: float | None = None) -> float:
+    """``period_s``, else the recording's control period, else its robot's."""
+    return period_s or _recorded_period(source) or robots.get(source.robot).control_period_s
+
+
 def replay(path_or_source, *, tolerances: dict | None = None, exact: bool = False,
            channels: dict | None = None, period_s: float | None = None, allow_drops: bool = False,
-           keep_sent: bool = False, robot: str | None = None) -> ReplayResult:
+           keep_sent: bool = False, robot: str | None = None, build_controller=None) -> ReplayResult:
     """Replay a trace or log into a fresh controller of its robot; see the module docstring.
 
     ``tolerances``: signal (or 'Message.Signal') -> allowed |difference| in signal
     units, on top of ``default_tolerances()`` unless ``exact``. ``robot``: whose
-    recording (default: the trace's record, else the default robot). Raises ``TraceError``.
+    recording (default: the trace's record, else the default robot). ``build_controller``: the
+    program replayed (its node factory; default the robot's Python program). Raises ``TraceError``.
     """
     source = path_or_source if isinstance(path_or_source, Recording) else \
         open_recording(path_or_source, channels, robot=robot)
@@ -447,7 +459,7 @@ def replay(path_or_source, *, tolerances: dict | None = None, exact: bool = Fals
     tol = {} if exact else default_tolerances()
     tol.update(tolerances or {})
     t0 = min(f.t_ns for f in source.frames)
-    driver = (_SyncDriver if schedule.mode == "sync" else _FreeRunDriver)(spec, period, t0)
+    driver = driver_for(schedule)(build_controller or spec.build_controller, period, t0)
     try:
         for step in schedule.steps:
             sent, now, debug = driver.step(step)

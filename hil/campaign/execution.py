@@ -37,14 +37,20 @@ class RunSettings:
     duration_s: float | None = None  # None: each scenario's own duration
     keep_passing: bool = False  # keep passing runs' traces and logs too (disk)
     epoch_ns: int = 0  # the candump logs' start time (``wheelleg run --epoch``)
+    program: str = "python"  # ``--program``: an in-process kind (hil/program), parsed on the worker
 
 
-def rig_config(seed: int, overrides: dict, epoch_ns: int = 0):
-    """The one place a sample's plant overrides become a run's RigConfig (ValueError on a bad key or value)."""
+def rig_config(seed: int, overrides: dict, epoch_ns: int = 0, program: str = "python"):
+    """The one place a sample's plant overrides become a run's RigConfig (ValueError on a bad key or value,
+    or a program that is not an in-process one)."""
     from wheelleg.emulators.plant import PlantConfig
+    from wheelleg.hil import program as programs
     from wheelleg.hil.run.rig import RigConfig
 
-    return RigConfig(seed=seed, plant=PlantConfig.from_overrides(overrides), epoch_ns=epoch_ns)
+    chosen = programs.parse(program)
+    if not chosen.in_process:
+        raise ValueError(f"program {program!r}: a campaign runs in-process programs (python, firmware, PATH.so)")
+    return RigConfig(seed=seed, plant=PlantConfig.from_overrides(overrides), epoch_ns=epoch_ns, program=chosen)
 
 
 def check_ranges(ranges: dict[str, tuple[float, float]]) -> None:
@@ -60,7 +66,7 @@ def check_ranges(ranges: dict[str, tuple[float, float]]) -> None:
 def rerun_command(job: Job, settings: RunSettings) -> str:
     """The one command that runs ``job`` alone (the same candump log, byte for byte), shell-quoted."""
     return run_command(job.scenario, job.seed, settings.duration_s, job.overrides,
-                       out=run_dir(job, settings) / "rerun", epoch_ns=settings.epoch_ns)
+                       out=run_dir(job, settings) / "rerun", epoch_ns=settings.epoch_ns, program=settings.program)
 
 
 def run_dir(job: Job, settings: RunSettings) -> Path:
@@ -80,6 +86,7 @@ def first_number(detail: str) -> float | None:
 def run_job(job: Job, settings: RunSettings) -> dict:
     """Run ``job`` in the rig and judge it; its results row (results.jsonl). Never raises for a bad run."""
     from wheelleg.hil import scenarios
+    from wheelleg.hil.program.checks import program_checks
     from wheelleg.hil.record.rundata import load_run
     from wheelleg.hil.run.rig import Rig
 
@@ -90,9 +97,10 @@ def run_job(job: Job, settings: RunSettings) -> dict:
         scenario = scenarios.get(job.scenario)
         if settings.duration_s is not None:
             scenario = replace(scenario, duration_s=settings.duration_s)
-        outcome = Rig(scenario, rig_config(job.seed, job.overrides, settings.epoch_ns), where).run()
+        outcome = Rig(scenario, rig_config(job.seed, job.overrides, settings.epoch_ns, settings.program), where).run()
         row["sim_s"] = outcome.sim_s
-        results = [check(load_run(outcome.trace_path)) for check in scenario.checks]
+        run = load_run(outcome.trace_path)
+        results = [check(run) for check in (*scenario.checks, *program_checks(run.program))]
         row["checks"] = [{"name": r.name, "passed": r.passed, "figure": first_number(r.detail),
                           "detail": r.detail} for r in results]
         row["passed"] = all(r.passed for r in results)
@@ -100,7 +108,12 @@ def run_job(job: Job, settings: RunSettings) -> dict:
         row["error"] = f"{type(exc).__name__}: {exc}".splitlines()[0]
     row["wall_s"] = round(time.perf_counter() - wall0, 3)
     row["cpu_s"] = round(time.process_time() - cpu0, 3)  # this worker process's CPU: the run, its checks
-    return finish_files(row, job, settings)
+    row = finish_files(row, job, settings)
+    if not row["passed"] and row["trace"] and not row.get("error"):
+        from wheelleg.hil.watch.failure_video import add_failure_video  # noqa: PLC0415
+
+        add_failure_video(row, settings.out_dir)  # after cpu_s: the video is not the run's cost
+    return row
 
 
 def failed_row(job: Job, error: str | None) -> dict:

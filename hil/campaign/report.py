@@ -25,6 +25,9 @@ def write_report(out_dir: Path, rows: list[dict], spec: dict, command: str) -> P
                       *clustering_section(clusters), *failures_section(rows)])
     path = out_dir / REPORT
     path.write_text(text + "\n")
+    from wheelleg.hil.watch.report_html import write_html  # noqa: PLC0415
+
+    write_html(out_dir, rows, spec, command, out_dir / PLOT)  # report.html: the same, for the eye
     return path
 
 

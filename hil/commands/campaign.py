@@ -39,6 +39,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--workers", type=int, default=None, help="local worker processes (default: all cores)")
     parser.add_argument("--address", default=None,
                         help="join an existing Dask scheduler (tcp://HOST:8786) instead of a local cluster")
+    parser.add_argument("--program", default="python", metavar="P",
+                        help="the program every run tests: python (default), firmware or PATH.so (in-process kinds "
+                             "of `wheelleg run --program`)")
     parser.add_argument("--dashboard", nargs="?", const="", default=None, metavar="[HOST:]PORT",
                         help="serve Dask's dashboard of the local cluster (default: none; with no value "
                              "on 127.0.0.1 at a free port; a HOST only when you name one)")
@@ -85,7 +88,18 @@ def campaign_spec(args: argparse.Namespace) -> dict:
             "ranges": {k: list(v) for k, v in ranges.items()}}
     if args.epoch:  # only when given: a campaign directory from before --epoch resumes as it was
         spec["epoch_s"] = epoch_text(args.epoch)
+    program = getattr(args, "program", "python")
+    if program != "python":  # only when given, as --epoch
+        program_to_run(program)  # checked here: one line
+        spec["program"] = program
     return spec
+
+
+def program_to_run(program: str) -> str:
+    """What the workers load for ``--program``: a library (``firmware`` built here, once) by its absolute path."""
+    if program == "python":
+        return program
+    return str(execution.rig_config(0, {}, 0, program).program.path)
 
 
 def run(args: argparse.Namespace, runner: execution.Runner = execution.run_job, processes: bool = True) -> int:
@@ -101,7 +115,7 @@ def run(args: argparse.Namespace, runner: execution.Runner = execution.run_job, 
     jobs = sampling.plan(args.scenarios, args.samples, args.seed, spec["ranges"])
     todo = [job for job in jobs if not log.finished((job.scenario, job.sample))]
     settings = execution.RunSettings(args.out.resolve(), args.duration, args.keep_passing,  # workers may run elsewhere
-                                     args.epoch)
+                                     args.epoch, program_to_run(getattr(args, "program", "python")))
     if len(todo) < len(jobs):
         print(f"campaign: resuming, {len(jobs) - len(todo)} of {len(jobs)} runs already judged in {log.path}")
     try:

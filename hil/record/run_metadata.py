@@ -88,9 +88,11 @@ def plant_overrides(run: dict) -> dict[str, float]:
 
 def run_command(scenario: str, seed: int | str, duration_s: float | str | None = None,
                 overrides: dict[str, float] | None = None, out: Path | str | None = None,
-                epoch_ns: int = 0) -> str:
+                epoch_ns: int = 0, program: str = "python") -> str:
     """The one ``wheelleg run`` command (shell-quoted) that makes this run again, byte for byte."""
     words = ["wheelleg", "run", scenario, "--seed", str(seed)]
+    if program != "python":
+        words += ["--program", program]
     if duration_s:
         words += ["--duration", str(duration_s)]
     if epoch_ns:

@@ -9,13 +9,15 @@ import numpy as np
 from wheelleg.dbc import cybergear as cg
 from wheelleg.dbc import CAN1, load_file
 from wheelleg.hil import robots
-from wheelleg.hil.bus.busload import LOAD_TOPIC
-from wheelleg.hil.record.frame import FrameColumns
-from wheelleg.hil.record.sources import TraceError, open_recording
+from wheelleg.hil.bus.busload import LOAD_TOPIC, wire_ns
+from wheelleg.hil.record.frame import Frame, FrameColumns
+from wheelleg.hil.record.sources import TraceError, is_heartbeat, open_recording, sent_by_controller
 from wheelleg.hil.record.trace import TraceReader
 from wheelleg.hil.run.scenario import RunData
 
 
+LOAD_WINDOW_NS = 100_000_000  # the /bus/load windows
+_CG_MOTOR = 0xFF  # a CyberGear request id's motor id bits (7..0)
 _MOTION = load_file("cybergear.dbc").get_message_by_name("CG_MotionCmd")
 _KP, _KD = _MOTION.get_signal_by_name("Kp"), _MOTION.get_signal_by_name("Kd")  # big-endian u16, bytes 4-5, 6-7
 
@@ -76,7 +78,48 @@ def load_run(path: Path | str) -> RunData:
         events=recording.events,
         meta=dict(recording.run, truncated=recording.truncated),
         bus_load=_bus_load(reader, {name: role for role, name in channels.items()}),
+        program=dict(recording.metadata.get("program", {})),
+        **(_program_frames(reader, channels, recording.dbs) if _judged_on_the_bus(recording) else {}),
     )
+
+
+def _judged_on_the_bus(recording) -> bool:
+    """Whether the checks read the program's command times: a program other than the in-process Python one."""
+    program = recording.metadata.get("program", {})
+    return program.get("judged_by") == "bus" or program.get("kind") in ("library", "command")
+
+
+def _program_frames(reader: TraceReader, channels: dict, dbs: dict) -> dict:
+    """``command_times`` and ``program_load`` of a run (``RunData``): what the bus shows of its program.
+
+    ``command_times``: role -> (n,) s of the program's commands to its most commanded device on that bus (a
+    CyberGear's requests of any type by motor id: motion commands when running, stops when
+    disabled, the enable sequence; a standard frame by its id; heartbeats are not commands; the
+    DBC's senders say whose a frame is): a frame or a few back to back each tick, its tick times
+    when they cannot be seen otherwise. One device, not all of a tick's frames: on a busy bus a
+    tick's frames queue behind others and the next tick's can follow close, so bursts do not
+    mark ticks. ``program_load``: role -> the largest share of a 100 ms window its own frames
+    (heartbeats aside) held the bus at 1 Mbit/s: a flood is the program's, whatever else loads the bus."""
+    out, load = {}, {}
+    for role, channel in channels.items():
+        columns = reader.frame_columns(channel)
+        known: dict[tuple[int, bool, int], bool] = {}
+        rows: dict[tuple[int, bool], list[int]] = defaultdict(list)
+        held: dict[int, int] = {}  # 100 ms window -> ns its frames held the bus
+        for i, (ident, ext, err) in enumerate(zip(columns.arbitration_id.tolist(), columns.is_extended.tolist(),
+                                                  columns.is_error.tolist())):
+            key = (ident, ext, len(columns.data[i]))
+            if key not in known:
+                frame = Frame(0, channel, ident, ext, columns.data[i], key[2], role, err)
+                known[key] = not err and sent_by_controller(frame, dbs) and not is_heartbeat(frame)
+            if known[key]:
+                rows[(ident & _CG_MOTOR if ext else ident, ext)].append(i)
+                window = int(columns.t_ns[i]) // LOAD_WINDOW_NS
+                held[window] = held.get(window, 0) + wire_ns(ident, ext, columns.data[i], 1_000_000)
+        busiest = max(sorted(rows), key=lambda k: len(rows[k]), default=None)
+        out[role] = columns.t_ns[rows[busiest]] / 1e9 if busiest is not None else np.zeros(0)
+        load[role] = max(held.values(), default=0) / LOAD_WINDOW_NS
+    return {"command_times": out, "program_load": load}
 
 
 def _bus_load(reader: TraceReader, buses: dict) -> dict:

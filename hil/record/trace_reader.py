@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import heapq
 from collections import defaultdict
+from functools import cached_property
 from pathlib import Path
 from typing import Iterator
 
@@ -48,8 +49,18 @@ class TraceReader:
         self._channel_meta: dict[str, dict[str, str]] = {}  # topic -> its channel's metadata
         self._columns: dict[str, FrameColumns] = {}  # channel -> its frames by column, made once
         self._load()
-        self.dbs = dict(dbs) if dbs else attached_dbs(self.attachments, self.metadata.get("run", {}))
-        self._decoder = FrameDecoder(self.dbs) if self.dbs else None
+        if dbs:
+            self.dbs = dict(dbs)
+
+    # parsed when first needed: a reader of poses or metadata alone skips cantools (~0.3 s a trace)
+    @cached_property
+    def dbs(self) -> dict:
+        """Channel -> cantools Database: the given ones, else the trace's DBC attachments."""
+        return attached_dbs(self.attachments, self.metadata.get("run", {}))
+
+    @cached_property
+    def _decoder(self) -> FrameDecoder | None:
+        return FrameDecoder(self.dbs) if self.dbs else None
 
     @property
     def decodes(self) -> bool:

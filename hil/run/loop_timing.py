@@ -124,3 +124,61 @@ def describe_plant(plant: dict) -> str:
 def _stall_cause(cause: str) -> str:
     """An overrun's cause as the STALL line says it: whose the late wake-up was."""
     return f"{cause}: the machine woke it late" if cause == "late wake" else cause
+
+
+def bus_timing(times_s, period_s: float, end_s: float) -> dict:
+    """A program's command timing as the bus saw it, for a program whose ticks the rig cannot
+    see (no heartbeat, another process): ``times_s`` (n,) s of the commands it sent to one device
+    on one bus (``RunData.command_times``), in order; ``end_s`` the run's end (s). A tick's frames to
+    a device come back to back (an enable sequence is three), so a frame more than half a period
+    after the one before starts a tick. From the
+    ticks' starts: period (mean, max), jitter |period - T| (p99, max) and the longest gap,
+    the run's end included (a program that stopped sending). A gap longer than two periods
+    holds at least one whole period of the program's own grid without a tick, whatever its
+    phase and the record's resolution: ``missed_deadlines`` counts those periods (floor(gap / T) - 1
+    of each); shorter irregular gaps show as jitter."""
+    times = np.asarray(times_s, dtype=float)
+    if not period_s > 0:
+        raise ValueError(f"period_s must be > 0, got {period_s!r}")
+    starts = times[np.concatenate(([True], np.diff(times) > period_s / 2))] if times.size else times
+    periods = np.diff(starts)
+    gaps = np.append(periods, end_s - starts[-1]) if starts.size else np.array([end_s])
+    jitter = np.abs(periods - period_s)
+    nan = float("nan")
+    long_gaps = gaps[gaps > 2 * period_s]
+    return {
+        "ticks": int(starts.size),
+        "period_s": float(period_s),
+        "mean_period_s": float(periods.mean()) if periods.size else nan,
+        "max_period_s": float(periods.max()) if periods.size else nan,
+        "p99_jitter_s": float(np.percentile(jitter, 99)) if jitter.size else nan,
+        "max_jitter_s": float(jitter.max()) if jitter.size else nan,
+        "longest_gap_s": float(gaps.max()),
+        "first_s": float(starts[0]) if starts.size else nan,
+        "missed_deadlines": int(np.sum(np.floor(long_gaps / period_s) - 1)),
+    }
+
+
+def describe_bus(bus: str, timing: dict) -> str:
+    """One line of ``bus_timing`` in ms."""
+    if timing["ticks"] < 2:
+        return f"{bus}: {timing['ticks']} ticks of commands on the bus"
+    ms = {k: 1e3 * timing[k] for k in ("mean_period_s", "p99_jitter_s", "longest_gap_s", "period_s")}
+    return (f"{bus}: {timing['ticks']} ticks, period {ms['mean_period_s']:.3f} ms (nominal {ms['period_s']:g}), "
+            f"jitter p99 {ms['p99_jitter_s']:.3f} ms, longest gap {ms['longest_gap_s']:.3f} ms, "
+            f"{timing['missed_deadlines']} missed periods")
+
+
+def plant_kept_real_time(plant: dict) -> str | None:
+    """Why the real-time plant did not keep real time (``plant_timing``'s dict), or None if it did:
+    it ended behind the wall clock, its work a step was over the step at p99, or it stalled long
+    enough (``STALL_NOTE_S``) that its devices fell silent. A run that fails so is NOT REAL TIME:
+    what failed may be the plant's, not the program's."""
+    if plant.get("stretched_s", 0.0) > STRETCH_TOLERANCE_S:
+        return f"the plant fell {plant['stretched_s']:.2f} s behind the wall clock"
+    if plant.get("p99_busy_s", 0.0) > plant["physics_dt_s"]:
+        return (f"the plant's work a {1e3 * plant['physics_dt_s']:g} ms step was {1e3 * plant['p99_busy_s']:.2f} ms "
+                "at p99")
+    if plant.get("max_lag_s", 0.0) >= STALL_NOTE_S:
+        return f"the plant stalled {1e3 * plant['max_lag_s']:.1f} ms (its devices silent that long)"
+    return None

@@ -72,10 +72,11 @@ PLANT_FIFO_PRIORITY = 5  # the plant's, below the controller's: other processes 
 class ControllerThread:
     """A robot's free-running controller node on its own buses and thread; its ticks logged."""
 
-    def __init__(self, robot, interface: str, channels: dict, period_s: float):
-        """``robot``: a registered ``wheelleg.hil.robots.Robot``; ``channels``: bus role -> channel."""
-        self.node = robot.build_controller({role: open_bus(interface, name) for role, name in channels.items()},
-                                           False, period_s)
+    def __init__(self, build_controller, interface: str, channels: dict, period_s: float):
+        """``build_controller``: the program's node factory (``Robot.build_controller``'s signature,
+        ``wheelleg.hil.program.Program.node_factory``); ``channels``: bus role -> channel."""
+        self.node = build_controller({role: open_bus(interface, name) for role, name in channels.items()},
+                                     False, period_s)
         self.node.tick_log = []
         self.node.prepare()  # its first-use work before the clock, not in its first ticks (run repeats it: cached)
         self._stop = threading.Event()
@@ -197,7 +198,8 @@ class Realtime:
         total = ticks * self.steps_per_tick
         controller = None
         if cfg.in_process_controller:
-            controller = ControllerThread(rig.robot, cfg.interface, rig.names, cfg.period_s)
+            controller = ControllerThread(cfg.program.node_factory(rig.robot), cfg.interface, rig.names,
+                                          cfg.period_s)
         steal0 = host_steal_s()
         with _realtime_process() as (plant_scheduler, memory):
             done = self._first_step() if total else 0

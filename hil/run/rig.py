@@ -26,11 +26,15 @@ from wheelleg.hil.bus.frame_faults import BusFaults
 from wheelleg.hil.bus.plant_bus import PlantBus
 from wheelleg.hil.bus.recorder import Recorder
 from wheelleg.hil.bus.transport import open_bus
+from wheelleg.hil.program import COMMAND, Program
+from wheelleg.hil.program import process as program_process
+from wheelleg.hil.program.process import ProgramExited, ProgramProcess, command_argv, tail_line
 from wheelleg.hil.record.candump import CandumpWriter
 from wheelleg.hil.record.run_metadata import run_record
 from wheelleg.hil.record.trace import TraceWriter
 from wheelleg.hil.run.scenario import Scenario
-from wheelleg.hil.run.schedule import HeldLockstep, Lockstep
+from wheelleg.hil.run.schedule import HeldLockstep, Lockstep, NoController
+from wheelleg.hil.watch.scene import QposRecorder
 
 _SYNC = load_file("rig.dbc").get_message_by_name("SYNC")  # every robot's lockstep frame
 _SYNC_CODEC = MessageCodec.of(_SYNC)  # compiled: cantools' encode costs ~10 us a tick
@@ -47,7 +51,8 @@ class RigConfig:
     seed: int = 0
     period_s: float | None = None  # control period (s); None: the robot's (wheelleg.hil.robots)
     physics_dt_s: float = 0.001
-    in_process_controller: bool = True  # False: an external `wheelleg controller` answers
+    in_process_controller: bool = True  # False: another process answers (a command program, --external-controller)
+    program: Program = field(default_factory=Program)  # which program (hil/program): python, a library, a command
     deadline_s: float = 0.5  # wall-clock bound for the heartbeats of one tick
     realtime: bool = False  # plant at wall-clock pace, controller on its own timer (hil/run/realtime.py)
     record_debug: bool = True  # the in-process controller's internals on /controller/debug
@@ -111,6 +116,10 @@ class Rig:
         # the buses first: a missing vcan fails before any file is written
         self._raw = {k: _open_bus(config, ch) for k, ch in self.names.items()}
         self.schedule = _schedule(config)
+        self.process = None  # a command program's process (started by ``run``)
+        if config.program.kind == COMMAND:
+            argv = command_argv(list(config.program.words), config.interface, self.names)
+            self.process = ProgramProcess(argv, out_dir / f"{scenario.name}.program.log")
         self.clock = self.schedule.clock
         attachments = self._attachments()
         if config.plant.overrides_dict():  # the model this run compiled; its overrides are in the metadata
@@ -138,8 +147,11 @@ class Rig:
         self.plant = robot.build_plant(self.physics, self.plant_buses, self.rng, config.plant)
         self.controller = None
         if config.in_process_controller and not config.realtime:  # real time: hil/run/realtime.py
-            self.controller = robot.build_controller({role: _open_bus(config, name) for role, name in self.names.items()},
-                                                     True, config.period_s)
+            self.controller = config.program.node_factory(robot)(
+                {role: _open_bus(config, name) for role, name in self.names.items()}, True, config.period_s)
+        self.qpos = QposRecorder(self.physics.model, self.physics.data.qpos)  # /sim/qpos: drawing it again
+        self.watchers = []  # objects with ``on_state(rig, state)``, each period after the state (hil/watch/)
+        self.stop_requested = False  # a watcher ends the run early (the viewer's window closed)
         self.deadline_misses = 0
         self.controller_died = False  # the in-process controller raised (see service_controller)
         self.tick = 0
@@ -157,7 +169,18 @@ class Rig:
                                   physics_dt_s=cfg.physics_dt_s, duration_s=self.scenario.duration_s,
                                   interface=cfg.interface, channels=self.names,
                                   plant_overrides=cfg.plant.overrides_dict(), epoch_ns=cfg.epoch_ns,
-                                  robot=self.robot.name)}
+                                  robot=self.robot.name),
+                "program": self._program_record()}
+
+    def _program_record(self) -> dict:
+        """Which program ran and how its ticks are seen: its heartbeats (lockstep), its loop's
+        tick log (in-process real time) or only its frames on the bus (another process in real time)."""
+        cfg = self.config
+        judged_by = "bus" if cfg.realtime and not cfg.in_process_controller else \
+            "tick_log" if cfg.realtime else "heartbeat"
+        if not cfg.in_process_controller and cfg.program.kind != COMMAND:  # --external-controller
+            return {"kind": "external", "program": "another process on the buses", "judged_by": judged_by}
+        return cfg.program.record(judged_by, self.process.argv if self.process is not None else None)
 
     def _attachments(self) -> list:
         dbcs = {p.name: p for p in (*all_dbc_files(), *self.robot.dbc_paths())}  # the rig's and its robot's
@@ -175,6 +198,15 @@ class Rig:
             bus.send(can.Message(t_s, _SYNC_ID, False, False, False, None, None, data))
         self.tick = tick
 
+    def repeat_sync(self, tick: int, t_s: float) -> None:
+        """SYNC(``tick``) again on both buses, past the record (straight onto the transport): for a
+        program still starting when the recorded one went out (``Lockstep.await_contact``). Its
+        answer is recorded as if to the first: the log is the one the program would have made
+        had it been listening."""
+        data = _SYNC_CODEC.encode_raw({"Tick": tick})
+        for bus in self._raw.values():
+            bus.send(can.Message(t_s, _SYNC_ID, False, False, False, None, None, data))
+
     def serve_plant(self, t_s: float) -> None:
         """Every device node handles what is on its bus by ``t_s``."""
         for node in self.plant.nodes.values():
@@ -186,7 +218,12 @@ class Rig:
 
     def record_state(self) -> None:
         """The physics' ground truth at the clock's time."""
-        self.trace.sim_state(self.clock.now_ns, self.physics.ground_truth())
+        now_ns = self.clock.now_ns
+        state = self.physics.ground_truth()
+        self.trace.sim_state(now_ns, state)
+        self.qpos.maybe(self.trace, now_ns)
+        for watcher in self.watchers:
+            watcher.on_state(self, state)
 
     def service_controller(self) -> None:
         """Give the in-process controller its turn; an exception kills it, as it would the robot's program.
@@ -229,11 +266,14 @@ class Rig:
             return
         result = self.controller.last_result
         if result is not None and result.debug:
+            schema = getattr(self.controller.controller, "debug_schema", schema)  # a library names its own
             self.trace.numbers("/controller/debug", self.clock.now_ns, result.debug, schema)  # float64 each
 
     # -- scenario actions ------------------------------------------------------
     def apply_actions(self, t_s: float) -> None:
-        """The scenario's actions due by ``t_s``, each an event at the clock's time."""
+        """The scenario's actions due by ``t_s``, each an event at the clock's time; first,
+        ``ProgramExited`` if a command program has ended."""
+        self.check_program()
         if self.progress is not None:
             self.progress(t_s)
         pending = self._pending
@@ -242,15 +282,56 @@ class Rig:
             fields = action.fn(self) or {}
             self.trace.event(self.clock.now_ns, action.kind, **fields)
 
+    # -- a command program's process --------------------------------------------
+    def check_program(self) -> None:
+        """``ProgramExited`` (after a ``program_exit`` event: status, output tail) if the program's process ended."""
+        if self.process is None or self.process.exited() is None:
+            return
+        exc = ProgramExited(self.process.exited(), self.process.tail(), self.clock.now_ns / 1e9)
+        self.trace.event(self.clock.now_ns, "program_exit", status=exc.status, output_tail=exc.tail)
+        raise exc
+
+    def _start_program(self) -> None:
+        """Start a command program; in real time, wait for its first frame before the clock starts
+        (its start-up is not the plant's time), ``NoController`` after ``process.START_S`` without one."""
+        if self.process is None:
+            return
+        self.process.start()
+        if not self.config.realtime:  # lockstep: the first frames wait until it has its buses open;
+            self.process.await_sockets(len(self._raw), program_process.START_S)  # late, SYNC(0) is repeated
+            return
+        end = time.monotonic() + program_process.START_S
+        while time.monotonic() < end:
+            self.check_program()
+            if any(bus.recv(timeout=0.01) is not None for bus in self._raw.values()):
+                for bus in self._raw.values():  # what it sent before the run is not the run's
+                    while bus.recv(timeout=0.0) is not None:
+                        pass
+                return
+        raise NoController(f"the program sent nothing in {program_process.START_S:g} s on {'/'.join(self.names.values())}"
+                           + self.program_output())
+
+    def program_output(self) -> str:
+        """'; its output ends: ...' from a command program's output file, or ''."""
+        tail = tail_line(self.process.tail()) if self.process is not None else ""
+        return f"; its output ends: {tail}" if tail else ""
+
     def run(self) -> RunOutcome:
         ticks = round(self.scenario.duration_s / self.config.period_s)
         wall0 = time.perf_counter()
         try:
+            self._start_program()
             report = self.schedule.run(self, ticks)
+        except ProgramExited:  # recorded by check_program; the checks judge the run it left
+            report, ticks = None, round(self.clock.now_ns / 1e9 / self.config.period_s)
         finally:
+            if self.process is not None:
+                self.process.stop()
             self.close()
         wall_s = time.perf_counter() - wall0
         if report is None:  # lockstep
+            if self.stop_requested:  # ended early by a watcher: the ticks run
+                ticks = self.tick + 1
             return RunOutcome(self.trace_path, self.log_path, ticks, self.deadline_misses, wall_s,
                               ticks * self.config.period_s)
         ticks, sim_s, wall_s, timing = report

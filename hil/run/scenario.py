@@ -94,6 +94,11 @@ class RunData:
     meta: dict = field(default_factory=dict)
     bus_load: dict = field(default_factory=dict)  # "can1"/"can2" -> (window end t (n,) s, load (n,) s/s)
     joint_gains: dict = field(default_factory=dict)  # motor id -> (t (n,) s, Kp (n,) N m/rad, Kd (n,) N m s/rad)
+    program: dict = field(default_factory=dict)  # the trace's ``program`` record (hil/program): kind, judged_by, ...
+    command_times: dict = field(default_factory=dict)  # "can1"/"can2" -> (n,) s of the program's commands to its
+    # most commanded device there (hil/record/rundata.py); read for programs other than the in-process Python one
+    program_load: dict = field(default_factory=dict)  # "can1"/"can2" -> peak share of a 100 ms window the program's
+    # own frames held the bus (heartbeats aside); the same programs
 
     def window(self, key: str, t0: float, t1: float = np.inf) -> np.ndarray:
         """Values of a /sim/state field with t0 <= t < t1 (s), shape (n,); ``NotJudged`` when

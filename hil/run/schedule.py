@@ -33,6 +33,7 @@ _HEARTBEAT_CODEC = MessageCodec.of(_HEARTBEAT)  # compiled: two heartbeats a tic
 _HEARTBEAT_ID = _HEARTBEAT.frame_id  # read once: a cantools property, asked of every frame the controller sends
 POLL_S = 0.00005  # s between polls while the heartbeats of an external controller are awaited
 CONTACT_S = 3.0  # s of wall time an external controller has to send its first heartbeat
+RESYNC_S = 0.1  # s between the SYNC(0)s the rig repeats until a program it started answers the first
 
 
 class NoController(RuntimeError):
@@ -79,6 +80,8 @@ class Lockstep:
     def run(self, rig, ticks: int) -> None:
         for tick in range(ticks):
             self.step_tick(rig, tick)
+            if rig.stop_requested:  # a watcher ended the run (the viewer's window closed)
+                break
 
     def step_tick(self, rig, tick: int) -> None:
         t_s = tick * self.period_s
@@ -87,7 +90,7 @@ class Lockstep:
         rig.send_sync(tick, t_s)
         rig.service_controller()
         waited = time.monotonic()
-        if self.await_heartbeats(rig, tick, t_s):
+        if self.await_heartbeats(rig, tick, t_s) or (tick == 0 and self.await_contact(rig, t_s)):
             self.heard = True
         else:
             rig.deadline_miss(tick)
@@ -101,12 +104,36 @@ class Lockstep:
             rig.serve_plant(now + self.physics_dt_s)
         rig.record_state()
 
+    def await_contact(self, rig, t_s: float) -> bool:
+        """A program the rig started (``rig.process``) may still be starting when SYNC(0) goes out, and a
+        frame sent before it listens is lost to it: SYNC(0) again every ``RESYNC_S`` until its first
+        heartbeat, for up to ``process.START_S`` (a program ticks once per SYNC counter, so repeats are harmless)."""
+        if rig.controller is not None or getattr(rig, "process", None) is None:
+            return False
+        from wheelleg.hil.program import process  # noqa: PLC0415 (a started program only)
+
+        end = time.monotonic() + process.START_S
+        saved, self.deadline_s = self.deadline_s, RESYNC_S
+        try:
+            while time.monotonic() < end:
+                rig.check_program()
+                rig.repeat_sync(0, t_s)
+                if self.await_heartbeats(rig, 0, t_s):
+                    return True
+        finally:
+            self.deadline_s = saved
+        return False
+
     def check_contact(self, rig, waited_s: float) -> None:
         """``NoController`` once an external controller has been silent ``CONTACT_S`` from the start."""
         if rig.controller is not None or self.heard:
             return
         self.silent_s += waited_s
         if self.silent_s >= CONTACT_S:
+            if getattr(rig, "process", None) is not None:
+                raise NoController(f"no heartbeat from the program in {self.silent_s:.1f} s: a command runs "
+                                   "lockstep only when it answers SYNC with the heartbeat (e.g. --sync); "
+                                   "free-running, run it with --realtime" + rig.program_output())
             raise NoController(f"no heartbeat from an external controller in {self.silent_s:.1f} s on "
                                f"{'/'.join(rig.names.values())}: is `wheelleg controller --sync` running there?")
 

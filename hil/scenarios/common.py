@@ -111,11 +111,38 @@ def tracks(field: str, target: float, t0: float, t1: float, tol: float, unit: st
 
 
 def no_deadline_miss() -> Check:
+    """One tick each period: from the heartbeats (lockstep) or the loop's tick log (in-process real
+    time); for a program the rig cannot see tick (another process in real time), from its
+    commands' timing on the bus (``judged_on_the_bus``)."""
     def fn(run: RunData):
+        if judged_on_the_bus(run):
+            return bus_command_timing(run)
         misses = len(run.events_of("deadline_miss"))
         return misses == 0, f"{misses} deadline misses"
 
     return Check("no controller deadline miss", fn)
+
+
+def judged_on_the_bus(run: RunData) -> bool:
+    """The program's ticks are seen only as its frames on the bus (the trace's program record)."""
+    return run.program.get("judged_by") == "bus"
+
+
+def bus_command_timing(run: RunData) -> tuple[bool, str]:
+    """(passed, detail) of the program's command timing on each bus (``loop_timing.bus_timing`` of
+    ``RunData.command_times``): commands on every bus, and no whole period without them."""
+    from wheelleg.hil.run.loop_timing import bus_timing, describe_bus  # noqa: PLC0415
+
+    period = float(run.meta.get("control_period_s", "nan"))
+    end = float(run.state["t"][-1]) if len(run.state.get("t", ())) else float(run.meta.get("duration_s", "nan"))
+    if not run.command_times:
+        return False, "judged from the bus: no frames of the program recorded"
+    ok, lines = True, []
+    for bus, times in sorted(run.command_times.items()):
+        timing = bus_timing(times, period, end)
+        ok = ok and timing["ticks"] >= 2 and timing["missed_deadlines"] == 0
+        lines.append(describe_bus(bus, timing))
+    return ok, "its commands on the bus: " + "; ".join(lines)
 
 
 TORQUE_OFF_NM = 0.05  # N m, |hip torque| that counts as "off" (CyberGear 16-bit step 0.0004)

@@ -17,7 +17,7 @@ from wheelleg.controller.modes import Mode
 from wheelleg.hil.run import faults
 from wheelleg.hil.run.scenario import Check, NotJudged, RunData, Scenario, in_window
 from wheelleg.hil.scenarios.basic import standing
-from wheelleg.hil.scenarios.common import DEG, pitch_below, push, remote, stand
+from wheelleg.hil.scenarios.common import DEG, bus_command_timing, judged_on_the_bus, pitch_below, push, remote, stand
 
 FAULT_AT = 1.0  # s: the robot balances by then
 PERIOD = P.CONTROL_PERIOD
@@ -207,9 +207,12 @@ def controller_alive() -> Check:
     """Every SYNC answered: one heartbeat per tick, ticks consecutive, no deadline miss."""
 
     def fn(run: RunData):
+        crashes = [e.get("error", "?") for e in run.events_of("controller_exception")]
+        if judged_on_the_bus(run):  # another process in real time: its ticks show only on the bus
+            ok, detail = bus_command_timing(run)
+            return ok and not crashes, f"{detail}; exceptions: {crashes or 'none'}"
         ticks = run.heartbeat["Tick"]
         misses = len(run.events_of("deadline_miss"))
-        crashes = [e.get("error", "?") for e in run.events_of("controller_exception")]
         expected = round(float(run.meta.get("duration_s", "nan")) / PERIOD)
         consecutive = bool(np.all(np.diff(ticks) == 1)) and len(ticks) and ticks[0] == 0
         ok = misses == 0 and not crashes and consecutive and len(ticks) == expected

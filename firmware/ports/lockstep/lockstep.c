@@ -98,7 +98,14 @@ void wl_status(wl_status_t *status) {
     chassis_status_t st = chassis_status();
     memset(status, 0, sizeof *status);
     status->mode = st.mode;
+    status->warning_level = st.warning_level;
+    status->offline_count = st.offline_count;
     status->offline_mask = st.offline_mask;
+    status->motors_enabled = st.motors_enabled;
+    status->off_ground = st.off_ground;
+    status->fallen = st.fallen;
+    status->fault_latched = st.fault_latched;
+    status->bad_frames = st.bad_frames;
     status->ticks = st.ticks;
 }
 
