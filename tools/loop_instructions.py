@@ -72,7 +72,12 @@ def inclusive_count(out_file: Path, function: str) -> int | None:
     """Instructions in ``function`` and everything it called, from a callgrind output file."""
     annotated = subprocess.run(["callgrind_annotate", "--inclusive=yes", "--threshold=100", str(out_file)],
                                capture_output=True, text=True)
-    for line in annotated.stdout.splitlines():  # "1,234,567 (12.3%)  file:function [object]"
+    return inclusive_in(annotated.stdout, function)
+
+
+def inclusive_in(annotated: str, function: str) -> int | None:
+    """``function``'s count in ``callgrind_annotate --inclusive=yes`` text, None when it is not listed."""
+    for line in annotated.splitlines():  # "1,234,567 (12.3%)  file:function [object]"
         m = re.match(r"\s*([\d,]+)\s.*?:(\S+)\s", line + " ")
         if m and m.group(2) == function:
             return int(m.group(1).replace(",", ""))
