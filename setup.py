@@ -1,4 +1,4 @@
-"""The optional compiled record path (hil/fast/_framecore.c); everything else is in pyproject.toml.
+"""The optional compiled record path (hil/fast/*.c); everything else is in pyproject.toml.
 
 ``optional=True``: without a C compiler the build skips the extension with a warning and the rig
 runs its pure-Python path (``wheelleg.hil.fast``).

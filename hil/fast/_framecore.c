@@ -50,7 +50,8 @@ PyMODINIT_FUNC PyInit__framecore(void) {
         return NULL;
     Py_INCREF(&CoreType);
     Py_INCREF(&ItemType);
-    if (PyModule_AddObject(m, "RecordCore", (PyObject *)&CoreType) < 0
+    /* what hil/fast/__init__.py expects (VERSION there): a build of other sources is not used */
+    if (PyModule_AddIntConstant(m, "VERSION", 1) < 0 || PyModule_AddObject(m, "RecordCore", (PyObject *)&CoreType) < 0
         || PyModule_AddObject(m, "Queued", (PyObject *)&ItemType) < 0) {
         Py_DECREF(m);
         return NULL;
