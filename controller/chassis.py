@@ -20,6 +20,7 @@ from typing import NamedTuple
 from wheelleg.controller import constants as C
 from wheelleg.controller import estimate
 from wheelleg.controller import fivebar
+from wheelleg.controller import friction
 from wheelleg.controller import lqr
 from wheelleg.controller import motion
 from wheelleg.controller import params as P
@@ -208,7 +209,7 @@ class ChassisController:
         for leg, sign in (("left", 1.0), ("right", -1.0)):
             push = self._leg_force(legs[leg], leg) if cmd.leg_force is None else cmd.leg_force
             force = push + sign * roll_f
-            self._hips(out, leg, legs[leg], force, tp[leg])
+            self._hips(out, leg, legs[leg], force, tp[leg], tp[leg] - self.balance_point.hold_torque)
             wheel = LEG_WHEEL[leg]
             out.wheel_torque[wheel.esc_id] = wheel.forward_sign * clamp(wheel_t[leg], P.WHEEL_TORQUE_LIMIT)
         self._limit_hips(out, cmd.hip_torque_limit)
@@ -246,7 +247,7 @@ class ChassisController:
             self.u_prev[leg] = (0.0, tp[leg])
             force = cmd.leg_force if cmd.leg_force is not None else clamp(
                 P.LEG_KP * (self.leg_ref[leg] - s.L0) - P.LEG_KD * s.dL0, P.AIR_LEG_FORCE_LIMIT)
-            self._hips(out, leg, s, force, tp[leg])
+            self._hips(out, leg, s, force, tp[leg], tp[leg])
             wheel = LEG_WHEEL[leg]
             out.wheel_torque[wheel.esc_id] = wheel.forward_sign * wheel_t[leg]
         self._limit_hips(out, cmd.hip_torque_limit)
@@ -435,8 +436,14 @@ class ChassisController:
         pid = P.LEG_KP * err - P.LEG_KD * leg.dL0 + self.leg_integral[name]
         return clamp(pid, P.LEG_FORCE_LIMIT) + P.LEG_GRAVITY_FF * math.cos(leg.theta)
 
-    def _hips(self, out: Output, leg: str, state: LegState, force: float, tp: float) -> None:
+    def _hips(self, out: Output, leg: str, state: LegState, force: float, tp: float, tp_move: float) -> None:
+        """Joint torques for push ``force`` (N) and ``tp`` (N m) on ``leg``, plus the hips' dry
+        friction added back (friction.py) in the direction each joint turns or, at rest, is
+        asked to turn by ``tp_move`` (N m: the share of ``tp`` that moves the leg, beyond holding it)."""
         t1, t4 = fivebar.joint_torques(state.kin, force, tp)
+        m1, m4 = fivebar.joint_torques(state.kin, 0.0, tp_move)
+        t1 += friction.coulomb_feed_forward(state.dphi1, m1, C.HIP_FRICTION, P.HIP_FRICTION_BAND, P.HIP_FRICTION_TORQUE_BAND)
+        t4 += friction.coulomb_feed_forward(state.dphi4, m4, C.HIP_FRICTION, P.HIP_FRICTION_BAND, P.HIP_FRICTION_TORQUE_BAND)
         front, rear = C.LEG_JOINTS[leg]
         out.hip_torque[front.motor_id] = front.sign * t1
         out.hip_torque[rear.motor_id] = rear.sign * t4

@@ -99,6 +99,16 @@ CG_GEAR = 7.75  # reduction (debugger parameter GearRatio 0x200F)
 # the hip joint's armature, felt by every fast leg motion.
 CG_ROTOR_INERTIA = 2.0e-5  # kg m^2, motor side
 HIP_ARMATURE = CG_ROTOR_INERTIA * CG_GEAR**2  # kg m^2 at the joint (1.2e-3)
+# Dry friction of a hip joint (gearbox, seals), at the joint: not published for the
+# CyberGear, and not yet measured on this robot. A MuJoCo identification of its
+# successors (RobStride RS00, RS02, RS05) fits 0.16, 0.16 and 0.38 N m. The hips'
+# Coulomb feed-forward (friction.py) adds this much back, so it must never exceed the
+# real figure (more is negative friction: believing 0.3 N m of frictionless hips,
+# `balance` with the CoM 3 cm back wobbled +-2 deg, 13.9 cm). Off until measured on the
+# robot (docs/control.md, friction): 0.1 N m, below every identified figure, held the CoM
+# 3 cm off with 0.2 N m hips at 6.8 cm instead of 26.5, but on frictionless hips it lifted
+# a wheel in `turn-fast` and a tolerance side push ended 0.54 m off its spot (limit 0.5).
+HIP_FRICTION = 0.0  # N m at the joint
 CG_HOST_ID = 0xFD  # the host id the controller puts in bits 15..8 (debugger's)
 
 # --- C620 + M3508 wheel drives on CAN1 [DJI: frames, the motor and ESC] ---------------------

@@ -51,6 +51,8 @@ class LegState(NamedTuple):
     theta: float  # rad, from vertical, wheel behind hip positive
     dtheta: float  # rad/s
     wheel_speed: float  # m/s, axle speed along the ground, forward positive
+    dphi1: float  # rad/s, front hip joint's rate (phi1 of the five-bar, relative to the body)
+    dphi4: float  # rad/s, rear hip joint's rate (phi4)
 
 
 LEG_WHEEL = {w.leg: w for w in C.WHEELS}  # leg name -> its wheel drive (constants.Wheel)
@@ -74,7 +76,7 @@ def leg_state(bus: BusState, leg: str, att: Attitude) -> LegState:
     dphi2 = wrap(phi2_ahead - kin.phi2) / eps
     wheel = LEG_WHEEL[leg]
     spin = wheel.forward_sign * bus.wheels[wheel.esc_id].speed + att.wy - dphi2
-    return LegState(kin, kin.L0, dL0, theta, dtheta, spin * C.WHEEL_RADIUS)
+    return LegState(kin, kin.L0, dL0, theta, dtheta, spin * C.WHEEL_RADIUS, dphi1, dphi4)
 
 
 def mean_speed(legs: dict) -> float:

@@ -122,6 +122,16 @@ YAW_RATE_LIMIT = 4.0  # rad/s
 # keeps the nominal push and lets balance win when they disagree.
 TRAVEL_TORQUE_LIMIT = 5.5
 
+# The hips' Coulomb feed-forward (constants.HIP_FRICTION, friction.coulomb_feed_forward):
+# rad/s, slower than this it fades from the way the joint turns to the way it is asked to.
+# Its slope HIP_FRICTION / band is a negative damping on a frictionless joint: with 0.2 rad/s
+# (0.5 N m s/rad, near the LQR's own 0.72 on the leg's rate) nominal `balance` wobbled
+# +-0.94 deg (+-0.07 now)
+HIP_FRICTION_BAND = 1.0
+# N m, the torque asked beyond the hold (mapped onto the joint) that takes the full friction
+# at rest: the LQR's corrections standing are a few tenths of a N m
+HIP_FRICTION_TORQUE_BAND = 0.2
+
 # --- torque limits ----------------------------------------------------------------
 HIP_TORQUE_LIMIT = 10.0  # N m, normal clamp below the CyberGear's 12 (docs/control.md)
 WHEEL_TORQUE_LIMIT = 5.5  # N m, below the C620's 20 A x 0.3 N m/A
@@ -148,7 +158,10 @@ SLIP_TRAVEL_TORQUE_LIMIT = 1.0
 # its spot. 3 cm of CoM offset needs ~0.15 rad of lean at 0.17 m.
 BALANCE_POINT_TAU_LEARN = 0.05  # s, lag of the hold torque while learning after start-up
 BALANCE_POINT_LEARN_S = 0.6  # s of standing still learnt at that pace
-BALANCE_POINT_TAU = 0.3  # s, lag afterwards
+# s, lag afterwards. 0.3 s rocked a robot with dry friction in its hips (0.2 N m each:
+# +-2.3 deg, 17.4 cm of drift in `balance`): the legs stuck to the body, its Tp no longer
+# told the CoM, and the observer chased the LQR's own feedback; 3 s: 0.5 cm at 0.2-0.4 N m
+BALANCE_POINT_TAU = 3.0
 # m/s: nothing learnt faster than this nor for SETTLE_S after. A 5 N s sudden push in the
 # learning window (tolerance sample: CoM 2.4 cm back, mass x0.83) took the hold torque from
 # -0.27 to -0.11 N m and `push` ended 1.15 m from its spot; gated, 0.32 m. Start-up with

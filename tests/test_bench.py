@@ -24,3 +24,19 @@ def test_a_tool_told_an_unknown_scenario_exits_2_with_the_known_ones(capsys):
         lockstep_ceiling.main(["nosuch"])
     assert exc.value.code == 2
     assert "no scenario 'nosuch'; known: balance" in capsys.readouterr().err
+
+
+def test_mujocos_share_is_read_from_callgrind_annotates_inclusive_listing():
+    from tools.loop_instructions import inclusive_in
+    annotated = """--------------------------------------------------------------------------------
+Ir
+--------------------------------------------------------------------------------
+891,936,401 (100.0%)  PROGRAM TOTALS
+--------------------------------------------------------------------------------
+Ir                    file:function
+--------------------------------------------------------------------------------
+80,812,553 ( 9.06%)  ???:mj_step [/venv/lib/python3.11/site-packages/mujoco/libmujoco.so.3.3.0]
+80,700,001 ( 9.05%)  ???:mj_step1 [/venv/lib/python3.11/site-packages/mujoco/libmujoco.so.3.3.0]
+"""
+    assert inclusive_in(annotated, "mj_step") == 80_812_553
+    assert inclusive_in(annotated, "mj_forward") is None

@@ -51,7 +51,7 @@ PARTS = (  # (part, path fragments), first match wins
     ("emulators", ("emulators/",)),
     ("controller", ("controller/",)),
     ("recording (MCAP, candump, bus load)", ("hil/record/", "hil/bus/recorder", "hil/bus/busload",
-                                            "orjson", "zstandard", "/mcap/")),
+                                            "orjson", "zstandard", "/mcap/", "hil.fast._framecore")),
     ("bus (python-can, queues)", ("/can/", "hil/bus/", "queue.py", "threading.py")),
     ("codecs (cantools, dbc)", ("cantools", "bitstruct", "/dbc/")),
     ("rig (lockstep, scenario)", ("hil/",)),
@@ -170,8 +170,9 @@ def report_ceiling(name: str, run: dict) -> None:
 
 def report_profile(profiler: cProfile.Profile) -> None:
     shares: dict[str, float] = {}
-    for (filename, _, _), row in pstats.Stats(profiler).stats.items():
-        shares[part_of(filename)] = shares.get(part_of(filename), 0.0) + row[2]  # tottime
+    for (filename, _, function), row in pstats.Stats(profiler).stats.items():
+        where = function if filename == "~" else filename  # a C function: its name says its module
+        shares[part_of(where)] = shares.get(part_of(where), 0.0) + row[2]  # tottime
     total = sum(shares.values())
     print("where the time goes (share of profiled run time):")
     for part, seconds in sorted(shares.items(), key=lambda kv: -kv[1]):

@@ -155,7 +155,7 @@ def main(argv=None) -> int:
 
 
 def _count(path: Path) -> int:
-    done, total = under_callgrind(["tools.controller_replay", "replay", str(path.resolve()), "--inside"])
+    done, total, _ = under_callgrind(["tools.controller_replay", "replay", str(path.resolve()), "--inside"])
     ticks = re.search(r"^(\d+) ticks", done.stdout, re.M)
     if total is None or ticks is None:
         print(f"controller_replay: valgrind run failed (exit {done.returncode}):\n{done.stderr[-2000:]}",

@@ -209,10 +209,22 @@ static float leg_force(wl_chassis_t *c, const wl_leg_state_t *leg, int name) {
     return wl_clamp(pid, WL_P_LEG_FORCE_LIMIT) + WL_P_LEG_GRAVITY_FF * cosf(leg->theta);
 }
 
-/* VMC: the leg's push and torque to its two hip shafts */
-static void hips(wl_chassis_out_t *out, int leg, const wl_leg_state_t *s, float force, float tp) {
-    float t1, t4;
+/* the hips' dry friction added back (controller/friction.py): the way the joint turns or,
+ * slower than the speed band, the way it is asked to turn (move: torque beyond holding it) */
+static float coulomb_feed_forward(float speed, float move) {
+    float turning = wl_clamp(speed / WL_P_HIP_FRICTION_BAND, 1.0f);
+    float asked = wl_clamp(move / WL_P_HIP_FRICTION_TORQUE_BAND, 1.0f);
+    return WL_C_HIP_FRICTION * (turning + (1.0f - fabsf(turning)) * asked);
+}
+
+/* VMC: the leg's push and torque to its two hip shafts, plus the hips' friction feed-forward;
+ * tp_move: the share of tp that moves the leg (beyond the balance point's hold torque) */
+static void hips(wl_chassis_out_t *out, int leg, const wl_leg_state_t *s, float force, float tp, float tp_move) {
+    float t1, t4, m1, m4;
     wl_fivebar_joint_torques(&s->kin, force, tp, &t1, &t4);
+    wl_fivebar_joint_torques(&s->kin, 0.0f, tp_move, &m1, &m4);
+    t1 += coulomb_feed_forward(s->dphi1, m1);
+    t4 += coulomb_feed_forward(s->dphi4, m4);
     int front = wl_joint_of(leg, 0), rear = wl_joint_of(leg, 1);
     out->hip_torque[front] = (float)WL_JOINTS[front].sign * t1;
     out->hip_torque[rear] = (float)WL_JOINTS[rear].sign * t4;
@@ -261,7 +273,7 @@ static void air_step(wl_chassis_t *c, const wl_sensed_t *s, float speed, const w
                           ? cmd->leg_force
                           : wl_clamp(WL_P_LEG_KP * (c->leg_ref[leg] - l->L0) - WL_P_LEG_KD * l->dL0,
                                      WL_P_AIR_LEG_FORCE_LIMIT);
-        hips(out, leg, l, force, tp);
+        hips(out, leg, l, force, tp, tp);
         int w = wl_wheel_of(leg);
         out->wheel_torque[w] = (float)WL_WHEELS[w].forward_sign * out->wheel_t[leg];
     }
@@ -307,7 +319,7 @@ void wl_chassis_step(wl_chassis_t *c, const wl_chassis_cmd_t *cmd, const wl_sens
     for (int leg = 0; leg < 2; leg++) {
         float sign = leg == WL_LEFT ? 1.0f : -1.0f;
         float push = cmd->has_leg_force ? cmd->leg_force : leg_force(c, &legs[leg], leg);
-        hips(out, leg, &legs[leg], push + sign * roll_f, out->tp[leg]);
+        hips(out, leg, &legs[leg], push + sign * roll_f, out->tp[leg], out->tp[leg] - c->balance_point.hold_torque);
         int w = wl_wheel_of(leg);
         out->wheel_torque[w] = (float)WL_WHEELS[w].forward_sign * wl_clamp(out->wheel_t[leg], WL_P_WHEEL_TORQUE_LIMIT);
     }

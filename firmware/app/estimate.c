@@ -99,21 +99,24 @@ void wl_slip_init(wl_slip_t *s, float dt, float gain, float on, float window, fl
     s->grip = grip;
     s->speed = 0.0f;
     s->slipping = false;
-    s->win_elapsed = s->win_imu_change = s->win_wheels_start = 0.0f;
+    s->win_elapsed = 0.0;
+    s->win_imu_change = s->win_wheels_start = 0.0f;
 }
 
 static void watch_grip(wl_slip_t *s, float accel, float wheels) {
-    float elapsed = s->win_elapsed + s->dt, imu_change = s->win_imu_change + accel * s->dt;
+    double elapsed = s->win_elapsed + (double)s->dt;
+    float imu_change = s->win_imu_change + accel * s->dt;
     if (fabsf(wheels - s->speed) < s->grip) {
         s->slipping = false;
-    } else if (elapsed < s->window) {
+    } else if (elapsed < (double)s->window) {
         s->win_elapsed = elapsed;
         s->win_imu_change = imu_change;
     } else if (fabsf((wheels - s->win_wheels_start) - imu_change) < s->grip) {
         s->slipping = false;
         s->speed = wheels;
     } else {
-        s->win_elapsed = s->win_imu_change = 0.0f;
+        s->win_elapsed = 0.0;
+        s->win_imu_change = 0.0f;
         s->win_wheels_start = wheels;
     }
 }
@@ -124,7 +127,8 @@ bool wl_slip_update(wl_slip_t *s, float accel, float wheels) {
         watch_grip(s, accel, wheels);
     } else if (fabsf(wheels - s->speed) > s->on) {
         s->slipping = true;
-        s->win_elapsed = s->win_imu_change = 0.0f;
+        s->win_elapsed = 0.0;
+        s->win_imu_change = 0.0f;
         s->win_wheels_start = wheels;
     }
     if (!s->slipping) s->speed += s->gain * (wheels - s->speed) * s->dt;

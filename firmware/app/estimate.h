@@ -17,7 +17,8 @@ typedef struct {
     float dt, gain, on, window, grip;
     float speed;  /* m/s, the IMU's body speed */
     bool slipping;
-    float win_elapsed, win_imu_change, win_wheels_start;
+    double win_elapsed;  /* s into the grip window (double: the same tick as the Python's sum) */
+    float win_imu_change, win_wheels_start;
 } wl_slip_t;
 
 typedef struct {

@@ -43,6 +43,8 @@ bool wl_leg_state(const wl_bus_state_t *bus, int leg, const wl_attitude_t *att, 
     out->theta = WL_PI / 2 - kin.phi0 + att->pitch;
     out->dtheta = -dphi0 - body_rate;
     out->wheel_speed = spin * WL_C_WHEEL_RADIUS;
+    out->dphi1 = dphi1;
+    out->dphi4 = dphi4;
     return true;
 }
 

@@ -19,6 +19,7 @@ typedef struct {
     wl_leg_kin_t kin;
     float L0, dL0, theta, dtheta;  /* m, m/s, rad (wheel behind hip positive), rad/s */
     float wheel_speed;             /* m/s, axle speed along the ground */
+    float dphi1, dphi4;            /* rad/s, the front and rear hip joints' rates (relative to the body) */
 } wl_leg_state_t;
 
 typedef enum { WL_TRAVEL_STANDING, WL_TRAVEL_SPEEDING_UP, WL_TRAVEL_CRUISING, WL_TRAVEL_BRAKING } wl_travel_t;

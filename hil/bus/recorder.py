@@ -30,7 +30,9 @@ from typing import Protocol, Sequence
 import can
 
 from wheelleg.dbc import CAN1, load_bus
-from wheelleg.hil.bus.busload import LoadMeter, wire_ns_batch
+from wheelleg.hil import fast
+from wheelleg.hil.bus import wire_order
+from wheelleg.hil.bus.busload import LoadMeter, wire_ns, wire_ns_batch
 from wheelleg.hil.bus.wire_order import BusWire, Queued
 from wheelleg.hil.record.frame import Frame
 
@@ -71,6 +73,10 @@ class Recorder:
     sinks handed a list. Nothing the run does waits for the record. Real time
     settles ``slice_size`` at a time between its steps (``Rig.housekeeping``);
     reaching ``batch`` then settles one slice, not the lot.
+
+    Where the compiled record path is built (``wheelleg.hil.fast``), ``sent``,
+    ``received`` and the wire models are its ``RecordCore``: the same record,
+    frame for frame; ``wires`` then holds a ``WireView`` of each bus.
     """
 
     def __init__(self, sinks: Sequence[FrameSink], clock, channels: Sequence[str], *, load_to=None,
@@ -86,11 +92,42 @@ class Recorder:
         self._noted: list[tuple] = []  # (clock ns, channel, Frame, answers, handle of a received frame)
         self._tick_ns = 0  # end of the latest SYNC on any bus: the controller has had its turn
         self._run_to_ns = -1  # the wires have been run up to here
+        self._core = None
+        compiled = fast.core()
+        if compiled is not None:
+            self._core = core = compiled.RecordCore(
+                list(channels), Frame, clock, bitrate, SYNC_ID, wire_order.RESPONSE_NS, wire_ns,
+                self._load_sample, lambda: self.settle(self.slice_size), self.batch)
+            self.wires.clear()
+            self.wires.update((channel, WireView(core, channel)) for channel in channels)
+            core.set_load_due(self.load.due_ns)
+            self.sent, self.received = core.sent, core.received  # per frame: no Python call
+
+    def _load_sample(self, now_ns: int) -> int:
+        """The compiled path's load window: every bus it knows listed, the window closed; the next due time."""
+        self._list_wires()
+        self.load.sample(now_ns)
+        return self.load.due_ns
+
+    def _list_wires(self) -> None:
+        """The compiled path: a view in ``wires`` of every bus it has settled a frame of."""
+        for channel in self._core.channels:
+            if channel not in self.wires:
+                self.wires[channel] = WireView(self._core, channel)
 
     def wire(self, channel: str) -> BusWire:
         if channel not in self.wires:
-            self.wires[channel] = BusWire(self.bitrate)
+            self.wires[channel] = BusWire(self.bitrate) if self._core is None else WireView(self._core, channel)
         return self.wires[channel]
+
+    @property
+    def frames(self) -> int:
+        """Frames settled so far."""
+        return self._frames if self._core is None else self._core.frames
+
+    @frames.setter
+    def frames(self, value: int) -> None:
+        self._frames = value
 
     def sent(self, channel: str, msg: can.Message, answers: Queued | None = None) -> None:
         """A frame the plant side put on ``channel``; ``answers``: the received frame it replies to."""
@@ -109,7 +146,7 @@ class Recorder:
 
     def pending(self) -> bool:
         """Whether frames are noted and not settled yet."""
-        return bool(self._noted)
+        return bool(self._noted) if self._core is None else self._core.pending() > 0
 
     def settle(self, limit: int | None = None) -> None:
         """Every noted frame (``limit``: the oldest that many) on its wire, in the order noted;
@@ -121,6 +158,9 @@ class Recorder:
         frame is queued no earlier than the end of the latest SYNC; whenever
         the clock has moved the wires run up to it.
         """
+        if self._core is not None:
+            self._hand_over(self._core.settle(-1 if limit is None else limit))
+            return
         noted, self._noted = self._noted, []
         if limit is not None and len(noted) > limit:  # the oldest ``limit``: the rest as if noted after
             noted, self._noted = noted[:limit], noted[limit:]
@@ -194,11 +234,15 @@ class Recorder:
     def stop(self) -> None:
         """Every frame still queued sent and handed over, the last (partial) load window, every sink stopped."""
         self.settle()
-        for wire in self.wires.values():
-            wire.run_until(None)
-        out: list[Frame] = []
-        self._emit(None, out)
-        self._hand_over(out)
+        if self._core is not None:
+            self._hand_over(self._core.finish())
+            self._list_wires()
+        else:
+            for wire in self.wires.values():
+                wire.run_until(None)
+            out: list[Frame] = []
+            self._emit(None, out)
+            self._hand_over(out)
         self.load.sample(self.sim_clock.now_ns, final=True)
         for sink in self.sinks:
             sink.stop()
@@ -209,3 +253,29 @@ def _frame(channel: str, msg: can.Message) -> Frame:
     # the payload up to the DLC; sliced only when longer (a slice is a second copy, ~20 a tick)
     return Frame(0, channel, msg.arbitration_id, msg.is_extended_id, bytes(data) if len(data) <= dlc
                  else bytes(data[:dlc]), dlc, "", msg.is_error_frame, msg.is_remote_frame, msg.is_fd)
+
+
+class WireView:
+    """A bus of the compiled record path as ``LoadMeter`` and readers see a ``BusWire``: its counts."""
+
+    __slots__ = ("_core", "channel")
+
+    def __init__(self, core, channel: str):
+        self._core, self.channel = core, channel
+        core.wire_state(channel)  # listed from now on
+
+    @property
+    def free_ns(self) -> int:
+        return self._core.wire_state(self.channel)[0]
+
+    @property
+    def busy_ns_total(self) -> int:
+        return self._core.wire_state(self.channel)[1]
+
+    @property
+    def frames_total(self) -> int:
+        return self._core.wire_state(self.channel)[2]
+
+    @property
+    def waiting(self) -> int:
+        return self._core.wire_state(self.channel)[3]

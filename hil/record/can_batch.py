@@ -29,6 +29,7 @@ from itertools import accumulate
 
 import numpy as np
 
+from wheelleg.hil import fast
 from wheelleg.hil.record.frame import Frame, FrameColumns
 from wheelleg.hil.record.schemas import CDR_LE
 
@@ -52,7 +53,15 @@ def _pad4(size: int) -> bytes:
 
 def pack(frames: list[Frame]) -> bytes:
     """One ``/can/`` record of ``frames`` (one bus, in time order, each at most ``MAX_GAP_NS`` after the one
-    before); the message's log time is ``frames[0].t_ns``. ValueError for a time or id out of range."""
+    before); the message's log time is ``frames[0].t_ns``. ValueError for a time or id out of range.
+
+    The rig's own frames (classic data frames) are packed in C where it is built
+    (``wheelleg.hil.fast``), the rest here: the same bytes."""
+    compiled = fast.core()
+    if compiled is not None:
+        record = compiled.pack_plain(frames)
+        if record is not None:
+            return record
     n = len(frames)
     times = [f.t_ns for f in frames]
     gaps = [0] + [b - a for a, b in zip(times, times[1:])]

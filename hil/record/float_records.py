@@ -86,6 +86,14 @@ class FloatLayout:
                 raise TypeError(f"{topic}[{bad!r}] must be a number, got {values[bad]!r}") from None
             return struct.pack(f"<4s{len(self.fields)}d", CDR_LE, *numbers)
 
+    def pack_known(self, values: dict, compiled) -> bytes | None:
+        """``pack`` of ``values`` whose every key is a field or the time field and every value a float or an
+        int, in C by ``compiled`` (``wheelleg.hil.fast.core()``): the same bytes; None otherwise (the
+        caller checks and packs)."""
+        if type(values) is not dict or type(self.fields) is not tuple:
+            return None
+        return compiled.pack_floats(self.fields, values, self.time_field or _NO_FIELD)
+
     def columns(self, records: list[tuple[int, bytes]], topic: str) -> dict[str, np.ndarray]:
         """Every record at once: the time field (if any) and each field, shape (n,), not finite -> NaN."""
         if not records:
@@ -109,6 +117,9 @@ class FloatLayout:
         names = list(columns)
         lists = [[None if math.isnan(v) else v for v in columns[name].tolist()] for name in names]
         return [(t, dict(zip(names, values))) for (t, _), values in zip(records, zip(*lists))]
+
+
+_NO_FIELD = object()  # the time field of a layout without one: no key of a dict
 
 
 def layout_of(schema_name: str, channel_metadata: dict[str, str]) -> FloatLayout | None:

@@ -52,6 +52,7 @@ from typing import Sequence
 
 from mcap.records import Schema
 
+from wheelleg.hil import fast
 from wheelleg.hil.record import can_batch, float_records, schemas
 from wheelleg.hil.record.decode import FrameDecoder
 from wheelleg.hil.record.frame import Frame
@@ -116,6 +117,7 @@ class TraceWriter:
         self._file = None
         self._mcap: ChunkedMcapWriter | None = None
         self._finished = False
+        self._compiled = fast.core()  # float records packed in C when it is built (``wheelleg.hil.fast``)
         self._can_ids: dict[str, int] = {}  # channel -> MCAP channel id of /can/<channel>
         self._topic_ids: dict[str, int] = {}  # any topic -> MCAP channel id
         self._decoded_ids: dict[object, int] = {}  # DecodePlan (one per channel and message) -> id
@@ -380,14 +382,17 @@ class TraceWriter:
         self._field_sets[topic] = frozenset(layout.fields) | {layout.time_field} - {""}
 
     def _put_floats(self, topic: str, layout, t_ns: int, values: dict, what: str) -> None:
-        unknown = values.keys() - self._field_sets[topic]
-        if unknown:
-            raise ValueError(f"{what}: {sorted(unknown)} not among the fields of its first record "
-                             f"{list(layout.fields)}")
-        if self._finished:
-            raise RuntimeError(f"{self.path}: trace already finished")
+        # every key known, every value a number: packed in C at once; anything else checked here first
+        record = None if self._finished or self._compiled is None else layout.pack_known(values, self._compiled)
+        if record is None:
+            unknown = values.keys() - self._field_sets[topic]
+            if unknown:
+                raise ValueError(f"{what}: {sorted(unknown)} not among the fields of its first record "
+                                 f"{list(layout.fields)}")
+            if self._finished:
+                raise RuntimeError(f"{self.path}: trace already finished")
         try:
-            self._mcap.add_message(self._topic_ids[topic], t_ns, layout.pack(values, what))
+            self._mcap.add_message(self._topic_ids[topic], t_ns, layout.pack(values, what) if record is None else record)
         except struct.error as exc:
             raise ValueError(f"t_ns must be an int >= 0 (ns), got {t_ns!r}") from exc
 
