@@ -8,6 +8,8 @@ import subprocess
 import sys
 import time
 
+import pytest
+
 UDP_DEFAULT_PORT = 43113  # python-can's udp_multicast default: drivers that open their own bus use it
 
 
@@ -54,3 +56,11 @@ class Emulators:
         for proc in self.procs:
             proc.terminate()
             proc.wait(timeout=10)
+
+
+@pytest.fixture
+def emulators():
+    """An ``Emulators`` for one test (import it into the test module to use it)."""
+    emu = Emulators()
+    yield emu
+    emu.close()

@@ -17,6 +17,8 @@ import time
 
 import pytest
 
+from drivers_helpers import eventually
+
 can = pytest.importorskip("can")
 pytest.importorskip("msgpack", reason="python-can's udp_multicast needs msgpack (pip install '.[drivers]')")
 cybergear = pytest.importorskip("cybergear", reason="python-cybergear is not installed (pip install '.[drivers]')")
@@ -24,16 +26,6 @@ CyberGearDriver = pytest.importorskip("CyberGearDriver", reason="CyberGearDriver
 
 UID = 0x1122_3344_5566_7788
 pytestmark = [pytest.mark.timeout(120), pytest.mark.slow]
-
-
-def eventually(condition, timeout_s: float = 5.0, what: str = ""):
-    deadline = time.monotonic() + timeout_s
-    while time.monotonic() < deadline:
-        value = condition()
-        if value:
-            return value
-        time.sleep(0.02)
-    raise AssertionError(f"not within {timeout_s} s: {what}")
 
 
 @pytest.fixture

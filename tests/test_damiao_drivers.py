@@ -16,20 +16,13 @@ import time
 
 import pytest
 
-from drivers_helpers import Emulators, eventually
+from drivers_helpers import Emulators, emulators, eventually  # noqa: F401 (emulators: a fixture)
 from wheelleg.emulators.damiao import Damiao
 
 can = pytest.importorskip("can")
 pytest.importorskip("msgpack", reason="python-can's udp_multicast needs msgpack (pip install '.[drivers]')")
 
 pytestmark = [pytest.mark.timeout(180)]
-
-
-@pytest.fixture
-def emulators():
-    emu = Emulators()
-    yield emu
-    emu.close()
 
 
 def _controller(emu: Emulators):
