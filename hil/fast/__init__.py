@@ -19,7 +19,7 @@ import warnings
 VERSION = 1  # the C module's VERSION these Python callers expect
 
 try:
-    from wheelleg.hil.fast import _framecore
+    from . import _framecore  # this package's own compiled module
 except ImportError:  # built without a compiler, or not built yet
     _framecore = None
 if _framecore is not None and getattr(_framecore, "VERSION", None) != VERSION:

@@ -35,6 +35,9 @@ EVENT_SHOWN_S = 0.6  # an event's name stays on the frames this long after it
 IGNORED_EVENTS = ("operator",)  # the remote's set points: every tick's news, nobody's headline
 
 
+_GL_LOADED: dict[str, str] = {}  # "backend": the MUJOCO_GL this process last reloaded mujoco's GL context for
+
+
 class RenderError(Exception):
     """Nothing can be drawn here or from this trace: one line."""
 
@@ -53,9 +56,11 @@ def offscreen_gl() -> str:
     os.environ["MUJOCO_GL"] = os.environ["PYOPENGL_PLATFORM"] = chosen
     from mujoco.rendering.classic import gl_context  # noqa: PLC0415 (read MUJOCO_GL when the rig disabled it)
 
-    # mujoco read MUJOCO_GL once, on import (the rig's "disable": no GLContext); read it again now
-    if getattr(gl_context, "GLContext", None) is None or gl_context._MUJOCO_GL != chosen:
+    # mujoco read MUJOCO_GL once, on import (the rig's "disable": no GLContext); read it again now,
+    # unless this process already made it load the chosen back end
+    if getattr(gl_context, "GLContext", None) is None or _GL_LOADED.get("backend") != chosen:
         importlib.reload(gl_context)
+        _GL_LOADED["backend"] = chosen
     return chosen
 
 
