@@ -9,7 +9,10 @@ the work only when they land on the same worker. With ``--dist loadgroup``
   arguments (seed, duration, plant) as another test; ``each_run(NAMES)`` gives
   ``parametrize`` values, each in its run's group;
 - ``same_fixture(NAME)`` marks the tests that use one costly module fixture (or a module's
-  cache that lives as long as the process).
+  cache that lives as long as the process);
+- ``BUILDS_THE_SOURCE_TREE`` marks the tests that build or install this checkout with pip
+  (a wheel, an editable install in a venv): setuptools writes ``build/`` and the egg-info
+  inside the tree, so two such builds at once on two workers break each other.
 
 A missing mark costs time, never a result: the run or fixture is made twice.
 """
@@ -31,3 +34,6 @@ def each_run(scenarios) -> list:
 def same_fixture(name: str) -> pytest.MarkDecorator:
     """The mark of the tests that use the module-scoped fixture ``name`` (built once per worker)."""
     return pytest.mark.xdist_group(f"fixture {name}")
+
+
+BUILDS_THE_SOURCE_TREE = pytest.mark.xdist_group("builds the source tree")

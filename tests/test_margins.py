@@ -210,7 +210,7 @@ def test_default_keys_are_the_presets_box():
     (["balance", "--keys", "com_x_m=a..b"], "--keys 'com_x_m=a..b': LOW and HIGH must be numbers"),
     (["balance", "--keys", "com_x_m", "com_x_m"], "named twice"),
     (["balance", "--preset", "nope"], "no preset 'nope'"),
-    (["quadruped/quad-balance-stand", "--keys", "hip_frictionloss"], "not modelled for the quadruped robot"),
+    (["quadruped/quad-balance-stand", "--keys", "wheel_torque_lag_s"], "not modelled for the quadruped robot"),
     (["balance", "--runs-per-key", "1"], "need at least 2"),
 ])
 def test_bad_input_is_a_one_line_error_exit_2(tmp_path, capsys, argv, message):

@@ -21,7 +21,10 @@ from pathlib import Path
 
 import pytest
 
+from sharing import BUILDS_THE_SOURCE_TREE
 from wheelleg.hil import robots
+
+pytestmark = BUILDS_THE_SOURCE_TREE  # the venv fixture installs this checkout (editable)
 
 ROOT = Path(__file__).resolve().parents[1]
 PLUGIN = ROOT / "tests" / "plugin_robot"

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from sharing import same_fixture
+from sharing import BUILDS_THE_SOURCE_TREE
 from throwaway_venv import make_venv, pip_install
 
 pytestmark = pytest.mark.slow  # a wheel build and a venv: scheduled first (tests/conftest.py)
@@ -27,7 +27,7 @@ def wheel(tmp_path_factory) -> Path:
     return path
 
 
-@same_fixture("wheel")
+@BUILDS_THE_SOURCE_TREE  # and shares the module's wheel
 def test_the_wheel_has_one_top_level_package(wheel):
     with zipfile.ZipFile(wheel) as zf:
         names = zf.namelist()
@@ -48,7 +48,7 @@ def test_the_wheel_has_one_top_level_package(wheel):
     assert "[wheelleg.robots]\nquadruped = wheelleg.hil.robots.quadruped:ROBOT\n" in points
 
 
-@same_fixture("wheel")
+@BUILDS_THE_SOURCE_TREE  # and shares the module's wheel
 def test_a_project_with_its_own_controller_and_hil_uses_rig_run(wheel, tmp_path):
     """The collision the editable install hid: a team's own ``controller``/``hil`` packages."""
     # the dependencies come from this interpreter's site-packages; the package only from the wheel
