@@ -2,6 +2,7 @@
 plugin working in a project that has its own ``controller`` and ``hil`` packages."""
 from __future__ import annotations
 
+import shutil
 import subprocess
 import sys
 import textwrap
@@ -21,8 +22,15 @@ REPO = Path(__file__).resolve().parent.parent
 @pytest.fixture(scope="module")
 def wheel(tmp_path_factory) -> Path:
     out = tmp_path_factory.mktemp("wheel")
-    subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "-q",
-                    "-w", str(out), str(REPO)], check=True, capture_output=True, text=True)
+    # built from a copy of the checkout: setuptools builds a local folder in place (build/, the
+    # egg-info, the compiled extension), and another test's editable install of this checkout
+    # left state there that broke this build in CI
+    source = out / "source"
+    shutil.copytree(REPO, source, ignore=shutil.ignore_patterns(".git", ".venv", "build", "out", "*.egg-info",
+                                                                 "__pycache__", "*.so", ".hypothesis", ".pytest_cache"))
+    done = subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "-q",
+                           "-w", str(out), str(source)], capture_output=True, text=True)
+    assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-4000:]
     (path,) = out.glob("wheelleg_hil-*.whl")
     return path
 
