@@ -60,6 +60,17 @@ def recorded_ticks(path) -> list[Tick]:
     return ticks
 
 
+def rx_arrays(tick: Tick) -> tuple:
+    """(rx, rx_time_us, n): ``tick``'s received frames as the ABI's ``wl_frame_t`` array and times (us)."""
+    n = len(tick.frames)
+    rx, times = (WlFrame * max(n, 1))(), (ctypes.c_uint64 * max(n, 1))()
+    for i, (bus, msg, t_us) in enumerate(tick.frames):
+        rx[i].id, rx[i].bus, rx[i].extended, rx[i].dlc = msg.arbitration_id, BUS_INDEX[bus], msg.is_extended_id, msg.dlc
+        rx[i].data[:len(msg.data)] = bytes(msg.data)
+        times[i] = t_us
+    return rx, times, n
+
+
 class Firmware:
     """The lockstep library through ctypes."""
 
@@ -75,12 +86,7 @@ class Firmware:
         self.tx = (WlFrame * 64)()
 
     def step(self, tick: Tick) -> list[tuple]:
-        n = len(tick.frames)
-        rx, times = (WlFrame * max(n, 1))(), (ctypes.c_uint64 * max(n, 1))()
-        for i, (bus, msg, t_us) in enumerate(tick.frames):
-            rx[i].id, rx[i].bus, rx[i].extended, rx[i].dlc = msg.arbitration_id, BUS_INDEX[bus], msg.is_extended_id, msg.dlc
-            rx[i].data[:len(msg.data)] = bytes(msg.data)
-            times[i] = t_us
+        rx, times, n = rx_arrays(tick)
         count = self.lib.wl_step(tick.now_us, rx, times, n, self.tx, len(self.tx))
         return [(BUS_NAME[f.bus], f.id, bool(f.extended), bytes(f.data[:f.dlc])) for f in self.tx[:count]]
 

@@ -16,7 +16,7 @@ import sys
 import time
 
 sys.path.insert(0, "tests")
-from firmware_feed import BUS_INDEX, Firmware, WlFrame, python_step, recorded_ticks  # noqa: E402
+from firmware_feed import Firmware, WlFrame, python_step, recorded_ticks, rx_arrays  # noqa: E402
 
 from wheelleg.controller.node import Controller  # noqa: E402
 from wheelleg.hil import firmware_build  # noqa: E402
@@ -35,13 +35,7 @@ def firmware_us(fw: Firmware, ticks) -> tuple[float, float]:
     lib = fw.lib
     prepared = []
     for tick in ticks:
-        n = len(tick.frames)
-        rx, times = (WlFrame * max(n, 1))(), (ctypes.c_uint64 * max(n, 1))()
-        for i, (bus, msg, t_us) in enumerate(tick.frames):
-            rx[i].id, rx[i].bus, rx[i].extended, rx[i].dlc = msg.arbitration_id, BUS_INDEX[bus], msg.is_extended_id, msg.dlc
-            rx[i].data[:len(msg.data)] = bytes(msg.data)
-            times[i] = t_us
-        prepared.append((tick.now_us, rx, times, n))
+        prepared.append((tick.now_us, *rx_arrays(tick)))
     tx = (WlFrame * 64)()
     lib.wl_init(2000)
     step = lib.wl_step
