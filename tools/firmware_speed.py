@@ -11,7 +11,6 @@ noisy: the best of ``--reps`` passes is reported.
 from __future__ import annotations
 
 import argparse
-import ctypes
 import sys
 import time
 
