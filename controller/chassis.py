@@ -132,6 +132,7 @@ class ChassisController:
         self.balance_point = estimate.BalancePointObserver(dt, P.BALANCE_POINT_TAU_LEARN, P.BALANCE_POINT_LEARN_S,
                                                            P.BALANCE_POINT_TAU, P.BALANCE_POINT_STILL,
                                                            P.BALANCE_POINT_SETTLE_S)
+        self.speed_prev = 0.0  # m/s, the ground speed a period ago (the balance point's acceleration)
         self.balance_theta = 0.0  # rad, the legs' lean at the balance point (lqr.balance_lean), this tick
 
     def observe(self, bus: BusState) -> Sensed | None:
@@ -198,7 +199,13 @@ class ChassisController:
         for leg in LEGS:
             wheel_t[leg], tp[leg] = self._lqr(legs[leg], leg, speed, att, cmd, mean_length)
             self.u_prev[leg] = (clamp(wheel_t[leg], P.WHEEL_TORQUE_LIMIT), tp[leg])
-        self.balance_point.update(0.5 * (tp["left"] + tp["right"]), speed, standing)
+        # the legs' lean standing still says where the CoM is, whatever the hips' friction
+        # holds (the torque the LQR asks does not: docs/control.md, the balance point);
+        # less the lean the robot's acceleration asks for (finding its feet after start-up)
+        accel = (speed - self.speed_prev) / self.dt
+        self.speed_prev = speed
+        lean = 0.5 * (legs["left"].theta + legs["right"].theta) - P.LEAN_PER_ACCEL * accel
+        self.balance_point.update(lqr.lean_hold_torque(lean, mean_length, self.weight_ratio()), speed, standing)
         split = self._split(legs)
         tp["left"] += split
         tp["right"] -= split

@@ -42,6 +42,15 @@ def dot(gains, states) -> float:
     return sum(map(operator.mul, gains, states))
 
 
+def lean_hold_torque(theta: float, L0: float, weight_ratio: float = 1.0) -> float:
+    """The hip torque (N m per leg) that holds the body when the legs balance leaning at
+    ``theta`` (rad) at leg length L0 (m, clamped to the fit): ``balance_lean``'s inverse,
+    -ARM(L0) weight_ratio sin(theta)."""
+    length = within(L0, L0_MIN, L0_MAX)
+    c3, c2, c1, c0 = _ARM
+    return -(((c3 * length + c2) * length + c1) * length + c0) * weight_ratio * math.sin(theta)
+
+
 def balance_lean(hold_torque: float, L0: float, limit: float, weight_ratio: float = 1.0) -> float:
     """Leg angle theta (rad, wheel behind the hip positive) that puts the whole CoM over
     the axle when the hip holds the body with ``hold_torque`` (N m per leg), at leg

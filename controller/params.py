@@ -150,18 +150,19 @@ SLIP_GRIP_TOL = 0.05  # m/s ... did, within this
 # to this: the floor cannot take more, and asking more only spins the wheel further
 SLIP_TRAVEL_TORQUE_LIMIT = 1.0
 
-# Balance point (estimate.BalancePointObserver, lqr.balance_lean). Measured with
-# `wheelleg run balance --plant com_x_m=0.03`: max body drift 8.5 cm on the position
-# integral alone; learning at 0.2 s 4.3 cm, 0.1 s 3.4, 0.05 s 2.7; a lag of 0.1 s
-# kept for good let the torque of the tolerance box's worst push (CoM 3 cm behind,
-# 1.3 x mass) into the estimate and `push` ran 7 m away; 0.3 s after start-up keeps it 0.02 m from
-# its spot. 3 cm of CoM offset needs ~0.15 rad of lean at 0.17 m.
-BALANCE_POINT_TAU_LEARN = 0.05  # s, lag of the hold torque while learning after start-up
-BALANCE_POINT_LEARN_S = 0.6  # s of standing still learnt at that pace
-# s, lag afterwards. 0.3 s rocked a robot with dry friction in its hips (0.2 N m each:
-# +-2.3 deg, 17.4 cm of drift in `balance`): the legs stuck to the body, its Tp no longer
-# told the CoM, and the observer chased the LQR's own feedback; 3 s: 0.5 cm at 0.2-0.4 N m
-BALANCE_POINT_TAU = 3.0
+# Balance point (estimate.BalancePointObserver, lqr.balance_lean): learnt from the legs'
+# lean standing still. It was learnt from the hip torque the LQR asked, at 0.05 s for the
+# first 0.6 s: through the hips' dry friction that lag is an integrator on the hips'
+# error, it wound up against the stuck joints and left a lean of the wrong sign (sourced
+# tolerance sample: CoM 0.9 cm forward, hips 0.34/0.40 N m: hold -0.66 N m, lean
+# +0.28 rad, the robot ran away at 2 m/s in `pose`, 10.7 m in `balance`). The lean itself
+# has no such loop; learnt at 0.3 s for 1.5 s and 1.5 s after: `balance --plant
+# com_x_m=0.03` 5.6 cm of drift (2.7 cm learnt from the torque, frictionless hips), the
+# three sourced samples' balance, drive and push pass. 3 cm of CoM offset needs ~0.15 rad
+# of lean at 0.17 m.
+BALANCE_POINT_TAU_LEARN = 0.3  # s, lag of the learnt lean after start-up
+BALANCE_POINT_LEARN_S = 1.5  # s of standing still learnt at that pace
+BALANCE_POINT_TAU = 1.5  # s, lag afterwards
 # m/s: nothing learnt faster than this nor for SETTLE_S after. A 5 N s sudden push in the
 # learning window (tolerance sample: CoM 2.4 cm back, mass x0.83) took the hold torque from
 # -0.27 to -0.11 N m and `push` ended 1.15 m from its spot; gated, 0.32 m. Start-up with

@@ -308,7 +308,13 @@ void wl_chassis_step(wl_chassis_t *c, const wl_chassis_cmd_t *cmd, const wl_sens
         c->u_prev[leg][0] = wl_clamp(out->wheel_t[leg], WL_P_WHEEL_TORQUE_LIMIT);
         c->u_prev[leg][1] = out->tp[leg];
     }
-    wl_balance_point_update(&c->balance_point, 0.5f * (out->tp[0] + out->tp[1]), speed, standing);
+    /* the legs' lean standing still says where the CoM is, whatever the hips' friction holds;
+     * less the lean the robot's acceleration asks for */
+    float accel = (speed - c->speed_prev) / c->dt;
+    c->speed_prev = speed;
+    float lean = 0.5f * (legs[0].theta + legs[1].theta) - WL_P_LEAN_PER_ACCEL * accel;
+    wl_balance_point_update(&c->balance_point, wl_lqr_lean_hold_torque(lean, mean_length, weight_ratio(c)), speed,
+                            standing);
     float sp = split(legs);
     out->tp[WL_LEFT] += sp;
     out->tp[WL_RIGHT] -= sp;

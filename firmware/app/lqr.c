@@ -21,6 +21,11 @@ float wl_lqr_dot(const float *gains, const float *states, int n) {
     return sum;
 }
 
+float wl_lqr_lean_hold_torque(float theta, float L0, float weight_ratio) {
+    float length = wl_within(L0, WL_LQR_L0_MIN, WL_LQR_L0_MAX);
+    return -cubic(WL_LQR_ARM, length) * weight_ratio * sinf(theta);
+}
+
 float wl_lqr_balance_lean(float hold_torque, float L0, float limit, float weight_ratio) {
     float length = wl_within(L0, WL_LQR_L0_MIN, WL_LQR_L0_MAX);
     float arm = cubic(WL_LQR_ARM, length) * weight_ratio;

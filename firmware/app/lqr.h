@@ -17,6 +17,9 @@ void wl_lqr_gains(float L0, float k[WL_LQR_INPUTS][WL_LQR_STATES]);
 /* sum of gains[i] * states[i] over n, left to right */
 float wl_lqr_dot(const float *gains, const float *states, int n);
 /* Leg angle (rad) of the balance point for hold torque (N m per leg) at L0 (m), within +-limit */
+/* N m per leg holding the body when the legs balance leaning at theta (rad): the inverse of
+ * wl_lqr_balance_lean, -ARM(L0) weight_ratio sin(theta) */
+float wl_lqr_lean_hold_torque(float theta, float L0, float weight_ratio);
 float wl_lqr_balance_lean(float hold_torque, float L0, float limit, float weight_ratio);
 
 #endif
