@@ -132,7 +132,8 @@ class ChassisController:
         self.balance_point = estimate.BalancePointObserver(dt, P.BALANCE_POINT_TAU_LEARN, P.BALANCE_POINT_LEARN_S,
                                                            P.BALANCE_POINT_TAU, P.BALANCE_POINT_STILL,
                                                            P.BALANCE_POINT_SETTLE_S)
-        self.speed_prev = 0.0  # m/s, the ground speed a period ago (the balance point's acceleration)
+        self.speed_prev = 0.0  # m/s, the ground speed a period ago ...
+        self.accel = 0.0  # m/s^2, ... and its change, lagged (BALANCE_POINT_ACCEL_TAU): the balance point's
         self.balance_theta = 0.0  # rad, the legs' lean at the balance point (lqr.balance_lean), this tick
 
     def observe(self, bus: BusState) -> Sensed | None:
@@ -180,6 +181,7 @@ class ChassisController:
         (None: sensed here), the gyro's bias and the bus unchanged since."""
         att, legs = sensed if sensed is not None else self.sense(bus)
         speed = self._ground_speed(legs)
+        self._track_accel(speed)
         if cmd.airborne:
             if not self.in_air:
                 self.in_air, self.takeoff_error = True, self.x - self.x_ref
@@ -202,9 +204,7 @@ class ChassisController:
         # the legs' lean standing still says where the CoM is, whatever the hips' friction
         # holds (the torque the LQR asks does not: docs/control.md, the balance point);
         # less the lean the robot's acceleration asks for (finding its feet after start-up)
-        accel = (speed - self.speed_prev) / self.dt
-        self.speed_prev = speed
-        lean = 0.5 * (legs["left"].theta + legs["right"].theta) - P.LEAN_PER_ACCEL * accel
+        lean = 0.5 * (legs["left"].theta + legs["right"].theta) - P.LEAN_PER_ACCEL * self.accel
         self.balance_point.update(lqr.lean_hold_torque(lean, mean_length, self.weight_ratio()), speed, standing)
         split = self._split(legs)
         tp["left"] += split
@@ -222,6 +222,13 @@ class ChassisController:
         self._limit_hips(out, cmd.hip_torque_limit)
         out.report = self._report(legs, att, speed, wheel_t, tp)
         return out
+
+    def _track_accel(self, speed: float) -> None:
+        """Follow the ground speed's change (m/s^2), lagged by BALANCE_POINT_ACCEL_TAU (every
+        tick, in the air too, so a landing is one step in speed, not a stale one)."""
+        accel = (speed - self.speed_prev) / self.dt
+        self.speed_prev = speed
+        self.accel += (accel - self.accel) * min(1.0, self.dt / P.BALANCE_POINT_ACCEL_TAU)
 
     def _ground_speed(self, legs: dict) -> float:
         """Mean axle speed along the ground (m/s): the wheels' own while they grip,

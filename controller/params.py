@@ -156,13 +156,17 @@ SLIP_TRAVEL_TORQUE_LIMIT = 1.0
 # error, it wound up against the stuck joints and left a lean of the wrong sign (sourced
 # tolerance sample: CoM 0.9 cm forward, hips 0.34/0.40 N m: hold -0.66 N m, lean
 # +0.28 rad, the robot ran away at 2 m/s in `pose`, 10.7 m in `balance`). The lean itself
-# has no such loop; learnt at 0.3 s for 1.5 s and 1.5 s after: `balance --plant
-# com_x_m=0.03` 5.6 cm of drift (2.7 cm learnt from the torque, frictionless hips), the
-# three sourced samples' balance, drive and push pass. 3 cm of CoM offset needs ~0.15 rad
-# of lean at 0.17 m.
+# has no such loop; learnt at 0.3 s for 1.5 s and 1.5 s after, with the acceleration's lean
+# taken off (below): `balance --plant com_x_m=+-0.03` and the three sourced samples'
+# balance, drive and push pass. 3 cm of CoM offset needs ~0.15 rad of lean at 0.17 m.
 BALANCE_POINT_TAU_LEARN = 0.3  # s, lag of the learnt lean after start-up
 BALANCE_POINT_LEARN_S = 1.5  # s of standing still learnt at that pace
 BALANCE_POINT_TAU = 1.5  # s, lag afterwards
+# s, lag of the acceleration whose lean is taken off the legs' (LEAN_PER_ACCEL): without
+# it the com 3 cm `balance` drifted 5.6 cm (it learnt the lean of finding its feet); taken
+# per period, the wheels' speed swings with the legs' and the learnt lean rocked nominal
+# `balance` (+-0.07 rad, the speed +-0.14 m/s, `jump-step` missed its step); 0.1 s: none
+BALANCE_POINT_ACCEL_TAU = 0.1
 # m/s: nothing learnt faster than this nor for SETTLE_S after. A 5 N s sudden push in the
 # learning window (tolerance sample: CoM 2.4 cm back, mass x0.83) took the hold torque from
 # -0.27 to -0.11 N m and `push` ended 1.15 m from its spot; gated, 0.32 m. Start-up with

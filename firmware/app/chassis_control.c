@@ -240,6 +240,13 @@ static void limit_hips(wl_chassis_out_t *out, float limit) {
     }
 }
 
+/* the ground speed's change (m/s^2), lagged by BALANCE_POINT_ACCEL_TAU: every tick, in the air too */
+static void track_accel(wl_chassis_t *c, float speed) {
+    float accel = (speed - c->speed_prev) / c->dt;
+    c->speed_prev = speed;
+    c->accel += (accel - c->accel) * wl_minf(1.0f, c->dt / WL_P_BALANCE_POINT_ACCEL_TAU);
+}
+
 static float ground_speed(const wl_chassis_t *c, const wl_leg_state_t legs[2]) {
     if (c->slip.slipping) return c->slip.speed + wl_legs_under_body(legs);
     return wl_mean_speed(legs);
@@ -286,6 +293,7 @@ void wl_chassis_step(wl_chassis_t *c, const wl_chassis_cmd_t *cmd, const wl_sens
     const wl_leg_state_t *legs = s->legs;
     const wl_attitude_t *att = &s->att;
     float speed = ground_speed(c, legs);
+    track_accel(c, speed);
     if (cmd->airborne) {
         if (!c->in_air) {
             c->in_air = true;
@@ -310,9 +318,7 @@ void wl_chassis_step(wl_chassis_t *c, const wl_chassis_cmd_t *cmd, const wl_sens
     }
     /* the legs' lean standing still says where the CoM is, whatever the hips' friction holds;
      * less the lean the robot's acceleration asks for */
-    float accel = (speed - c->speed_prev) / c->dt;
-    c->speed_prev = speed;
-    float lean = 0.5f * (legs[0].theta + legs[1].theta) - WL_P_LEAN_PER_ACCEL * accel;
+    float lean = 0.5f * (legs[0].theta + legs[1].theta) - WL_P_LEAN_PER_ACCEL * c->accel;
     wl_balance_point_update(&c->balance_point, wl_lqr_lean_hold_torque(lean, mean_length, weight_ratio(c)), speed,
                             standing);
     float sp = split(legs);

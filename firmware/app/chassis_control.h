@@ -39,7 +39,7 @@ typedef struct {
     float x, x_ref, speed_ref, accel_ref, yaw_ref, roll_offset, lean, x_integral;
     double trim_hold_s;              /* s (double: the same tick as the Python's sum) */
     float takeoff_speed, takeoff_error;
-    float speed_prev;                /* m/s, the ground speed a period ago (the balance point's acceleration) */
+    float speed_prev, accel;         /* m/s a period ago, m/s^2 lagged: the balance point's acceleration */
     bool in_air;
     wl_travel_t travel;
     float leg_ref[2], leg_integral[2];
