@@ -120,6 +120,7 @@ class ChassisController:
         self.accel_ref = 0.0  # m/s^2, the speed set point's own (motion.speed_set_point)
         self.travel = Travel.STANDING  # what the speed set point does (motion.travel_phase)
         self.yaw_ref = 0.0  # rad
+        self.yaw_rate_ref = 0.0  # rad/s, the commanded turn rate eased in and out (YAW_RATE_TAU)
         self.leg_ref = {leg: P.LEG_LENGTH_NOMINAL for leg in LEGS}
         self.roll_offset = 0.0  # m, integral levelling: left minus right leg length
         self.lean = 0.0  # rad, roll set point into a turn, lagging the command (TURN_LEAN_TAU)
@@ -170,6 +171,7 @@ class ChassisController:
         self.travel = Travel.STANDING
         self.lean = 0.0
         self.yaw_ref = att.yaw
+        self.yaw_rate_ref = 0.0
         for leg in LEGS:
             self.leg_integral[leg] = 0.0
             self.leg_ref[leg] = leg_state(bus, leg, att).L0
@@ -209,7 +211,7 @@ class ChassisController:
         split = self._split(legs)
         tp["left"] += split
         tp["right"] -= split
-        yaw_t = self._yaw(att, cmd)
+        yaw_t = self._yaw(att)
         wheel_t["left"] -= yaw_t
         wheel_t["right"] += yaw_t
         roll_f = self._roll(att, cmd)
@@ -314,8 +316,9 @@ class ChassisController:
             self.x_ref = self.x - clamp(self.x - self.x_ref, P.POSITION_ERROR_LIMIT)
         # standing, it stays put: pushed away, the robot comes back to its spot, with the
         # error the LQR sees clamped (_lqr), so at a bounded speed
-        self.yaw_ref = wrap(self.yaw_ref + clamp(cmd.yaw_rate, P.YAW_RATE_LIMIT) * self.dt)
-        target_lean = turn_lean(self.speed_ref, clamp(cmd.yaw_rate, P.YAW_RATE_LIMIT))
+        self.yaw_rate_ref += (clamp(cmd.yaw_rate, P.YAW_RATE_LIMIT) - self.yaw_rate_ref) * min(1.0, self.dt / P.YAW_RATE_TAU)
+        self.yaw_ref = wrap(self.yaw_ref + self.yaw_rate_ref * self.dt)
+        target_lean = turn_lean(self.speed_ref, self.yaw_rate_ref)
         self.lean += (target_lean - self.lean) * min(1.0, self.dt / P.TURN_LEAN_TAU)
         diff = roll_leg_difference(self.roll_set_point(cmd), self.roll_offset)
         targets = leg_targets(cmd.leg_length, diff)
@@ -431,8 +434,8 @@ class ChassisController:
         ddiff = legs["left"].dtheta - legs["right"].dtheta
         return clamp(-(P.SPLIT_KP * diff + P.SPLIT_KD * ddiff), P.SPLIT_LIMIT)
 
-    def _yaw(self, att: Attitude, cmd: Command) -> float:
-        rate_ref = P.YAW_KP * wrap(self.yaw_ref - att.yaw) + cmd.yaw_rate
+    def _yaw(self, att: Attitude) -> float:
+        rate_ref = P.YAW_KP * wrap(self.yaw_ref - att.yaw) + self.yaw_rate_ref
         return clamp(P.YAW_RATE_KP * (rate_ref - att.wz), P.YAW_TORQUE_LIMIT)
 
     def _roll(self, att: Attitude, cmd: Command) -> float:

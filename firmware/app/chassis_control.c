@@ -67,6 +67,7 @@ void wl_chassis_reset(wl_chassis_t *c, const wl_bus_state_t *bus) {
     c->travel = WL_TRAVEL_STANDING;
     c->lean = 0.0f;
     c->yaw_ref = s.att.yaw;
+    c->yaw_rate_ref = 0.0f;
     for (int leg = 0; leg < 2; leg++) {
         c->leg_integral[leg] = 0.0f;
         if (s.valid) c->leg_ref[leg] = s.legs[leg].L0;
@@ -101,8 +102,9 @@ static void track_references(wl_chassis_t *c, const wl_chassis_cmd_t *cmd) {
         c->x_ref = c->x - wl_clamp(c->x - c->x_ref, WL_P_POSITION_ERROR_LIMIT);
     }
     float yaw_rate = wl_clamp(cmd->yaw_rate, WL_P_YAW_RATE_LIMIT);
-    c->yaw_ref = wl_wrap(c->yaw_ref + yaw_rate * c->dt);
-    float target_lean = wl_turn_lean(c->speed_ref, yaw_rate);
+    c->yaw_rate_ref += (yaw_rate - c->yaw_rate_ref) * wl_minf(1.0f, c->dt / WL_P_YAW_RATE_TAU);
+    c->yaw_ref = wl_wrap(c->yaw_ref + c->yaw_rate_ref * c->dt);
+    float target_lean = wl_turn_lean(c->speed_ref, c->yaw_rate_ref);
     c->lean += (target_lean - c->lean) * wl_minf(1.0f, c->dt / WL_P_TURN_LEAN_TAU);
     float diff = wl_roll_leg_difference(roll_set_point(c, cmd), c->roll_offset);
     float targets[2];
@@ -190,8 +192,8 @@ static float split(const wl_leg_state_t legs[2]) {
     return wl_clamp(-(WL_P_SPLIT_KP * diff + WL_P_SPLIT_KD * ddiff), WL_P_SPLIT_LIMIT);
 }
 
-static float yaw(const wl_chassis_t *c, const wl_attitude_t *att, const wl_chassis_cmd_t *cmd) {
-    float rate_ref = WL_P_YAW_KP * wl_wrap(c->yaw_ref - att->yaw) + cmd->yaw_rate;
+static float yaw(const wl_chassis_t *c, const wl_attitude_t *att) {
+    float rate_ref = WL_P_YAW_KP * wl_wrap(c->yaw_ref - att->yaw) + c->yaw_rate_ref;
     return wl_clamp(WL_P_YAW_RATE_KP * (rate_ref - att->wz), WL_P_YAW_TORQUE_LIMIT);
 }
 
@@ -324,7 +326,7 @@ void wl_chassis_step(wl_chassis_t *c, const wl_chassis_cmd_t *cmd, const wl_sens
     float sp = split(legs);
     out->tp[WL_LEFT] += sp;
     out->tp[WL_RIGHT] -= sp;
-    float yaw_t = yaw(c, att, cmd);
+    float yaw_t = yaw(c, att);
     out->wheel_t[WL_LEFT] -= yaw_t;
     out->wheel_t[WL_RIGHT] += yaw_t;
     float roll_f = roll(c, att, cmd);
