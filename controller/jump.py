@@ -96,6 +96,7 @@ class JumpView:
     touching: bool  # either leg's Fn above P.FN_ON this tick
     steady: bool = True  # a forward jump's run-up: at its speed with the legs upright
     thrust: Thrust | None = None  # THRUST's push (None: sized for the believed weight)
+    rate_m_s: float = 0.0  # m/s, the legs' mean lengthening rate (THRUST's tracking)
 
 
 @dataclass(frozen=True)
@@ -148,6 +149,22 @@ def thrust_force(thrust: Thrust, length_m: float) -> float:
     """Push along the leg (N) at ``length_m`` (m): the carried weight plus the Hermite
     push, within ``push_limit``; the carried weight alone past the stroke."""
     return min(thrust.carried_n + thrust.amplitude_n * _hermite(length_m), _push_limit_at(length_m))
+
+
+def planned_rate(thrust: Thrust, length_m: float) -> float:
+    """Lengthening rate (m/s) the push gives the legs by ``length_m`` (m) in ``takeoff_work``'s
+    model (the carried mass m = carried_n / g takes all the push's work from the squat,
+    P.JUMP_SQUAT_DONE_LENGTH: m v^2 / 2 = W); 0 before the squat's length."""
+    work = stroke_work(thrust, P.JUMP_SQUAT_DONE_LENGTH) - stroke_work(thrust, length_m)
+    return math.sqrt(2.0 * max(work, 0.0) * C.GRAVITY / max(thrust.carried_n, 1e-3))
+
+
+def tracked_thrust_force(thrust: Thrust, length_m: float, rate_m_s: float) -> float:
+    """``thrust_force`` plus P.JUMP_RATE_KP for each m/s the legs lengthen slower than the push
+    planned (``planned_rate``), within ``push_limit``: what the model leaves out (the hips'
+    armature, their friction, a sagging battery) takes work the push did not plan for."""
+    behind = max(planned_rate(thrust, length_m) - rate_m_s, 0.0)
+    return min(thrust_force(thrust, length_m) + P.JUMP_RATE_KP * behind, _push_limit_at(length_m))
 
 
 def takeoff_work(carried_n: float) -> float:
@@ -221,7 +238,7 @@ class StanceWeight:
 
 
 def _thrust_force(view: JumpView) -> float:
-    return thrust_force(view.thrust or plan_thrust(P.LEG_GRAVITY_FF), view.leg_length)
+    return tracked_thrust_force(view.thrust or plan_thrust(P.LEG_GRAVITY_FF), view.leg_length, view.rate_m_s)
 
 
 @dataclass(frozen=True)
@@ -286,6 +303,7 @@ class JumpSequencer:
         self.stance = StanceWeight(dt_s)
         self.thrust: Thrust | None = None  # this jump's push, sized on entering THRUST
         self.hold: StanceHold | None = None  # where the hips stood as THRUST began
+        self.mean_length_m = math.nan  # m, the legs' mean length a tick ago (their rate)
 
     def observe_stance(self, fn_left_n: float, fn_right_n: float) -> None:
         """Each tick balancing on the ground: the legs' support forces (N), for the thrust's size."""
@@ -305,6 +323,9 @@ class JumpSequencer:
         run-up is steady, and both legs' angles (rad) and the body's pitch (rad) for the
         thrust's ``StanceHold``; the command for this tick."""
         pick = max if self.phase == Phase.THRUST else min
+        mean_length = 0.5 * (lengths[0] + lengths[1])
+        rate = (mean_length - self.mean_length_m) / self.dt if math.isfinite(self.mean_length_m) else 0.0
+        self.mean_length_m = mean_length
         view = JumpView(self.elapsed_s, pick(lengths), touching, steady)
         new = next_phase(self.phase, view)
         self.entered = new if new != self.phase else None
@@ -326,5 +347,5 @@ class JumpSequencer:
             hold = self.hold or StanceHold((0.0, 0.0), pitch_rad)
         force = None
         if spec.force is not None:
-            force = spec.force(JumpView(self.elapsed_s, pick(lengths), touching, thrust=self.thrust))
+            force = spec.force(JumpView(self.elapsed_s, pick(lengths), touching, thrust=self.thrust, rate_m_s=rate))
         return JumpCommand(self.phase, spec.airborne, spec.leg_length, force, spec.hip_torque_limit, hold)

@@ -245,6 +245,13 @@ JUMP_RISE = 0.172
 JUMP_WEIGHT_TAU = 0.2
 JUMP_CARRIED_RANGE = (0.5, 2.5)  # x LEG_GRAVITY_FF: a weight read outside this is held to it
 JUMP_THRUST_TORQUE_SHARE = 0.85  # of JUMP_HIP_TORQUE_LIMIT for the push; the rest for balance (Tp) and roll
+# N per m/s the legs lengthen slower than the push planned (jump.tracked_thrust_force):
+# the plan knows the body, not the hips' armature (0.0012 kg m^2 believed, the rotor
+# alone; the sourced box goes to 0.014). Armature 0.014: clearance 13.7 cm untracked,
+# 19.1 at 100, 21.1 at 400, 24.6 at 1500; at 0.021, 21.0 at 400 but 16.4 at 1500 (the
+# push saturates early and the legs hit the stroke's end still accelerating); nominal
+# 25.8 -> 26.3 cm at 400
+JUMP_RATE_KP = 400.0
 JUMP_AMPLITUDE_MAX = 1000.0  # N, bisection bound: far above every push_limit (125-182 N over the stroke)
 # |sin(theta)| the thrust's leg-angle hold asks at most (jump.hold_leg_angle): 0.5 is 30 deg,
 # far past the ~0.15 rad a 3 cm CoM offset leans the legs at the squat

@@ -50,6 +50,15 @@ static float thrust_force(float carried, float amplitude, float length) {
     return wl_minf(carried + amplitude * hermite(length), push_limit_at(length));
 }
 
+/* the lengthening rate (m/s) the push gives the legs by length (takeoff_work's model) */
+static float planned_rate(float carried, float amplitude, float length);
+
+/* thrust_force plus JUMP_RATE_KP per m/s the legs lengthen slower than planned, within the limit */
+static float tracked_thrust_force(float carried, float amplitude, float length, float rate) {
+    float behind = wl_maxf(planned_rate(carried, amplitude, length) - rate, 0.0f);
+    return wl_minf(thrust_force(carried, amplitude, length) + WL_P_JUMP_RATE_KP * behind, push_limit_at(length));
+}
+
 static float takeoff_work(float carried) {
     float m = wl_maxf(carried, 1e-3f) / WL_C_GRAVITY;
     float v_after = sqrtf(2.0f * WL_C_GRAVITY * WL_P_JUMP_RISE);
@@ -64,6 +73,11 @@ static float stroke_work(float carried, float amplitude, float start) {
         if (hi > lo) work += (thrust_force(carried, amplitude, 0.5f * (lo + hi)) - carried) * (hi - lo);
     }
     return work;
+}
+
+static float planned_rate(float carried, float amplitude, float length) {
+    float work = stroke_work(carried, amplitude, WL_P_JUMP_SQUAT_DONE_LENGTH) - stroke_work(carried, amplitude, length);
+    return sqrtf(2.0f * wl_maxf(work, 0.0f) * WL_C_GRAVITY / wl_maxf(carried, 1e-3f));
 }
 
 float wl_jump_thrust_amplitude(float carried, float start) {
@@ -99,6 +113,7 @@ void wl_jump_init(wl_jump_t *j, double period_s) {
     j->entered = WL_PHASE_NONE;
     wl_lowpass_init(&j->stance, WL_P_JUMP_WEIGHT_TAU, dt);
     j->has_thrust = false;
+    j->mean_length = NAN;
     j->hold.active = false;
 }
 
@@ -157,6 +172,9 @@ wl_jump_cmd_t wl_jump_step(wl_jump_t *j, const float lengths[2], bool touching, 
                            float pitch) {
     bool longer = j->phase == WL_JUMP_THRUST;
     float pick = longer ? wl_maxf(lengths[0], lengths[1]) : wl_minf(lengths[0], lengths[1]);
+    float mean_length = 0.5f * (lengths[0] + lengths[1]);
+    float rate = isfinite(j->mean_length) ? (mean_length - j->mean_length) / j->dt : 0.0f;
+    j->mean_length = mean_length;
     wl_jump_phase_t next = next_phase(j->phase, j->elapsed_s, pick, touching, steady);
     j->entered = next != j->phase ? (int)next : WL_PHASE_NONE;
     if (j->entered != WL_PHASE_NONE) {
@@ -202,7 +220,7 @@ wl_jump_cmd_t wl_jump_step(wl_jump_t *j, const float lengths[2], bool touching, 
             amplitude = wl_jump_thrust_amplitude(carried, WL_P_JUMP_SQUAT_DONE_LENGTH);
         }
         cmd.has_leg_force = true;
-        cmd.leg_force = thrust_force(carried, amplitude, pick);
+        cmd.leg_force = tracked_thrust_force(carried, amplitude, pick, rate);
     }
     return cmd;
 }

@@ -37,6 +37,7 @@ typedef struct {
     wl_lowpass_t stance;    /* the legs' standing push (N) */
     bool has_thrust;
     float carried_n, amplitude_n;
+    float mean_length;               /* m, the legs' mean length a tick ago (their rate); NaN before */
     wl_stance_hold_t hold;
 } wl_jump_t;
 
