@@ -223,6 +223,59 @@ def test_a_command_that_ignores_sync_is_told_to_run_in_real_time(tmp_path, monke
     assert not open_recording(tmp_path / "balance.mcap").truncated
 
 
+def test_lockstep_waits_for_a_program_the_machine_stalled(tmp_path, capsys):
+    """A program that answered its last tick gets ``patience_s`` for the next: a loaded machine
+    (user-mode-linux on a busy host) that does not run it for longer than ``deadline_s`` is no miss."""
+    bus, port = _udp(tmp_path)
+    _run(tmp_path, *bus, "--program", _fixture_command(port, "--stall-at", "50", "--stall-s", "1.0"), duration="0.3")
+    out = capsys.readouterr().out
+    assert "[PASS] no controller deadline miss: 0 deadline misses" in out, out
+    assert "[PASS] the program sent commands every period (on the bus)" in out, out
+    _run(tmp_path / "in-process", duration="0.3")
+    log = (tmp_path / "balance.log").read_text().replace(f" {bus[3]} ", " vcan0 ").replace(f" {bus[5]} ", " vcan1 ")
+    assert log == (tmp_path / "in-process" / "balance.log").read_text()  # as if nothing had stalled
+
+
+def test_lockstep_reports_a_program_that_went_silent(tmp_path, capsys, monkeypatch):
+    """Silent for ``patience_s``, a tick is a deadline miss, and so is each one after it stays silent."""
+    from wheelleg.hil.run import schedule
+    monkeypatch.setattr(schedule, "PATIENCE_S", 1.0)
+    bus, port = _udp(tmp_path)
+    _run(tmp_path, *bus, "--program", _fixture_command(port, "--silent-after", "146"), duration="0.3")
+    out = capsys.readouterr().out
+    assert "[FAIL] no controller deadline miss: 4 deadline misses" in out, out
+    assert [e["tick"] for e in load_run(tmp_path / "balance.mcap").events_of("deadline_miss")] == [146, 147, 148, 149]
+
+
+def test_a_tick_waits_patience_for_an_answering_program_and_deadline_for_a_silent_one(monkeypatch):
+    from wheelleg.hil.program.process import ProgramExited
+    from wheelleg.hil.run import schedule
+
+    class Rig:
+        exited = False
+
+        def check_program(self):
+            if self.exited:
+                raise ProgramExited(3, "", 0.1)
+
+    now = [0.0]
+    monkeypatch.setattr(schedule.time, "monotonic", lambda: now[0])
+    lockstep, rig = schedule.Lockstep(0.002, 0.001, deadline_s=0.5, patience_s=10.0), Rig()
+    waited = {}
+    for answering in (True, False):
+        lockstep.answering = answering
+        for now[0] in (0.4, 0.6, 9.9, 10.1):
+            waited[answering, now[0]] = lockstep.waited_out(rig, 0.0)
+    assert waited == {(True, 0.4): False, (True, 0.6): False, (True, 9.9): False, (True, 10.1): True,
+                      (False, 0.4): False, (False, 0.6): True, (False, 9.9): True, (False, 10.1): True}
+    rig.exited, lockstep.answering = True, True
+    now[0] = 0.4
+    assert not lockstep.waited_out(rig, 0.0)  # within the deadline it does not ask
+    now[0] = 0.6
+    with pytest.raises(ProgramExited):  # past it, a program that exited is not waited on
+        lockstep.waited_out(rig, 0.0)
+
+
 # -- the other commands take a program --------------------------------------------------------------
 def test_inspect_replay_and_campaign_take_the_program(tmp_path, libs, capsys):
     _run(tmp_path / "lib", "--program", str(libs["zero"]), duration="0.1")
