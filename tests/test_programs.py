@@ -15,12 +15,13 @@ import pytest
 from wheelleg.hil import program as programs
 from wheelleg.hil.cli import main
 from wheelleg.hil.commands.run import verdict
+from wheelleg.hil.program.checks import ran_to_the_end
 from wheelleg.hil.program.process import command_argv
 from wheelleg.hil.record.rundata import load_run
 from wheelleg.hil.record.sources import open_recording
 from wheelleg.hil.run.loop_timing import bus_timing
 from wheelleg.hil.run.rig import RunOutcome
-from wheelleg.hil.run.scenario import RunData
+from wheelleg.hil.run.scenario import CheckResult, RunData
 from wheelleg.hil.scenarios.common import no_deadline_miss
 
 FIXTURES = Path(__file__).resolve().parent / "fixtures"
@@ -169,6 +170,20 @@ def test_a_real_time_run_the_plant_could_not_keep_is_not_real_time():
     assert verdict(False, RunOutcome(Path("x"), Path("y"), 1, 0, 1.0, 1.0, timing=kept)) == "FAILED"
     assert verdict(False, RunOutcome(Path("x"), Path("y"), 1, 0, 1.0, 1.0, timing=slow)).startswith("NOT REAL TIME")
     assert verdict(True, RunOutcome(Path("x"), Path("y"), 1, 0, 1.0, 1.0, timing=slow)) == "PASSED"
+    # a failure the plant's pace cannot explain (the program's process exited) is FAILED on any plant
+    exited = ran_to_the_end()(_exited_run())
+    pitch = CheckResult("pitch", False, "pitch 44 deg")
+    slow_run = RunOutcome(Path("x"), Path("y"), 1, 0, 1.0, 1.0, timing=slow)
+    assert not exited.passed and not exited.pace_bound
+    assert verdict(False, slow_run, [pitch]).startswith("NOT REAL TIME")
+    assert verdict(False, slow_run, [pitch, exited]) == "FAILED"
+
+
+def _exited_run():
+    class Exited:
+        def events_of(self, kind):
+            return [{"t": 0.5, "status": 139, "output_tail": "Segmentation fault"}] if kind == "program_exit" else []
+    return Exited()
 
 
 # -- a command on the buses -----------------------------------------------------------------------
