@@ -7,6 +7,7 @@ import random
 import shutil
 import subprocess
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -160,6 +161,17 @@ def test_the_deadline_check_can_fail_for_a_program_without_heartbeat():
     assert not no_deadline_miss()(_bus_judged({})).passed
     late = no_deadline_miss()(_bus_judged({"can1": ticks, "can2": ticks[ticks < 0.5]}))
     assert not late.passed and "longest gap 502.000 ms" in late.detail
+
+
+def test_a_check_that_needs_the_heartbeat_says_a_bus_judged_program_sent_none():
+    """A free-running program sends no heartbeat: the fault scenarios' heartbeat checks fail saying so
+    (they raised KeyError 't' before)."""
+    from wheelleg.hil.run.scenario import NoHeartbeat
+    from wheelleg.hil.scenarios.faults import heartbeat_reports
+
+    run = replace(_bus_judged({}), heartbeat=NoHeartbeat(), events=[{"t": 0.5, "kind": "fault_silent"}])
+    result = heartbeat_reports("fault_silent", ["left_wheel"])(run)
+    assert not result.passed and result.detail.startswith("not judged: no heartbeat in the trace"), result.detail
 
 
 def test_a_real_time_run_the_plant_could_not_keep_is_not_real_time():

@@ -27,6 +27,14 @@ class NotJudged(Exception):
 NOT_JUDGED = "not judged"  # the detail's first words when a check had nothing to judge
 
 
+class NoHeartbeat(dict):
+    """``RunData.heartbeat`` of a trace without one (a program on its own clock in another process sends
+    none): reading a signal is ``NotJudged``, so a check that needs the heartbeat says why it cannot judge."""
+
+    def __missing__(self, key):
+        raise NotJudged(f"no heartbeat in the trace to read {key!r} from (a program judged on the bus sends none)")
+
+
 @dataclass(frozen=True)
 class Check:
     """A named judgement of a run: ``fn(run) -> (passed, detail)``. ``pace_bound`` False: what it judges
