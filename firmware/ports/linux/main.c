@@ -15,8 +15,8 @@
 #include <net/if.h>
 #include <poll.h>
 #include <sched.h>
-#include <stdint.h>
 #include <signal.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
