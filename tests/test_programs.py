@@ -7,6 +7,7 @@ import random
 import shutil
 import subprocess
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -15,12 +16,13 @@ import pytest
 from wheelleg.hil import program as programs
 from wheelleg.hil.cli import main
 from wheelleg.hil.commands.run import verdict
+from wheelleg.hil.program.checks import ran_to_the_end
 from wheelleg.hil.program.process import command_argv
 from wheelleg.hil.record.rundata import load_run
 from wheelleg.hil.record.sources import open_recording
 from wheelleg.hil.run.loop_timing import bus_timing
 from wheelleg.hil.run.rig import RunOutcome
-from wheelleg.hil.run.scenario import RunData
+from wheelleg.hil.run.scenario import CheckResult, RunData
 from wheelleg.hil.scenarios.common import no_deadline_miss
 
 FIXTURES = Path(__file__).resolve().parent / "fixtures"
@@ -161,6 +163,17 @@ def test_the_deadline_check_can_fail_for_a_program_without_heartbeat():
     assert not late.passed and "longest gap 502.000 ms" in late.detail
 
 
+def test_a_check_that_needs_the_heartbeat_says_a_bus_judged_program_sent_none():
+    """A free-running program sends no heartbeat: the fault scenarios' heartbeat checks fail saying so
+    (they raised KeyError 't' before)."""
+    from wheelleg.hil.run.scenario import NoHeartbeat
+    from wheelleg.hil.scenarios.faults import heartbeat_reports
+
+    run = replace(_bus_judged({}), heartbeat=NoHeartbeat(), events=[{"t": 0.5, "kind": "fault_silent"}])
+    result = heartbeat_reports("fault_silent", ["left_wheel"])(run)
+    assert not result.passed and result.detail.startswith("not judged: no heartbeat in the trace"), result.detail
+
+
 def test_a_real_time_run_the_plant_could_not_keep_is_not_real_time():
     slow = {"plant": {"physics_dt_s": 0.001, "stretched_s": 0.0, "p99_busy_s": 0.055, "max_lag_s": 0.002}}
     kept = {"plant": {"physics_dt_s": 0.001, "stretched_s": 0.0, "p99_busy_s": 0.0004, "max_lag_s": 0.001}}
@@ -169,6 +182,20 @@ def test_a_real_time_run_the_plant_could_not_keep_is_not_real_time():
     assert verdict(False, RunOutcome(Path("x"), Path("y"), 1, 0, 1.0, 1.0, timing=kept)) == "FAILED"
     assert verdict(False, RunOutcome(Path("x"), Path("y"), 1, 0, 1.0, 1.0, timing=slow)).startswith("NOT REAL TIME")
     assert verdict(True, RunOutcome(Path("x"), Path("y"), 1, 0, 1.0, 1.0, timing=slow)) == "PASSED"
+    # a failure the plant's pace cannot explain (the program's process exited) is FAILED on any plant
+    exited = ran_to_the_end()(_exited_run())
+    pitch = CheckResult("pitch", False, "pitch 44 deg")
+    slow_run = RunOutcome(Path("x"), Path("y"), 1, 0, 1.0, 1.0, timing=slow)
+    assert not exited.passed and not exited.pace_bound
+    assert verdict(False, slow_run, [pitch]).startswith("NOT REAL TIME")
+    assert verdict(False, slow_run, [pitch, exited]) == "FAILED"
+
+
+def _exited_run():
+    class Exited:
+        def events_of(self, kind):
+            return [{"t": 0.5, "status": 139, "output_tail": "Segmentation fault"}] if kind == "program_exit" else []
+    return Exited()
 
 
 # -- a command on the buses -----------------------------------------------------------------------
@@ -221,6 +248,59 @@ def test_a_command_that_ignores_sync_is_told_to_run_in_real_time(tmp_path, monke
     with pytest.raises(SystemExit, match="answers SYNC with the heartbeat.*--realtime"):
         _run(tmp_path, *bus, "--program", f"{sys.executable} -c 'import time; time.sleep(30)'")
     assert not open_recording(tmp_path / "balance.mcap").truncated
+
+
+def test_lockstep_waits_for_a_program_the_machine_stalled(tmp_path, capsys):
+    """A program that answered its last tick gets ``patience_s`` for the next: a loaded machine
+    (user-mode-linux on a busy host) that does not run it for longer than ``deadline_s`` is no miss."""
+    bus, port = _udp(tmp_path)
+    _run(tmp_path, *bus, "--program", _fixture_command(port, "--stall-at", "50", "--stall-s", "1.0"), duration="0.3")
+    out = capsys.readouterr().out
+    assert "[PASS] no controller deadline miss: 0 deadline misses" in out, out
+    assert "[PASS] the program sent commands every period (on the bus)" in out, out
+    _run(tmp_path / "in-process", duration="0.3")
+    log = (tmp_path / "balance.log").read_text().replace(f" {bus[3]} ", " vcan0 ").replace(f" {bus[5]} ", " vcan1 ")
+    assert log == (tmp_path / "in-process" / "balance.log").read_text()  # as if nothing had stalled
+
+
+def test_lockstep_reports_a_program_that_went_silent(tmp_path, capsys, monkeypatch):
+    """Silent for ``patience_s``, a tick is a deadline miss, and so is each one after it stays silent."""
+    from wheelleg.hil.run import schedule
+    monkeypatch.setattr(schedule, "PATIENCE_S", 1.0)
+    bus, port = _udp(tmp_path)
+    _run(tmp_path, *bus, "--program", _fixture_command(port, "--silent-after", "146"), duration="0.3")
+    out = capsys.readouterr().out
+    assert "[FAIL] no controller deadline miss: 4 deadline misses" in out, out
+    assert [e["tick"] for e in load_run(tmp_path / "balance.mcap").events_of("deadline_miss")] == [146, 147, 148, 149]
+
+
+def test_a_tick_waits_patience_for_an_answering_program_and_deadline_for_a_silent_one(monkeypatch):
+    from wheelleg.hil.program.process import ProgramExited
+    from wheelleg.hil.run import schedule
+
+    class Rig:
+        exited = False
+
+        def check_program(self):
+            if self.exited:
+                raise ProgramExited(3, "", 0.1)
+
+    now = [0.0]
+    monkeypatch.setattr(schedule.time, "monotonic", lambda: now[0])
+    lockstep, rig = schedule.Lockstep(0.002, 0.001, deadline_s=0.5, patience_s=10.0), Rig()
+    waited = {}
+    for answering in (True, False):
+        lockstep.answering = answering
+        for now[0] in (0.4, 0.6, 9.9, 10.1):
+            waited[answering, now[0]] = lockstep.waited_out(rig, 0.0)
+    assert waited == {(True, 0.4): False, (True, 0.6): False, (True, 9.9): False, (True, 10.1): True,
+                      (False, 0.4): False, (False, 0.6): True, (False, 9.9): True, (False, 10.1): True}
+    rig.exited, lockstep.answering = True, True
+    now[0] = 0.4
+    assert not lockstep.waited_out(rig, 0.0)  # within the deadline it does not ask
+    now[0] = 0.6
+    with pytest.raises(ProgramExited):  # past it, a program that exited is not waited on
+        lockstep.waited_out(rig, 0.0)
 
 
 # -- the other commands take a program --------------------------------------------------------------

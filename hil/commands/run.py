@@ -229,18 +229,22 @@ def run(args: argparse.Namespace) -> int:
     for r in results:
         print(f"  [{'PASS' if r.passed else 'FAIL'}] {r.name}: {r.detail}")
     ok = all(r.passed for r in results)
-    print(f"{args.scenario}: {verdict(ok, outcome)}")
+    print(f"{args.scenario}: {verdict(ok, outcome, results)}")
     return 0 if ok else 1
 
 
-def verdict(ok: bool, outcome) -> str:
+def verdict(ok: bool, outcome, results=()) -> str:
     """PASSED, FAILED, or NOT REAL TIME when a real-time run failed on a plant that could not keep real
-    time (``loop_timing.plant_kept_real_time``): then the failure may be the plant's, not the program's."""
+    time (``loop_timing.plant_kept_real_time``): then the failure may be the plant's, not the program's.
+    FAILED all the same when a check that does not depend on the plant's pace failed (``results``:
+    ``CheckResult``s; ``pace_bound`` False, e.g. the program's process exited)."""
     if ok:
         return "PASSED"
     plant = (outcome.timing or {}).get("plant")
     reason = plant_kept_real_time(plant) if plant else None
-    return f"NOT REAL TIME ({reason}; the checks above failed on a world that ran slow)" if reason else "FAILED"
+    if reason is None or any(not r.passed and not r.pace_bound for r in results):
+        return "FAILED"
+    return f"NOT REAL TIME ({reason}; the checks above failed on a world that ran slow)"
 
 
 def print_bus_load(run) -> None:

@@ -13,7 +13,7 @@ from wheelleg.hil.bus.busload import LOAD_TOPIC, wire_ns
 from wheelleg.hil.record.frame import Frame, FrameColumns
 from wheelleg.hil.record.sources import TraceError, is_heartbeat, open_recording, sent_by_controller
 from wheelleg.hil.record.trace import TraceReader
-from wheelleg.hil.run.scenario import RunData
+from wheelleg.hil.run.scenario import NoHeartbeat, RunData
 
 
 LOAD_WINDOW_NS = 100_000_000  # the /bus/load windows
@@ -71,7 +71,7 @@ def load_run(path: Path | str) -> RunData:
                                 if role in channels])
     return RunData(
         state=reader.sim_state(),
-        heartbeat=reader.decoded(can1, "Heartbeat"),
+        heartbeat=reader.decoded(can1, "Heartbeat") or NoHeartbeat(),
         hip_torque=torques,
         joint_gains=gains,
         wheel_current=_currents(reader, can1),

@@ -53,7 +53,8 @@ class RigConfig:
     physics_dt_s: float = 0.001
     in_process_controller: bool = True  # False: another process answers (a command program, --external-controller)
     program: Program = field(default_factory=Program)  # which program (hil/program): python, a library, a command
-    deadline_s: float = 0.5  # wall-clock bound for the heartbeats of one tick
+    deadline_s: float = 0.5  # wall s a lockstep tick waits for a silent external program's heartbeats
+    patience_s: float | None = None  # wall s it waits for one that answered its last tick; None: schedule.PATIENCE_S
     realtime: bool = False  # plant at wall-clock pace, controller on its own timer (hil/run/realtime.py)
     record_debug: bool = True  # the in-process controller's internals on /controller/debug
     decode: bool = False  # also write /decoded/ topics live (readers derive them from the raw frames anyway)
@@ -88,7 +89,7 @@ def _schedule(config: RigConfig):
     # Real transports deliver each socket's frames at their own pace: hold them
     # until both heartbeats are in, then serve them in the virtual bus's order.
     kind = Lockstep if config.interface == "virtual" else HeldLockstep
-    return kind(config.period_s, config.physics_dt_s, config.deadline_s)
+    return kind(config.period_s, config.physics_dt_s, config.deadline_s, config.patience_s)
 
 
 def run_paths(out_dir: Path, scenario_name: str) -> tuple[Path, Path]:

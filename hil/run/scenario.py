@@ -17,6 +17,7 @@ class CheckResult:
     name: str
     passed: bool
     detail: str  # the measured figure against its bound, in words
+    pace_bound: bool = True  # False: the verdict holds whether or not a real-time plant kept real time
 
 
 class NotJudged(Exception):
@@ -26,23 +27,34 @@ class NotJudged(Exception):
 NOT_JUDGED = "not judged"  # the detail's first words when a check had nothing to judge
 
 
+class NoHeartbeat(dict):
+    """``RunData.heartbeat`` of a trace without one (a program on its own clock in another process sends
+    none): reading a signal is ``NotJudged``, so a check that needs the heartbeat says why it cannot judge."""
+
+    def __missing__(self, key):
+        raise NotJudged(f"no heartbeat in the trace to read {key!r} from (a program judged on the bus sends none)")
+
+
 @dataclass(frozen=True)
 class Check:
-    """A named judgement of a run: ``fn(run) -> (passed, detail)``."""
+    """A named judgement of a run: ``fn(run) -> (passed, detail)``. ``pace_bound`` False: what it judges
+    does not depend on the plant's pace (a program's process that exited), so its failure is a failure
+    even where a real-time plant could not keep real time (``wheelleg run``'s NOT REAL TIME)."""
 
     name: str
     fn: Callable
+    pace_bound: bool = True
 
     def __call__(self, run: "RunData") -> CheckResult:
         try:
             passed, detail = self.fn(run)
         except NotJudged as exc:  # too short a run fails the check, saying why
-            return CheckResult(self.name, False, f"{NOT_JUDGED}: {exc} ({_run_length(run)})")
+            passed, detail = False, f"{NOT_JUDGED}: {exc} ({_run_length(run)})"
         except Exception as exc:  # a check that cannot compute has failed, loudly
-            return CheckResult(self.name, False, f"check raised {type(exc).__name__}: {exc}")
+            passed, detail = False, f"check raised {type(exc).__name__}: {exc}"
         if "nan" in detail.split():  # a NaN figure judges nothing; never print it as a measurement
-            return CheckResult(self.name, False, f"{NOT_JUDGED}: no samples to judge ({_run_length(run)})")
-        return CheckResult(self.name, bool(passed), detail)
+            passed, detail = False, f"{NOT_JUDGED}: no samples to judge ({_run_length(run)})"
+        return CheckResult(self.name, bool(passed), detail, self.pace_bound)
 
 
 def in_window(t, values, t0: float, t1: float, what: str) -> np.ndarray:

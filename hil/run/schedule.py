@@ -3,9 +3,15 @@
 Lockstep: each control period the rig sends SYNC(T) on both buses after the
 period's feedback; the controller runs one tick per SYNC and ends it with a
 heartbeat on both buses; the plant handles the commands that came before the
-heartbeats (they are in bus order) and only then steps the physics. A
-heartbeat that does not come within ``deadline_s`` of wall time is a
-deadline miss: reported in the trace and the summary, never waited on.
+heartbeats (they are in bus order) and only then steps the physics.
+
+Lockstep is not real time: a slow or loaded machine (user-mode-linux on a busy
+host stalls its processes for over a second) must not fail a program, only a
+silent one may. So a program in another process that answered its last tick
+gets up to ``patience_s`` of wall time for this one's heartbeats; unanswered
+that long it is silent: a deadline miss (in the trace and the summary), and
+until it answers again each tick waits only ``deadline_s`` for it. A program
+the rig started that exits meanwhile ends the run at once (``ProgramExited``).
 
 - ``Lockstep``: python-can's in-process virtual bus. With the in-process
   controller the rig hands it the turn itself instead of sleeping: the same
@@ -34,6 +40,7 @@ _HEARTBEAT_ID = _HEARTBEAT.frame_id  # read once: a cantools property, asked of 
 POLL_S = 0.00005  # s between polls while the heartbeats of an external controller are awaited
 CONTACT_S = 3.0  # s of wall time an external controller has to send its first heartbeat
 RESYNC_S = 0.1  # s between the SYNC(0)s the rig repeats until a program it started answers the first
+PATIENCE_S = 10.0  # wall s a tick waits for a program that answered the tick before (a loaded UML stalls > 1 s)
 
 
 class NoController(RuntimeError):
@@ -65,12 +72,16 @@ class HeartbeatWatch:
 class Lockstep:
     """Lockstep on the in-process bus; owns the run's ``clock``."""
 
-    def __init__(self, period_s: float, physics_dt_s: float, deadline_s: float):
+    def __init__(self, period_s: float, physics_dt_s: float, deadline_s: float, patience_s: float | None = None):
+        """``deadline_s``, ``patience_s`` (None: ``PATIENCE_S``): wall s a tick waits for a program in another
+        process that is silent (missed its last tick, or not heard yet), and for one that answered its last tick."""
         self.period_s, self.physics_dt_s, self.deadline_s = period_s, physics_dt_s, deadline_s
+        self.patience_s = max(PATIENCE_S if patience_s is None else patience_s, deadline_s)
         self.clock = SimClock()
         self.watches: dict[str, HeartbeatWatch] = {}
         self.silent_s = 0.0  # wall time an external controller has been silent from the start (s)
         self.heard = False  # a heartbeat came: the controller is there
+        self.answering = False  # the last tick's heartbeats came: the next one waits up to ``patience_s``
 
     def bus_end(self, bus: str, end: can.BusABC):
         """The transport end the plant reads ``bus`` through, and its lockstep watch."""
@@ -90,7 +101,8 @@ class Lockstep:
         rig.send_sync(tick, t_s)
         rig.service_controller()
         waited = time.monotonic()
-        if self.await_heartbeats(rig, tick, t_s) or (tick == 0 and self.await_contact(rig, t_s)):
+        self.answering = self.await_heartbeats(rig, tick, t_s) or (tick == 0 and self.await_contact(rig, t_s))
+        if self.answering:
             self.heard = True
         else:
             rig.deadline_miss(tick)
@@ -140,13 +152,24 @@ class Lockstep:
     def heartbeats_in(self, tick: int) -> bool:
         return all(w.tick == tick for w in self.watches.values())
 
+    def waited_out(self, rig, started: float) -> bool:
+        """Whether a tick that began waiting at ``started`` (monotonic s) has waited long enough for
+        its heartbeats: ``deadline_s`` for a silent program, ``patience_s`` for an answering one. Past
+        ``deadline_s`` it asks whether a program the rig started has exited (``ProgramExited``): a
+        dead program is not waited on."""
+        waited = time.monotonic() - started
+        if waited <= self.deadline_s:
+            return False
+        rig.check_program()
+        return not self.answering or waited > self.patience_s
+
     def await_heartbeats(self, rig, tick: int, t_s: float) -> bool:
-        deadline = time.monotonic() + self.deadline_s
+        started = time.monotonic()
         while True:
             rig.serve_plant(t_s)
             if self.heartbeats_in(tick):
                 return True
-            if rig.controller is not None or time.monotonic() > deadline:
+            if rig.controller is not None or self.waited_out(rig, started):
                 return False
             time.sleep(POLL_S)
 
@@ -154,8 +177,8 @@ class Lockstep:
 class HeldLockstep(Lockstep):
     """Lockstep held on a real transport: frames gathered until both heartbeats are in."""
 
-    def __init__(self, period_s: float, physics_dt_s: float, deadline_s: float):
-        super().__init__(period_s, physics_dt_s, deadline_s)
+    def __init__(self, period_s: float, physics_dt_s: float, deadline_s: float, patience_s: float | None = None):
+        super().__init__(period_s, physics_dt_s, deadline_s, patience_s)
         self.held: dict[str, HeldBus] = {}
 
     def bus_end(self, bus: str, end: can.BusABC):
@@ -164,13 +187,13 @@ class HeldLockstep(Lockstep):
         return self.held[bus]
 
     def await_heartbeats(self, rig, tick: int, t_s: float) -> bool:
-        deadline = time.monotonic() + self.deadline_s
+        started = time.monotonic()
         while True:
             for bus, held in self.held.items():
                 for msg in held.gather():
                     self.watches[bus].note(msg)
             done = self.heartbeats_in(tick)
-            if done or time.monotonic() > deadline:
+            if done or self.waited_out(rig, started):
                 break
             rig.service_controller()  # its SYNC may have been in flight
             time.sleep(POLL_S)

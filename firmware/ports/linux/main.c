@@ -16,6 +16,7 @@
 #include <poll.h>
 #include <sched.h>
 #include <signal.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -136,20 +137,23 @@ static void realtime_if_allowed(void) {
     mlockall(MCL_CURRENT | MCL_FUTURE);
 }
 
+static int64_t ns_of(const struct timespec *t) { return (int64_t)t->tv_sec * 1000000000 + t->tv_nsec; }
+
+/* tick k at the first chance after k periods of its own clock; a tick whose whole period passed
+ * while it was late (a stall, a machine that runs it too slowly) is skipped, as the Python
+ * program's loop does: no burst of stale ticks back to back, and never a busy loop catching up */
 static void free_run(void) {
-    struct timespec next;
-    clock_gettime(CLOCK_MONOTONIC, &next);
+    struct timespec now;
+    clock_gettime(CLOCK_MONOTONIC, &now);
+    const int64_t period_ns = (int64_t)task_period_us * 1000;
+    int64_t next_ns = ns_of(&now);
     while (!stop_requested) {
         drain(monotonic_us());
         task(monotonic_us());
-        next.tv_nsec += (long)task_period_us * 1000;
-        while (next.tv_nsec >= 1000000000L) {
-            next.tv_nsec -= 1000000000L;
-            next.tv_sec++;
-        }
-        struct timespec now;
+        next_ns += period_ns;
         clock_gettime(CLOCK_MONOTONIC, &now);
-        if (now.tv_sec > next.tv_sec + 1) next = now;  /* stopped for long (a debugger): no burst of ticks */
+        if (ns_of(&now) >= next_ns + period_ns) next_ns += (ns_of(&now) - next_ns) / period_ns * period_ns;
+        struct timespec next = {(time_t)(next_ns / 1000000000), (long)(next_ns % 1000000000)};
         while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &next, NULL) == EINTR && !stop_requested) {
         }
     }
