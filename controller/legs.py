@@ -56,26 +56,32 @@ class LegState(NamedTuple):
 
 
 LEG_WHEEL = {w.leg: w for w in C.WHEELS}  # leg name -> its wheel drive (constants.Wheel)
+# leg name -> (front hip, rear hip, wheel drive): one lookup a leg a tick
+_LEG_PARTS = {leg: (*C.LEG_JOINTS[leg], LEG_WHEEL[leg]) for leg in LEGS}
+_SHIN_STEP_S = 1e-4  # s, the step of the shin's numerical rate (``leg_state``)
+_HALF_PI = math.pi / 2
 
 
 def leg_state(bus: BusState, leg: str, att: Attitude) -> LegState:
     """Virtual-leg state of ``leg`` from its joint feedback and the attitude."""
-    front, rear = C.LEG_JOINTS[leg]
-    fa, fe = bus.joints[front.motor_id], bus.joints[rear.motor_id]
-    phi1, phi4 = fivebar.phi_from_shaft(front, fa.position), fivebar.phi_from_shaft(rear, fe.position)
+    front, rear, wheel = _LEG_PARTS[leg]
+    joints = bus.joints
+    fa, fe = joints[front.motor_id], joints[rear.motor_id]
+    # fivebar.phi_from_shaft and phi_rate_from_shaft, written out (the same operations)
+    phi1, phi4 = front.stop + front.sign * fa.position, rear.stop + rear.sign * fe.position
     dphi1, dphi4 = front.sign * fa.speed, rear.sign * fe.speed
     kin = fivebar.forward_kinematics(phi1, phi4)
-    dL0, dphi0 = fivebar.leg_velocity(kin, dphi1, dphi4)
-    body_rate = -att.wy  # nose-up pitch rate
-    theta = math.pi / 2 - kin.phi0 + att.pitch  # phi = -pitch
+    (j11, j12), (j21, j22) = kin.jacobian  # fivebar.leg_velocity, written out
+    dL0, dphi0 = j11 * dphi1 + j12 * dphi4, j21 * dphi1 + j22 * dphi4
+    wy = att.wy
+    body_rate = -wy  # nose-up pitch rate
+    theta = _HALF_PI - kin.phi0 + att.pitch  # phi = -pitch
     dtheta = -dphi0 - body_rate
     # The wheel motor's stator sits on link BC, so its encoder reads the wheel
     # relative to that link: add the link's own rotation (wy - dphi2).
-    eps = 1e-4
-    phi2_ahead = fivebar.shin_angle(phi1 + eps * dphi1, phi4 + eps * dphi4)
-    dphi2 = wrap(phi2_ahead - kin.phi2) / eps
-    wheel = LEG_WHEEL[leg]
-    spin = wheel.forward_sign * bus.wheels[wheel.esc_id].speed + att.wy - dphi2
+    phi2_ahead = fivebar.shin_angle(phi1 + _SHIN_STEP_S * dphi1, phi4 + _SHIN_STEP_S * dphi4)
+    dphi2 = wrap(phi2_ahead - kin.phi2) / _SHIN_STEP_S
+    spin = wheel.forward_sign * bus.wheels[wheel.esc_id].speed + wy - dphi2
     return LegState(kin, kin.L0, dL0, theta, dtheta, spin * C.WHEEL_RADIUS, dphi1, dphi4)
 
 
