@@ -32,6 +32,13 @@ from wheelleg.controller.telemetry import LastOutput, debug_record
 _DEVICE_OF_JOINT = {j.motor_id: j.name for j in C.JOINTS}
 _DEVICE_OF_WHEEL = {w.esc_id: w.name for w in C.WHEELS}
 _SWITCH = {int(s): s for s in Switch}  # the operator's Mode number -> Switch (a dict: no Enum call a tick)
+# the modes a tick asks about, as module names: in CPython 3.11 an Enum member's lookup on its
+# class costs ~10 times a global's, and a tick made some 20 of them
+_STAND_UP, _BALANCE, _MOVE, _JUMP, _AIRBORNE, _FALLEN = (Mode.STAND_UP, Mode.BALANCE, Mode.MOVE, Mode.JUMP,
+                                                         Mode.AIRBORNE, Mode.FALLEN)
+IN_THE_AIR = frozenset({Mode.JUMP, Mode.AIRBORNE})  # "fallen" judged with the wider limits
+ON_THE_WHEELS = frozenset({Mode.BALANCE, Mode.MOVE})  # standing or driving: the trim runs, stance is sized
+_ESTOP_SWITCH = Switch.ESTOP
 
 
 @dataclass
@@ -101,27 +108,29 @@ class Controller:
         report = detect.check(self.last_seen(), now_s, faulted)
         inputs = self._inputs(report.balance_ok, now_s, sensed.att if sensed is not None else None)
         previous, self.mode = self.mode, next_mode(self.mode, inputs)
-        if self.mode in ENABLED:
+        mode = self.mode
+        enabled = mode in ENABLED
+        if enabled:
             self.reenable.consume()
-        result = TickResult(mode=self.mode, report=report)
-        if self.mode == Mode.JUMP and previous != Mode.JUMP:
+        result = TickResult(mode=mode, report=report)
+        if mode == _JUMP and previous != _JUMP:
             self.jump.start(forward=self._jump_forward)
-        elif previous == Mode.AIRBORNE and self.mode == Mode.BALANCE:
+        elif previous == _AIRBORNE and mode == _BALANCE:
             self.chassis.touchdown(self.bus, keep_spot=True)
-        if self.mode == Mode.STAND_UP and previous != Mode.STAND_UP and self._lying():
+        if mode == _STAND_UP and previous != _STAND_UP and self._lying():
             self.recovery.start()
-        elif self.mode != Mode.STAND_UP:
+        elif mode != _STAND_UP:
             self.recovery.stop()
-        if self.mode in ENABLED and previous not in ENABLED:
+        if enabled and previous not in ENABLED:
             self._enable(result, now_s)
-        elif self.mode in ENABLED:
+        elif enabled:
             self._run(result, now_s, sensed)
         else:
             self._disabled(result, now_s)
         hb = messages.heartbeat(
-            tick, int(self.mode), report.warning_level, report.offline_mask, report.offline_count,
-            motors_enabled=self.mode in ENABLED, off_ground=self.mode == Mode.AIRBORNE,
-            fallen=self.mode == Mode.FALLEN, fault_latched=bool(faulted), bad_frames=self.bus.bad_frames,
+            tick, int(mode), report.warning_level, report.offline_mask, report.offline_count,
+            motors_enabled=enabled, off_ground=mode == _AIRBORNE,
+            fallen=mode == _FALLEN, fault_latched=bool(faulted), bad_frames=self.bus.bad_frames,
             t_s=now_s)
         result.frames[CAN1].append(hb)
         result.frames[CAN2].append(hb)
@@ -157,14 +166,14 @@ class Controller:
             self._jump_forward = forward_edge
         if att is None:
             att = self.chassis.attitude(self.bus)
-        in_air = self.mode in (Mode.JUMP, Mode.AIRBORNE)  # tumbling in the air: wider limits
+        in_air = self.mode in IN_THE_AIR  # tumbling in the air: wider limits
         pitch_limit, roll_limit = (P.FALL_PITCH_AIR, P.FALL_ROLL_AIR) if in_air else (P.FALL_PITCH, P.FALL_ROLL)
         fallen = abs(att.pitch) > pitch_limit or abs(att.roll) > roll_limit
         fallen = fallen or (self.mode in ENABLED and self._body_down(att))
         stood = False
-        if self.mode == Mode.STAND_UP:
+        if self.mode == _STAND_UP:
             stood, fallen = self._stand_up_inputs(att, fallen)
-        switch = _SWITCH.get(op.mode, Switch.ESTOP)  # an unknown switch position is treated as E-stop
+        switch = _SWITCH.get(op.mode, _ESTOP_SWITCH)  # an unknown switch position is treated as E-stop
         reenable = self.reenable.update(reenable_edge, self.mode not in ENABLED, now_s)
         return Inputs(switch=switch, devices_ok=devices_ok, reenable=reenable,
                       jump=jump_edge or forward_edge, fallen=fallen, stood_up=stood,
@@ -215,15 +224,16 @@ class Controller:
     def _command(self) -> Command:
         """What the chassis does this tick, by mode."""
         op = self.bus.operator
-        moving = self.mode == Mode.MOVE
+        mode = self.mode
+        moving = mode == _MOVE
         cmd = Command(speed=op.speed if moving else 0.0, yaw_rate=op.yaw_rate if moving else 0.0,
                       leg_length=op.leg_length, pitch=op.pitch, roll=op.roll,
-                      trim=self.mode in (Mode.BALANCE, Mode.MOVE))
-        if self.mode == Mode.AIRBORNE:
+                      trim=mode in ON_THE_WHEELS)
+        if mode == _AIRBORNE:
             cmd.airborne, cmd.air_pitch_hold, cmd.leg_length = True, True, P.AIR_LEG_LENGTH
-        elif self.mode == Mode.JUMP:
+        elif mode == _JUMP:
             self._jump_command(cmd)
-        elif self.mode == Mode.STAND_UP and self.recovery.active:
+        elif mode == _STAND_UP and self.recovery.active:
             self._recovery_command(cmd)
         return cmd
 
@@ -279,7 +289,7 @@ class Controller:
             self.fn[leg] = self.support[leg].update(support.leg_measurement(self.bus.joints, leg, state), accel_z)
         self.contact.update(self.fn["left"], self.fn["right"],
                             support.estimate_trusted(state.theta for state in legs.values()))
-        if self.mode in (Mode.BALANCE, Mode.MOVE):  # on its wheels: what the legs carry sizes a jump
+        if self.mode in ON_THE_WHEELS:  # on its wheels: what the legs carry sizes a jump
             self.jump.observe_stance(self.fn["left"], self.fn["right"])
 
     def _disabled(self, result: TickResult, now_s: float) -> None:
