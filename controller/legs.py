@@ -56,20 +56,23 @@ class LegState(NamedTuple):
 
 
 LEG_WHEEL = {w.leg: w for w in C.WHEELS}  # leg name -> its wheel drive (constants.Wheel)
-# leg name -> (front hip, rear hip, wheel drive): one lookup a leg a tick
-_LEG_PARTS = {leg: (*C.LEG_JOINTS[leg], LEG_WHEEL[leg]) for leg in LEGS}
+# leg name -> what leg_state reads of its parts, one lookup a leg a tick: (motor id, stop rad,
+# sign) of the front and the rear hip (constants.Joint; its ``stop`` is a property), then
+# (esc id, forward sign) of the wheel drive
+_LEG_PARTS = {leg: (*((j.motor_id, j.stop, j.sign) for j in C.LEG_JOINTS[leg]),
+                    (LEG_WHEEL[leg].esc_id, LEG_WHEEL[leg].forward_sign)) for leg in LEGS}
 _SHIN_STEP_S = 1e-4  # s, the step of the shin's numerical rate (``leg_state``)
-_HALF_PI = math.pi / 2
+_PI, _HALF_PI, _TWO_PI = math.pi, math.pi / 2, 2 * math.pi
 
 
 def leg_state(bus: BusState, leg: str, att: Attitude) -> LegState:
     """Virtual-leg state of ``leg`` from its joint feedback and the attitude."""
-    front, rear, wheel = _LEG_PARTS[leg]
+    (front_id, front_stop, front_sign), (rear_id, rear_stop, rear_sign), (esc_id, forward_sign) = _LEG_PARTS[leg]
     joints = bus.joints
-    fa, fe = joints[front.motor_id], joints[rear.motor_id]
+    fa, fe = joints[front_id], joints[rear_id]
     # fivebar.phi_from_shaft and phi_rate_from_shaft, written out (the same operations)
-    phi1, phi4 = front.stop + front.sign * fa.position, rear.stop + rear.sign * fe.position
-    dphi1, dphi4 = front.sign * fa.speed, rear.sign * fe.speed
+    phi1, phi4 = front_stop + front_sign * fa.position, rear_stop + rear_sign * fe.position
+    dphi1, dphi4 = front_sign * fa.speed, rear_sign * fe.speed
     kin = fivebar.forward_kinematics(phi1, phi4)
     (j11, j12), (j21, j22) = kin.jacobian  # fivebar.leg_velocity, written out
     dL0, dphi0 = j11 * dphi1 + j12 * dphi4, j21 * dphi1 + j22 * dphi4
@@ -81,7 +84,7 @@ def leg_state(bus: BusState, leg: str, att: Attitude) -> LegState:
     # relative to that link: add the link's own rotation (wy - dphi2).
     phi2_ahead = fivebar.shin_angle(phi1 + _SHIN_STEP_S * dphi1, phi4 + _SHIN_STEP_S * dphi4)
     dphi2 = wrap(phi2_ahead - kin.phi2) / _SHIN_STEP_S
-    spin = wheel.forward_sign * bus.wheels[wheel.esc_id].speed + wy - dphi2
+    spin = forward_sign * bus.wheels[esc_id].speed + wy - dphi2
     return LegState(kin, kin.L0, dL0, theta, dtheta, spin * C.WHEEL_RADIUS, dphi1, dphi4)
 
 
@@ -98,7 +101,7 @@ def legs_under_body(legs: dict) -> float:
 
 def wrap(angle: float) -> float:
     """``angle`` (rad) brought into [-pi, pi)."""
-    return (angle + math.pi) % (2 * math.pi) - math.pi
+    return (angle + _PI) % _TWO_PI - _PI
 
 
 def turn_lean(speed: float, yaw_rate: float) -> float:
