@@ -157,7 +157,7 @@ def _jacobian(phi1: float, phi4: float, phi2: float, phi3: float, L0: float,
 
 def leg_velocity(k: LegKinematics, dphi1: float, dphi4: float) -> tuple[float, float]:
     """(dL0 in m/s, dphi0 in rad/s) from the hip rates dphi1, dphi4 (rad/s)."""
-    (j11, j12), (j21, j22) = jacobian(k)
+    (j11, j12), (j21, j22) = k.jacobian
     return j11 * dphi1 + j12 * dphi4, j21 * dphi1 + j22 * dphi4
 
 
@@ -167,7 +167,7 @@ def joint_torques(k: LegKinematics, F: float, Tp: float) -> tuple[float, float]:
     [T1, T4] = J^T [F, -Tp] (module docstring). Map them to shaft torques
     with ``shaft_torque``.
     """
-    (j11, j12), (j21, j22) = jacobian(k)
+    (j11, j12), (j21, j22) = k.jacobian
     return j11 * F - j21 * Tp, j12 * F - j22 * Tp
 
 
@@ -176,7 +176,7 @@ def leg_force(k: LegKinematics, T1: float, T4: float) -> tuple[float, float]:
 
     The inverse of ``joint_torques``; raises ValueError at a singular pose.
     """
-    (j11, j12), (j21, j22) = jacobian(k)
+    (j11, j12), (j21, j22) = k.jacobian
     det = j11 * j22 - j21 * j12
     if abs(det) < 1e-12:
         raise ValueError(f"singular leg pose (L0={k.L0:.4f} m): no unique leg force")
