@@ -96,7 +96,10 @@ def mean_speed(legs: dict) -> float:
 def legs_under_body(legs: dict) -> float:
     """Mean forward speed (m/s) of the axles relative to the hips, from the legs'
     motion: the axle sits L0 sin(theta) behind the hip."""
-    return -0.5 * sum(s.dL0 * math.sin(s.theta) + s.L0 * math.cos(s.theta) * s.dtheta for s in legs.values())
+    left, right = legs["left"], legs["right"]
+    # each leg's term in the order sum() added them (from 0.0: the same bits)
+    return -0.5 * (0.0 + (left.dL0 * math.sin(left.theta) + left.L0 * math.cos(left.theta) * left.dtheta)
+                   + (right.dL0 * math.sin(right.theta) + right.L0 * math.cos(right.theta) * right.dtheta))
 
 
 def wrap(angle: float) -> float:
@@ -122,15 +125,21 @@ def roll_leg_difference(roll_set_point: float, level_offset: float) -> float:
     return clamp(feed_forward + level_offset, P.ROLL_LEVEL_LIMIT)
 
 
+_LEG_LENGTH_RANGE = (P.LEG_LENGTH_MIN, P.LEG_LENGTH_MAX)  # m, read every tick by leg_targets
+_LEG_LENGTH_SPAN = P.LEG_LENGTH_MAX - P.LEG_LENGTH_MIN  # m
+
+
 def leg_targets(length: float, difference: float) -> dict:
     """Leg length targets (m) by leg: mean ``length``, left minus right ``difference``.
 
     When one leg would leave [LEG_LENGTH_MIN, LEG_LENGTH_MAX] both shift
     together, so the difference (the body's level) is kept over the height.
     """
-    length = within(length, P.LEG_LENGTH_MIN, P.LEG_LENGTH_MAX)
-    half = 0.5 * min(abs(difference), P.LEG_LENGTH_MAX - P.LEG_LENGTH_MIN)
-    mean = within(length, P.LEG_LENGTH_MIN + half, P.LEG_LENGTH_MAX - half)
+    shortest, longest = _LEG_LENGTH_RANGE
+    length = within(length, shortest, longest)
+    apart = abs(difference)
+    half = 0.5 * (_LEG_LENGTH_SPAN if _LEG_LENGTH_SPAN < apart else apart)  # min(|difference|, span)
+    mean = within(length, shortest + half, longest - half)
     sign = 1.0 if difference >= 0 else -1.0
     return {"left": mean + sign * half, "right": mean - sign * half}
 
