@@ -39,6 +39,10 @@ _STAND_UP, _BALANCE, _MOVE, _JUMP, _AIRBORNE, _FALLEN = (Mode.STAND_UP, Mode.BAL
 IN_THE_AIR = frozenset({Mode.JUMP, Mode.AIRBORNE})  # "fallen" judged with the wider limits
 ON_THE_WHEELS = frozenset({Mode.BALANCE, Mode.MOVE})  # standing or driving: the trim runs, stance is sized
 _ESTOP_SWITCH = Switch.ESTOP
+_MOTOR_IDS = tuple(j.motor_id for j in C.JOINTS)  # the joints' torque frames go out in this order
+_TORQUE_CONSTANT = C.M3508_TORQUE_CONSTANT  # N m/A at the wheel
+_LEFT_Y, _RIGHT_Y = C.LEG_PLANE_Y, -C.LEG_PLANE_Y  # m, each leg's plane (posture.body_clearance's side_y)
+_HALF_PI = math.pi / 2
 
 
 @dataclass
@@ -96,10 +100,14 @@ class Controller:
         self.bus.prepare()
 
     def last_seen(self) -> dict[str, float]:
-        seen = {_DEVICE_OF_JOINT[i]: fb.received_s for i, fb in self.bus.joints.items()}
-        seen.update({_DEVICE_OF_WHEEL[i]: fb.received_s for i, fb in self.bus.wheels.items()})
-        seen["imu"] = self.bus.imu.received_s
-        seen["remote"] = self.bus.operator.received_s
+        """Device name -> when it was last heard (s, controller clock): joints, wheels, imu, remote."""
+        bus, seen = self.bus, {}
+        for motor_id, fb in bus.joints.items():  # loops, not comprehensions: no frame each a tick
+            seen[_DEVICE_OF_JOINT[motor_id]] = fb.received_s
+        for esc_id, fb in bus.wheels.items():
+            seen[_DEVICE_OF_WHEEL[esc_id]] = fb.received_s
+        seen["imu"] = bus.imu.received_s
+        seen["remote"] = bus.operator.received_s
         return seen
 
     def tick(self, tick: int, now_s: float) -> TickResult:
@@ -138,9 +146,13 @@ class Controller:
 
     def _faulted(self, now_s: float) -> set:
         """Devices reporting a fault: CyberGear fault bits, a C620 caught not following its command."""
-        faulted = {_DEVICE_OF_JOINT[i] for i, fb in self.bus.joints.items() if fb.faults}
+        faulted = set()
+        for motor_id, fb in self.bus.joints.items():
+            if fb.faults:
+                faulted.add(_DEVICE_OF_JOINT[motor_id])
+        asked = self.reenable.pending(now_s)  # the operator asked: trust the ESCs again, watch anew
         for esc_id, watch in self.esc_watch.items():
-            if self.reenable.pending(now_s):  # the operator asked: trust the ESC again, watch anew
+            if asked:
                 watch.clear()
             fb = self.bus.wheels[esc_id]
             fresh = now_s - fb.received_s <= 2 * self.period_s  # stale feedback is detect's business
@@ -194,8 +206,8 @@ class Controller:
         """The body box rests on the floor (posture.body_clearance from last tick's legs)."""
         if self.last is None:
             return False
-        legs = [(side * C.LEG_PLANE_Y, length, math.pi / 2 - theta + att.pitch)
-                for side, length, theta in zip((1.0, -1.0), self.last.leg_lengths_m(), self.last.leg_angles_rad())]
+        (left_m, right_m), (left_rad, right_rad) = self.last.leg_lengths_m(), self.last.leg_angles_rad()
+        legs = ((_LEFT_Y, left_m, _HALF_PI - left_rad + att.pitch), (_RIGHT_Y, right_m, _HALF_PI - right_rad + att.pitch))
         return posture.body_clearance(att.roll, att.pitch, legs) < P.BODY_GROUND_CLEARANCE
 
     # -- what each kind of tick sends --------------------------------------------
@@ -213,9 +225,12 @@ class Controller:
         cmd = self._command()
         out = self.chassis.step(self.bus, cmd, sensed)
         self._update_support(out.legs)
-        for joint in C.JOINTS:
-            result.frames[CAN2].append(messages.joint_torque(joint.motor_id, out.hip_torque[joint.motor_id], now_s))
-        currents = {esc: t / C.M3508_TORQUE_CONSTANT for esc, t in out.wheel_torque.items()}
+        joint_frames, hip_torque = result.frames[CAN2], out.hip_torque
+        for motor_id in _MOTOR_IDS:
+            joint_frames.append(messages.joint_torque(motor_id, hip_torque[motor_id], now_s))
+        currents = {}
+        for esc, torque_nm in out.wheel_torque.items():
+            currents[esc] = torque_nm / _TORQUE_CONSTANT
         result.frames[CAN1].append(self._wheel_frame(currents, now_s))
         self.last = LastOutput(out.report, dict(self.fn), self.jump.phase)
         if self.record_debug:
