@@ -30,7 +30,7 @@ def _height_row(roll: float, pitch: float) -> tuple[float, float, float]:
 
 
 def _height_in(row: tuple[float, float, float], point: tuple) -> float:
-    """``_height`` with the row worked out once (ten points a tick): the same products, the same sum."""
+    """``_height`` with the row worked out once (three points a tick): the same products, the same sum."""
     x, y, z = point
     return row[0] * x + row[1] * y + row[2] * z
 
