@@ -207,7 +207,8 @@ class Controller:
         if self.last is None:
             return False
         (left_m, right_m), (left_rad, right_rad) = self.last.leg_lengths_m(), self.last.leg_angles_rad()
-        legs = ((_LEFT_Y, left_m, _HALF_PI - left_rad + att.pitch), (_RIGHT_Y, right_m, _HALF_PI - right_rad + att.pitch))
+        legs = ((_LEFT_Y, left_m, _HALF_PI - left_rad + att.pitch),
+                (_RIGHT_Y, right_m, _HALF_PI - right_rad + att.pitch))
         return posture.body_clearance(att.roll, att.pitch, legs) < P.BODY_GROUND_CLEARANCE
 
     # -- what each kind of tick sends --------------------------------------------

@@ -99,7 +99,8 @@ def motion_id(torque_nm: float, motor: int) -> int:
     """Id of a type-1 motion command carrying ``torque_nm`` (truncating encoder)."""
     raw = truncate(_TORQUE_LO, _TORQUE_HI, _TORQUE_FULL, torque_nm)  # truncating_raw of the torque signal
     # the target field's put (_Field.put) written out: four frames a control tick
-    return _MOTION_TYPE | ((raw & _TORQUE_MASK) << _TORQUE_SHIFT) | ((int(motor) & _MOTION_TARGET_MASK) << _MOTION_TARGET_SHIFT)
+    return (_MOTION_TYPE | ((raw & _TORQUE_MASK) << _TORQUE_SHIFT)
+            | ((int(motor) & _MOTION_TARGET_MASK) << _MOTION_TARGET_SHIFT))
 
 
 def motion_torque(can_id: int) -> float:
