@@ -121,10 +121,8 @@ def _knees_and_phi2(phi1: float, phi4: float) -> tuple[float, float, float, floa
     if disc < -_CLOSURE_TOL * ab_sq or bd_sq == 0.0:
         raise ValueError(f"phi1={phi1:.4f}, phi4={phi4:.4f} rad do not close the five-bar loop")
     root = sqrt(0.0 if 0.0 > disc else disc)  # max(disc, 0.0) written out (bounds.py)
-    half_phi2 = atan2(b0 + root, a0 + c0)
-    phi2 = 2.0 * half_phi2
-    # _wrap, written out (four calls a tick)
-    return xb, yb, xd, yd, phi2 - _TWO_PI * ceil((phi2 - math.pi) / _TWO_PI)
+    phi2 = 2.0 * atan2(b0 + root, a0 + c0)
+    return xb, yb, xd, yd, phi2 - _TWO_PI * ceil((phi2 - math.pi) / _TWO_PI)  # _wrap(phi2) written out: four a tick
 
 
 def shin_angle(phi1: float, phi4: float) -> float:
