@@ -468,7 +468,7 @@ class ChassisController:
     @staticmethod
     def _limit_hips(out: Output, limit: float = P.HIP_TORQUE_LIMIT) -> None:
         """On saturation scale all four hips by one factor (McMaster): keeps direction."""
-        peak = max(abs(t) for t in out.hip_torque.values())
+        peak = max(map(abs, out.hip_torque.values()))  # no generator frame: the same max
         if peak > limit:
             scale = limit / peak
             for key in out.hip_torque:

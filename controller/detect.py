@@ -57,14 +57,31 @@ def check(last_seen_s: dict[str, float], now_s: float, faulted=frozenset(), rule
     """
     mask = count = level = 0
     balance_ok = True
-    for bit, rule in enumerate(rules):
-        silent_s = now_s - last_seen_s.get(rule.name, -math.inf)
-        if rule.name in faulted or silent_s >= rule.offline_after_s - _ROUNDING_S:
-            mask |= 1 << bit
+    for bit, name, offline_after_s, warning_level, needed in _table(rules):
+        if name in faulted or now_s - last_seen_s.get(name, _NEVER) >= offline_after_s:
+            mask |= bit
             count += 1
-            level = max(level, rule.warning_level)
-            balance_ok = balance_ok and not rule.needed_for_balance
+            level = warning_level if warning_level > level else level  # max(level, warning_level)
+            balance_ok = balance_ok and not needed
     return Report(mask, count, level, balance_ok)
+
+
+_NEVER = -math.inf  # s, when a device never heard was last heard
+
+
+_TABLES: dict[int, tuple] = {}  # id(rules) -> (rules, their table): the rules kept, so no id is reused
+
+
+def _table(rules) -> tuple:
+    """``rules`` as ``check`` reads them every tick: (mask bit, name, s silent that is offline
+    less the rounding slack, warning level, needed for balance) per rule, worked out once a
+    rule set (found by identity: hashing the rules' dataclasses cost more than the check)."""
+    kept = _TABLES.get(id(rules))
+    if kept is None or kept[0] is not rules:
+        table = tuple((1 << bit, rule.name, rule.offline_after_s - _ROUNDING_S, rule.warning_level,
+                       rule.needed_for_balance) for bit, rule in enumerate(rules))
+        kept = _TABLES[id(rules)] = (rules, table)
+    return kept[1]
 
 
 class ReenableRequest:

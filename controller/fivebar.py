@@ -36,11 +36,15 @@ links AB and ED, positive in the sense that increases phi1 and phi4.
 from __future__ import annotations
 
 import math
+from math import atan2, ceil, cos, hypot, isfinite, sin, sqrt
 from typing import NamedTuple
 
 from wheelleg.controller import constants as C
 
+# the link lengths (m) as module names: the per-tick kinematics reads them without an attribute lookup
+_L1, _L2, _L4, _L5 = C.L1, C.L2, C.L4, C.L5
 _HALF_L5 = 0.5 * C.L5
+_TWO_PI = 2.0 * math.pi
 _TWO_L2, _L2_SQ, _L3_SQ = 2.0 * C.L2, C.L2 * C.L2, C.L3 * C.L3  # the loop closure's constants (m, m^2)
 # A loop-closure discriminant below -_CLOSURE_TOL (relative) is not noise:
 # the angles do not belong to an assembled leg.
@@ -78,7 +82,7 @@ class LegKinematics(NamedTuple):
 
 def _wrap(angle: float) -> float:
     """angle mapped to (-pi, pi]."""
-    return angle - 2.0 * math.pi * math.ceil((angle - math.pi) / (2.0 * math.pi))
+    return angle - _TWO_PI * ceil((angle - math.pi) / _TWO_PI)
 
 
 def forward_kinematics(phi1: float, phi4: float) -> LegKinematics:
@@ -90,10 +94,10 @@ def forward_kinematics(phi1: float, phi4: float) -> LegKinematics:
     (a wrong reading, not a pose the leg can take).
     """
     xb, yb, xd, yd, phi2 = _knees_and_phi2(phi1, phi4)
-    xc, yc = xb + C.L2 * math.cos(phi2), yb + C.L2 * math.sin(phi2)
-    phi3 = math.atan2(yc - yd, xc - xd)
+    xc, yc = xb + _L2 * cos(phi2), yb + _L2 * sin(phi2)
+    phi3 = atan2(yc - yd, xc - xd)
     dx = xc - _HALF_L5
-    L0, phi0 = math.hypot(dx, yc), math.atan2(yc, dx)
+    L0, phi0 = hypot(dx, yc), atan2(yc, dx)
     return LegKinematics(phi1, phi4, phi2, phi3, L0, phi0, (xb, yb), (xc, yc), (xd, yd),
                          _jacobian(phi1, phi4, phi2, phi3, L0, phi0))
 
@@ -101,10 +105,10 @@ def forward_kinematics(phi1: float, phi4: float) -> LegKinematics:
 def _knees_and_phi2(phi1: float, phi4: float) -> tuple[float, float, float, float, float]:
     """(xb, yb, xd, yd, phi2): the knees B, D (m) and the angle of link BC (rad), the part of
     ``forward_kinematics`` that ``shin_angle`` needs too (same operations, same bits)."""
-    if not (math.isfinite(phi1) and math.isfinite(phi4)):
+    if not (isfinite(phi1) and isfinite(phi4)):
         raise ValueError(f"hip angles must be finite, got phi1={phi1}, phi4={phi4}")
-    xb, yb = C.L1 * math.cos(phi1), C.L1 * math.sin(phi1)
-    xd, yd = C.L5 + C.L4 * math.cos(phi4), C.L4 * math.sin(phi4)
+    xb, yb = _L1 * cos(phi1), _L1 * sin(phi1)
+    xd, yd = _L5 + _L4 * cos(phi4), _L4 * sin(phi4)
     # the design document's expressions, each part worked out once (the same operations in
     # the same order: the same bits); four calls a tick
     bd_x, bd_y = xd - xb, yd - yb
@@ -116,9 +120,9 @@ def _knees_and_phi2(phi1: float, phi4: float) -> tuple[float, float, float, floa
     disc = ab_sq - c0 * c0
     if disc < -_CLOSURE_TOL * ab_sq or bd_sq == 0.0:
         raise ValueError(f"phi1={phi1:.4f}, phi4={phi4:.4f} rad do not close the five-bar loop")
-    root = math.sqrt(0.0 if 0.0 > disc else disc)  # max(disc, 0.0) written out (bounds.py)
-    phi2 = _wrap(2.0 * math.atan2(b0 + root, a0 + c0))
-    return xb, yb, xd, yd, phi2
+    root = sqrt(0.0 if 0.0 > disc else disc)  # max(disc, 0.0) written out (bounds.py)
+    phi2 = 2.0 * atan2(b0 + root, a0 + c0)
+    return xb, yb, xd, yd, phi2 - _TWO_PI * ceil((phi2 - math.pi) / _TWO_PI)  # _wrap(phi2) written out: four a tick
 
 
 def shin_angle(phi1: float, phi4: float) -> float:
@@ -142,16 +146,16 @@ def _jacobian(phi1: float, phi4: float, phi2: float, phi3: float, L0: float,
     with L1 and L4 kept apart). Singular when the shins are parallel
     (phi2 = phi3, the loop's full stretch).
     """
-    s32 = math.sin(phi3 - phi2)
-    a = C.L1 * math.sin(phi1 - phi2) / s32  # front thigh's lever
-    b = C.L4 * math.sin(phi3 - phi4) / s32  # rear thigh's lever
-    return ((a * math.sin(phi0 - phi3), b * math.sin(phi0 - phi2)),
-            (a * math.cos(phi0 - phi3) / L0, b * math.cos(phi0 - phi2) / L0))
+    s32 = sin(phi3 - phi2)
+    a = _L1 * sin(phi1 - phi2) / s32  # front thigh's lever
+    b = _L4 * sin(phi3 - phi4) / s32  # rear thigh's lever
+    return ((a * sin(phi0 - phi3), b * sin(phi0 - phi2)),
+            (a * cos(phi0 - phi3) / L0, b * cos(phi0 - phi2) / L0))
 
 
 def leg_velocity(k: LegKinematics, dphi1: float, dphi4: float) -> tuple[float, float]:
     """(dL0 in m/s, dphi0 in rad/s) from the hip rates dphi1, dphi4 (rad/s)."""
-    (j11, j12), (j21, j22) = jacobian(k)
+    (j11, j12), (j21, j22) = k.jacobian
     return j11 * dphi1 + j12 * dphi4, j21 * dphi1 + j22 * dphi4
 
 
@@ -161,7 +165,7 @@ def joint_torques(k: LegKinematics, F: float, Tp: float) -> tuple[float, float]:
     [T1, T4] = J^T [F, -Tp] (module docstring). Map them to shaft torques
     with ``shaft_torque``.
     """
-    (j11, j12), (j21, j22) = jacobian(k)
+    (j11, j12), (j21, j22) = k.jacobian
     return j11 * F - j21 * Tp, j12 * F - j22 * Tp
 
 
@@ -170,7 +174,7 @@ def leg_force(k: LegKinematics, T1: float, T4: float) -> tuple[float, float]:
 
     The inverse of ``joint_torques``; raises ValueError at a singular pose.
     """
-    (j11, j12), (j21, j22) = jacobian(k)
+    (j11, j12), (j21, j22) = k.jacobian
     det = j11 * j22 - j21 * j12
     if abs(det) < 1e-12:
         raise ValueError(f"singular leg pose (L0={k.L0:.4f} m): no unique leg force")

@@ -56,26 +56,35 @@ class LegState(NamedTuple):
 
 
 LEG_WHEEL = {w.leg: w for w in C.WHEELS}  # leg name -> its wheel drive (constants.Wheel)
+# leg name -> what leg_state reads of its parts, one lookup a leg a tick: (motor id, stop rad,
+# sign) of the front and the rear hip (constants.Joint; its ``stop`` is a property), then
+# (esc id, forward sign) of the wheel drive
+_LEG_PARTS = {leg: (*((j.motor_id, j.stop, j.sign) for j in C.LEG_JOINTS[leg]),
+                    (LEG_WHEEL[leg].esc_id, LEG_WHEEL[leg].forward_sign)) for leg in LEGS}
+_SHIN_STEP_S = 1e-4  # s, the step of the shin's numerical rate (``leg_state``)
+_PI, _HALF_PI, _TWO_PI = math.pi, math.pi / 2, 2 * math.pi
 
 
 def leg_state(bus: BusState, leg: str, att: Attitude) -> LegState:
     """Virtual-leg state of ``leg`` from its joint feedback and the attitude."""
-    front, rear = C.LEG_JOINTS[leg]
-    fa, fe = bus.joints[front.motor_id], bus.joints[rear.motor_id]
-    phi1, phi4 = fivebar.phi_from_shaft(front, fa.position), fivebar.phi_from_shaft(rear, fe.position)
-    dphi1, dphi4 = front.sign * fa.speed, rear.sign * fe.speed
+    (front_id, front_stop, front_sign), (rear_id, rear_stop, rear_sign), (esc_id, forward_sign) = _LEG_PARTS[leg]
+    joints = bus.joints
+    fa, fe = joints[front_id], joints[rear_id]
+    # fivebar.phi_from_shaft and phi_rate_from_shaft, written out (the same operations)
+    phi1, phi4 = front_stop + front_sign * fa.position, rear_stop + rear_sign * fe.position
+    dphi1, dphi4 = front_sign * fa.speed, rear_sign * fe.speed
     kin = fivebar.forward_kinematics(phi1, phi4)
-    dL0, dphi0 = fivebar.leg_velocity(kin, dphi1, dphi4)
-    body_rate = -att.wy  # nose-up pitch rate
-    theta = math.pi / 2 - kin.phi0 + att.pitch  # phi = -pitch
+    (j11, j12), (j21, j22) = kin.jacobian  # fivebar.leg_velocity, written out
+    dL0, dphi0 = j11 * dphi1 + j12 * dphi4, j21 * dphi1 + j22 * dphi4
+    wy = att.wy
+    body_rate = -wy  # nose-up pitch rate
+    theta = _HALF_PI - kin.phi0 + att.pitch  # phi = -pitch
     dtheta = -dphi0 - body_rate
     # The wheel motor's stator sits on link BC, so its encoder reads the wheel
     # relative to that link: add the link's own rotation (wy - dphi2).
-    eps = 1e-4
-    phi2_ahead = fivebar.shin_angle(phi1 + eps * dphi1, phi4 + eps * dphi4)
-    dphi2 = wrap(phi2_ahead - kin.phi2) / eps
-    wheel = LEG_WHEEL[leg]
-    spin = wheel.forward_sign * bus.wheels[wheel.esc_id].speed + att.wy - dphi2
+    phi2_ahead = fivebar.shin_angle(phi1 + _SHIN_STEP_S * dphi1, phi4 + _SHIN_STEP_S * dphi4)
+    dphi2 = wrap(phi2_ahead - kin.phi2) / _SHIN_STEP_S
+    spin = forward_sign * bus.wheels[esc_id].speed + wy - dphi2
     return LegState(kin, kin.L0, dL0, theta, dtheta, spin * C.WHEEL_RADIUS, dphi1, dphi4)
 
 
@@ -87,12 +96,15 @@ def mean_speed(legs: dict) -> float:
 def legs_under_body(legs: dict) -> float:
     """Mean forward speed (m/s) of the axles relative to the hips, from the legs'
     motion: the axle sits L0 sin(theta) behind the hip."""
-    return -0.5 * sum(s.dL0 * math.sin(s.theta) + s.L0 * math.cos(s.theta) * s.dtheta for s in legs.values())
+    left, right = legs["left"], legs["right"]
+    # each leg's term in the order sum() added them (from 0.0: the same bits)
+    return -0.5 * (0.0 + (left.dL0 * math.sin(left.theta) + left.L0 * math.cos(left.theta) * left.dtheta)
+                   + (right.dL0 * math.sin(right.theta) + right.L0 * math.cos(right.theta) * right.dtheta))
 
 
 def wrap(angle: float) -> float:
     """``angle`` (rad) brought into [-pi, pi)."""
-    return (angle + math.pi) % (2 * math.pi) - math.pi
+    return (angle + _PI) % _TWO_PI - _PI
 
 
 def turn_lean(speed: float, yaw_rate: float) -> float:
@@ -113,15 +125,21 @@ def roll_leg_difference(roll_set_point: float, level_offset: float) -> float:
     return clamp(feed_forward + level_offset, P.ROLL_LEVEL_LIMIT)
 
 
+_LEG_LENGTH_RANGE = (P.LEG_LENGTH_MIN, P.LEG_LENGTH_MAX)  # m, read every tick by leg_targets
+_LEG_LENGTH_SPAN = P.LEG_LENGTH_MAX - P.LEG_LENGTH_MIN  # m
+
+
 def leg_targets(length: float, difference: float) -> dict:
     """Leg length targets (m) by leg: mean ``length``, left minus right ``difference``.
 
     When one leg would leave [LEG_LENGTH_MIN, LEG_LENGTH_MAX] both shift
     together, so the difference (the body's level) is kept over the height.
     """
-    length = within(length, P.LEG_LENGTH_MIN, P.LEG_LENGTH_MAX)
-    half = 0.5 * min(abs(difference), P.LEG_LENGTH_MAX - P.LEG_LENGTH_MIN)
-    mean = within(length, P.LEG_LENGTH_MIN + half, P.LEG_LENGTH_MAX - half)
+    shortest, longest = _LEG_LENGTH_RANGE
+    length = within(length, shortest, longest)
+    apart = abs(difference)
+    half = 0.5 * (_LEG_LENGTH_SPAN if _LEG_LENGTH_SPAN < apart else apart)  # min(|difference|, span)
+    mean = within(length, shortest + half, longest - half)
     sign = 1.0 if difference >= 0 else -1.0
     return {"left": mean + sign * half, "right": mean - sign * half}
 

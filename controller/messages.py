@@ -32,6 +32,7 @@ _ESC_SLOTS = tuple(f"ESC{i}_Current" for i in range(1, 5))
 _ESC_PAYLOAD = MessageCodec.of(_ESC_CMD).encoder(dict.fromkeys(_ESC_SLOTS, "raw"))
 # (offset, scale) of each slot, read once: cantools' signal attributes are properties
 _ESC_STEPS = tuple((s.offset, s.scale) for s in (_ESC_CMD.get_signal_by_name(name) for name in _ESC_SLOTS))
+_C620_LIMIT_A = C.C620_CURRENT_LIMIT
 _ESC_CMD_ID, _HEARTBEAT_ID = _ESC_CMD.frame_id, _HEARTBEAT.frame_id  # read once: cantools properties
 _HEARTBEAT_PAYLOAD = MessageCodec.of(_HEARTBEAT).encoder(dict.fromkeys(
     ("Tick", "Mode", "WarningLevel", "OfflineCount", "OfflineMask", "MotorsEnabled", "OffGround", "Fallen",
@@ -79,17 +80,25 @@ def joint_run_mode(motor_id: int, run_mode: int, t_s: float = 0.0) -> can.Messag
 
 def esc_current(amps: float) -> float:
     """The current (A) a C620 command carries for ``amps``: clamped to the ESC's range."""
-    return within(amps, -C.C620_CURRENT_LIMIT, C.C620_CURRENT_LIMIT)
+    return within(amps, -_C620_LIMIT_A, _C620_LIMIT_A)
+
+
+def _esc_raw(slot: int, amps: float) -> int:
+    """The raw value of ESC slot ``slot`` (0..3) commanding ``amps`` (A): cantools' encode,
+    round((value - offset) / scale), of the clamped current (NaN raises ValueError there as here)."""
+    offset, scale = _ESC_STEPS[slot]
+    return int(round((esc_current(amps) - offset) / scale))
+
+
+_ESC_ZERO_RAWS = tuple(_esc_raw(slot, 0.0) for slot in range(4))  # every slot at 0 A
 
 
 def wheel_currents(currents_a: dict[int, float], t_s: float = 0.0) -> can.Message:
     """C620 0x200 frame: ``currents_a`` maps ESC id 1..4 to amperes (others 0)."""
-    values = [0.0] * 4
+    raws = list(_ESC_ZERO_RAWS)
     for esc_id, amps in currents_a.items():
         if 1 <= esc_id <= 4:  # (cantools' encode ignores other names)
-            values[esc_id - 1] = esc_current(amps)
-    # cantools' encode of each: round((value - offset) / scale) (NaN raises ValueError there as here)
-    raws = [int(round((value - offset) / scale)) for value, (offset, scale) in zip(values, _ESC_STEPS)]
+            raws[esc_id - 1] = _esc_raw(esc_id - 1, amps)
     return _frame(_ESC_CMD_ID, _ESC_PAYLOAD(*raws), False, t_s)
 
 
@@ -97,7 +106,9 @@ def heartbeat(tick: int, mode: int, warning_level: int, offline_mask: int, offli
               *, motors_enabled: bool, off_ground: bool, fallen: bool, fault_latched: bool,
               bad_frames: int, t_s: float = 0.0) -> can.Message:
     """The controller's heartbeat (rig.dbc), sent on both buses at the end of a tick."""
-    data = _HEARTBEAT_PAYLOAD(tick & 0xFFFFFFFF, mode, min(warning_level, 15), min(offline_count, 15),
+    # min(level, 15) and min(count, 15) written out (bounds.py: the builtin's call costs more)
+    data = _HEARTBEAT_PAYLOAD(tick & 0xFFFFFFFF, mode, warning_level if warning_level < 15 else 15,
+                              offline_count if offline_count < 15 else 15,
                               offline_mask & 0xFF, int(motors_enabled), int(off_ground), int(fallen),
                               int(fault_latched), bad_frames & 0xF)
     return _frame(_HEARTBEAT_ID, data, False, t_s)

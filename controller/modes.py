@@ -8,7 +8,7 @@ The mode numbers are those of rig.dbc's Heartbeat.Mode.
 from __future__ import annotations
 
 import enum
-from dataclasses import dataclass
+from typing import NamedTuple
 
 
 class Mode(enum.IntEnum):
@@ -34,9 +34,9 @@ class Switch(enum.IntEnum):
 ENABLED = frozenset({Mode.STAND_UP, Mode.BALANCE, Mode.MOVE, Mode.JUMP, Mode.AIRBORNE})
 
 
-@dataclass(frozen=True)
-class Inputs:
-    """What the mode machine looks at each tick."""
+class Inputs(NamedTuple):
+    """What the mode machine looks at each tick (a NamedTuple: immutable, made every tick
+    ~5x faster than a frozen dataclass, which sets each field through object.__setattr__)."""
 
     switch: Switch
     devices_ok: bool  # every device the balance needs is online and fault-free
@@ -49,25 +49,26 @@ class Inputs:
     can_rise: bool  # the body is upright enough to try standing up
 
 
-def _running(mode: Mode) -> bool:
-    return mode in ENABLED
-
+# the members the conditions compare with every tick, as module names: in CPython 3.11 an
+# Enum member's lookup on its class costs ~10 times a global's
+_ESTOP, _STAND, _MOVE = Switch.ESTOP, Switch.STAND, Switch.MOVE
+_MODE_ESTOP = Mode.ESTOP
 
 # (from modes, condition, to). "*" means any mode.
 TRANSITIONS: tuple = (
-    ("*", lambda m, i: i.switch == Switch.ESTOP and m != Mode.ESTOP, Mode.ESTOP),
-    ("*", lambda m, i: _running(m) and not i.devices_ok, Mode.DISABLED),
+    ("*", lambda m, i: i.switch == _ESTOP and m != _MODE_ESTOP, Mode.ESTOP),
+    ("*", lambda m, i: m in ENABLED and not i.devices_ok, Mode.DISABLED),
     # in JUMP and AIRBORNE the controller judges "fallen" with wider limits (node.py)
-    ("*", lambda m, i: _running(m) and i.fallen, Mode.FALLEN),
-    ((Mode.ESTOP, Mode.IDLE), lambda m, i: i.switch != Switch.ESTOP and i.devices_ok and i.can_rise,
+    ("*", lambda m, i: m in ENABLED and i.fallen, Mode.FALLEN),
+    ((Mode.ESTOP, Mode.IDLE), lambda m, i: i.switch != _ESTOP and i.devices_ok and i.can_rise,
      Mode.STAND_UP),
-    ((Mode.DISABLED, Mode.FALLEN), lambda m, i: i.reenable and i.devices_ok and i.switch != Switch.ESTOP,
+    ((Mode.DISABLED, Mode.FALLEN), lambda m, i: i.reenable and i.devices_ok and i.switch != _ESTOP,
      Mode.STAND_UP),
     ((Mode.STAND_UP,), lambda m, i: i.stood_up, Mode.BALANCE),
     ((Mode.BALANCE, Mode.MOVE), lambda m, i: i.jump, Mode.JUMP),
     ((Mode.BALANCE, Mode.MOVE), lambda m, i: i.off_ground, Mode.AIRBORNE),
-    ((Mode.BALANCE,), lambda m, i: i.switch == Switch.MOVE, Mode.MOVE),
-    ((Mode.MOVE,), lambda m, i: i.switch == Switch.STAND, Mode.BALANCE),
+    ((Mode.BALANCE,), lambda m, i: i.switch == _MOVE, Mode.MOVE),
+    ((Mode.MOVE,), lambda m, i: i.switch == _STAND, Mode.BALANCE),
     ((Mode.JUMP,), lambda m, i: i.jump_done, Mode.BALANCE),
     ((Mode.AIRBORNE,), lambda m, i: not i.off_ground, Mode.BALANCE),
 )

@@ -32,6 +32,17 @@ from wheelleg.controller.telemetry import LastOutput, debug_record
 _DEVICE_OF_JOINT = {j.motor_id: j.name for j in C.JOINTS}
 _DEVICE_OF_WHEEL = {w.esc_id: w.name for w in C.WHEELS}
 _SWITCH = {int(s): s for s in Switch}  # the operator's Mode number -> Switch (a dict: no Enum call a tick)
+# the modes a tick asks about, as module names: in CPython 3.11 an Enum member's lookup on its
+# class costs ~10 times a global's, and a tick made some 20 of them
+_STAND_UP, _BALANCE, _MOVE, _JUMP, _AIRBORNE, _FALLEN = (Mode.STAND_UP, Mode.BALANCE, Mode.MOVE, Mode.JUMP,
+                                                         Mode.AIRBORNE, Mode.FALLEN)
+IN_THE_AIR = frozenset({Mode.JUMP, Mode.AIRBORNE})  # "fallen" judged with the wider limits
+ON_THE_WHEELS = frozenset({Mode.BALANCE, Mode.MOVE})  # standing or driving: the trim runs, stance is sized
+_ESTOP_SWITCH = Switch.ESTOP
+_MOTOR_IDS = tuple(j.motor_id for j in C.JOINTS)  # the joints' torque frames go out in this order
+_TORQUE_CONSTANT = C.M3508_TORQUE_CONSTANT  # N m/A at the wheel
+_LEFT_Y, _RIGHT_Y = C.LEG_PLANE_Y, -C.LEG_PLANE_Y  # m, each leg's plane (posture.body_clearance's side_y)
+_HALF_PI = math.pi / 2
 
 
 @dataclass
@@ -89,10 +100,14 @@ class Controller:
         self.bus.prepare()
 
     def last_seen(self) -> dict[str, float]:
-        seen = {_DEVICE_OF_JOINT[i]: fb.received_s for i, fb in self.bus.joints.items()}
-        seen.update({_DEVICE_OF_WHEEL[i]: fb.received_s for i, fb in self.bus.wheels.items()})
-        seen["imu"] = self.bus.imu.received_s
-        seen["remote"] = self.bus.operator.received_s
+        """Device name -> when it was last heard (s, controller clock): joints, wheels, imu, remote."""
+        bus, seen = self.bus, {}
+        for motor_id, fb in bus.joints.items():  # loops, not comprehensions: no frame each a tick
+            seen[_DEVICE_OF_JOINT[motor_id]] = fb.received_s
+        for esc_id, fb in bus.wheels.items():
+            seen[_DEVICE_OF_WHEEL[esc_id]] = fb.received_s
+        seen["imu"] = bus.imu.received_s
+        seen["remote"] = bus.operator.received_s
         return seen
 
     def tick(self, tick: int, now_s: float) -> TickResult:
@@ -101,27 +116,29 @@ class Controller:
         report = detect.check(self.last_seen(), now_s, faulted)
         inputs = self._inputs(report.balance_ok, now_s, sensed.att if sensed is not None else None)
         previous, self.mode = self.mode, next_mode(self.mode, inputs)
-        if self.mode in ENABLED:
+        mode = self.mode
+        enabled = mode in ENABLED
+        if enabled:
             self.reenable.consume()
-        result = TickResult(mode=self.mode, report=report)
-        if self.mode == Mode.JUMP and previous != Mode.JUMP:
+        result = TickResult(mode=mode, report=report)
+        if mode == _JUMP and previous != _JUMP:
             self.jump.start(forward=self._jump_forward)
-        elif previous == Mode.AIRBORNE and self.mode == Mode.BALANCE:
+        elif previous == _AIRBORNE and mode == _BALANCE:
             self.chassis.touchdown(self.bus, keep_spot=True)
-        if self.mode == Mode.STAND_UP and previous != Mode.STAND_UP and self._lying():
+        if mode == _STAND_UP and previous != _STAND_UP and self._lying():
             self.recovery.start()
-        elif self.mode != Mode.STAND_UP:
+        elif mode != _STAND_UP:
             self.recovery.stop()
-        if self.mode in ENABLED and previous not in ENABLED:
+        if enabled and previous not in ENABLED:
             self._enable(result, now_s)
-        elif self.mode in ENABLED:
+        elif enabled:
             self._run(result, now_s, sensed)
         else:
             self._disabled(result, now_s)
         hb = messages.heartbeat(
-            tick, int(self.mode), report.warning_level, report.offline_mask, report.offline_count,
-            motors_enabled=self.mode in ENABLED, off_ground=self.mode == Mode.AIRBORNE,
-            fallen=self.mode == Mode.FALLEN, fault_latched=bool(faulted), bad_frames=self.bus.bad_frames,
+            tick, int(mode), report.warning_level, report.offline_mask, report.offline_count,
+            motors_enabled=enabled, off_ground=mode == _AIRBORNE,
+            fallen=mode == _FALLEN, fault_latched=bool(faulted), bad_frames=self.bus.bad_frames,
             t_s=now_s)
         result.frames[CAN1].append(hb)
         result.frames[CAN2].append(hb)
@@ -129,9 +146,13 @@ class Controller:
 
     def _faulted(self, now_s: float) -> set:
         """Devices reporting a fault: CyberGear fault bits, a C620 caught not following its command."""
-        faulted = {_DEVICE_OF_JOINT[i] for i, fb in self.bus.joints.items() if fb.faults}
+        faulted = set()
+        for motor_id, fb in self.bus.joints.items():
+            if fb.faults:
+                faulted.add(_DEVICE_OF_JOINT[motor_id])
+        asked = self.reenable.pending(now_s)  # the operator asked: trust the ESCs again, watch anew
         for esc_id, watch in self.esc_watch.items():
-            if self.reenable.pending(now_s):  # the operator asked: trust the ESC again, watch anew
+            if asked:
                 watch.clear()
             fb = self.bus.wheels[esc_id]
             fresh = now_s - fb.received_s <= 2 * self.period_s  # stale feedback is detect's business
@@ -157,14 +178,14 @@ class Controller:
             self._jump_forward = forward_edge
         if att is None:
             att = self.chassis.attitude(self.bus)
-        in_air = self.mode in (Mode.JUMP, Mode.AIRBORNE)  # tumbling in the air: wider limits
+        in_air = self.mode in IN_THE_AIR  # tumbling in the air: wider limits
         pitch_limit, roll_limit = (P.FALL_PITCH_AIR, P.FALL_ROLL_AIR) if in_air else (P.FALL_PITCH, P.FALL_ROLL)
         fallen = abs(att.pitch) > pitch_limit or abs(att.roll) > roll_limit
         fallen = fallen or (self.mode in ENABLED and self._body_down(att))
         stood = False
-        if self.mode == Mode.STAND_UP:
+        if self.mode == _STAND_UP:
             stood, fallen = self._stand_up_inputs(att, fallen)
-        switch = _SWITCH.get(op.mode, Switch.ESTOP)  # an unknown switch position is treated as E-stop
+        switch = _SWITCH.get(op.mode, _ESTOP_SWITCH)  # an unknown switch position is treated as E-stop
         reenable = self.reenable.update(reenable_edge, self.mode not in ENABLED, now_s)
         return Inputs(switch=switch, devices_ok=devices_ok, reenable=reenable,
                       jump=jump_edge or forward_edge, fallen=fallen, stood_up=stood,
@@ -185,8 +206,9 @@ class Controller:
         """The body box rests on the floor (posture.body_clearance from last tick's legs)."""
         if self.last is None:
             return False
-        legs = [(side * C.LEG_PLANE_Y, length, math.pi / 2 - theta + att.pitch)
-                for side, length, theta in zip((1.0, -1.0), self.last.leg_lengths_m(), self.last.leg_angles_rad())]
+        (left_m, right_m), (left_rad, right_rad) = self.last.leg_lengths_m(), self.last.leg_angles_rad()
+        legs = ((_LEFT_Y, left_m, _HALF_PI - left_rad + att.pitch),
+                (_RIGHT_Y, right_m, _HALF_PI - right_rad + att.pitch))
         return posture.body_clearance(att.roll, att.pitch, legs) < P.BODY_GROUND_CLEARANCE
 
     # -- what each kind of tick sends --------------------------------------------
@@ -204,9 +226,12 @@ class Controller:
         cmd = self._command()
         out = self.chassis.step(self.bus, cmd, sensed)
         self._update_support(out.legs)
-        for joint in C.JOINTS:
-            result.frames[CAN2].append(messages.joint_torque(joint.motor_id, out.hip_torque[joint.motor_id], now_s))
-        currents = {esc: t / C.M3508_TORQUE_CONSTANT for esc, t in out.wheel_torque.items()}
+        joint_frames, hip_torque = result.frames[CAN2], out.hip_torque
+        for motor_id in _MOTOR_IDS:
+            joint_frames.append(messages.joint_torque(motor_id, hip_torque[motor_id], now_s))
+        currents = {}
+        for esc, torque_nm in out.wheel_torque.items():
+            currents[esc] = torque_nm / _TORQUE_CONSTANT
         result.frames[CAN1].append(self._wheel_frame(currents, now_s))
         self.last = LastOutput(out.report, dict(self.fn), self.jump.phase)
         if self.record_debug:
@@ -215,15 +240,16 @@ class Controller:
     def _command(self) -> Command:
         """What the chassis does this tick, by mode."""
         op = self.bus.operator
-        moving = self.mode == Mode.MOVE
+        mode = self.mode
+        moving = mode == _MOVE
         cmd = Command(speed=op.speed if moving else 0.0, yaw_rate=op.yaw_rate if moving else 0.0,
                       leg_length=op.leg_length, pitch=op.pitch, roll=op.roll,
-                      trim=self.mode in (Mode.BALANCE, Mode.MOVE))
-        if self.mode == Mode.AIRBORNE:
+                      trim=mode in ON_THE_WHEELS)
+        if mode == _AIRBORNE:
             cmd.airborne, cmd.air_pitch_hold, cmd.leg_length = True, True, P.AIR_LEG_LENGTH
-        elif self.mode == Mode.JUMP:
+        elif mode == _JUMP:
             self._jump_command(cmd)
-        elif self.mode == Mode.STAND_UP and self.recovery.active:
+        elif mode == _STAND_UP and self.recovery.active:
             self._recovery_command(cmd)
         return cmd
 
@@ -279,7 +305,7 @@ class Controller:
             self.fn[leg] = self.support[leg].update(support.leg_measurement(self.bus.joints, leg, state), accel_z)
         self.contact.update(self.fn["left"], self.fn["right"],
                             support.estimate_trusted(state.theta for state in legs.values()))
-        if self.mode in (Mode.BALANCE, Mode.MOVE):  # on its wheels: what the legs carry sizes a jump
+        if self.mode in ON_THE_WHEELS:  # on its wheels: what the legs carry sizes a jump
             self.jump.observe_stance(self.fn["left"], self.fn["right"])
 
     def _disabled(self, result: TickResult, now_s: float) -> None:

@@ -11,13 +11,11 @@ angle past a limit, body on the ground"), whatever the angles say
 """
 from __future__ import annotations
 
-import itertools
 import math
 
 from wheelleg.controller import constants as C
 
 _HALF = tuple(0.5 * v for v in C.BODY_SIZE)
-_CORNERS = tuple(itertools.product((-_HALF[0], _HALF[0]), (-_HALF[1], _HALF[1]), (-_HALF[2], _HALF[2])))
 
 
 def _height(roll: float, pitch: float, point: tuple) -> float:
@@ -32,7 +30,7 @@ def _height_row(roll: float, pitch: float) -> tuple[float, float, float]:
 
 
 def _height_in(row: tuple[float, float, float], point: tuple) -> float:
-    """``_height`` with the row worked out once (ten points a tick): the same products, the same sum."""
+    """``_height`` with the row worked out once (three points a tick): the same products, the same sum."""
     x, y, z = point
     return row[0] * x + row[1] * y + row[2] * z
 
@@ -49,5 +47,13 @@ def body_clearance(roll: float, pitch: float, legs) -> float:
     < 0 means the box would be below that ground: it rests on something."""
     row = _height_row(roll, pitch)
     ground = min([_height_in(row, axle_in_body(*leg)) for leg in legs]) - C.WHEEL_RADIUS
-    lowest = min([_height_in(row, corner) for corner in _CORNERS])
-    return lowest - ground
+    return _height_in(row, _lowest_corner(row)) - ground
+
+
+def _lowest_corner(row: tuple[float, float, float]) -> tuple[float, float, float]:
+    """The corner of the body box (m, body frame) lowest under the height row ``row``: on
+    each axis the half size against the row's sign. Its height is the least of the eight
+    corners' as computed (each product only changes sign between corners, and a rounded sum
+    of smaller terms is never larger), so one corner is worked out instead of eight."""
+    (hx, hy, hz), (rx, ry, rz) = _HALF, row
+    return (-hx if rx > 0.0 else hx, -hy if ry > 0.0 else hy, -hz if rz > 0.0 else hz)

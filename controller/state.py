@@ -28,6 +28,8 @@ IMU_PARTS = {"IMU_Orientation": "quat", "IMU_Gyro": "gyro", "IMU_Accel": "accel"
 RPM_TO_OUTPUT_RAD_S = 2 * math.pi / 60 / C.M3508_GEAR
 # the layout id of a CyberGear frame's id: four feedback frames a tick, a few dozen ids a bus
 _canonical_id = functools.lru_cache(maxsize=1024)(cg.canonical_id)
+# what every CyberGear frame reads, as module names (no attribute lookup a frame)
+_HOST_ID, _parse_reply_id, _T_FEEDBACK, _T_FAULT_WARN = C.CG_HOST_ID, cg.parse_reply_id, cg.T_FEEDBACK, cg.T_FAULT_WARN
 
 
 @dataclass
@@ -103,7 +105,7 @@ class BusState:
                 return None
             if msg.is_extended_id:  # CyberGear frames, on CAN2 only
                 if bus == CAN2:
-                    take_cybergear(msg, now_s, self.joints, C.CG_HOST_ID, _DB2)
+                    take_cybergear(msg, now_s, self.joints, _HOST_ID, _DB2)
                 return None
             if msg.arbitration_id == _SYNC_ID:
                 return checked_decode(_DB1, msg)["Tick"] if bus in _DBS else None
@@ -228,17 +230,19 @@ def take_cybergear(msg: can.Message, now_s: float, feedback: dict, host_id: int,
     "FaultWord". Frames of other motors or to other hosts are ignored;
     ``db`` is the bus's cantools database (BadFrame when a payload fails its checks).
     """
-    rid = cg.parse_reply_id(msg.arbitration_id)
+    can_id = msg.arbitration_id
+    rid = _parse_reply_id(can_id)
     fb = feedback.get(rid.motor_id)
     if fb is None or rid.host != host_id:
         return  # not one of ours, or a request from another host
-    if rid.ctype == cg.T_FEEDBACK:
-        sig = checked_decode(db, msg, _canonical_id(msg.arbitration_id))
+    ctype = rid.ctype
+    if ctype == _T_FEEDBACK:
+        sig = checked_decode(db, msg, _canonical_id(can_id))
         fb.position, fb.speed, fb.torque = sig["Pos"], sig["Vel"], sig["Torque"]
         fb.temperature, fb.mode, fb.faults = sig["Temp"], rid.mode, rid.faults
         fb.received_s = now_s
-    elif rid.ctype == cg.T_FAULT_WARN:
-        sig = checked_decode(db, msg, _canonical_id(msg.arbitration_id))
+    elif ctype == _T_FAULT_WARN:
+        sig = checked_decode(db, msg, _canonical_id(can_id))
         if any(v for k, v in sig.items() if k.startswith("Fault")):
             fb.faults = fb.faults | {"FaultWord"}
 
@@ -274,7 +278,8 @@ class ImuFrames:
         if len(self.parts) == 3:
             # a frozen IMU (hung firmware repeating its frames) is not heard: a real
             # sensor's noise changes some bit of its three frames every sample
-            imu.received_s = min(min(self.parts.values()), self.changed_s)
+            oldest, changed = min(self.parts.values()), self.changed_s
+            imu.received_s = changed if changed < oldest else oldest  # min(oldest, changed)
 
 
 _MESSAGE_NAMES = {m.frame_id: m.name for m in _DBS[CAN1].messages if not m.is_extended_frame}

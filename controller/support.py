@@ -47,10 +47,8 @@ def measured_leg_force(kin, front: C.Joint, rear: C.Joint, front_tau: float, rea
     Near the leg's singular stretch there is no unique answer: (0, 0) then,
     which reads as "no push", the safe side for a support estimate.
     """
-    t1 = fivebar.phi_torque_from_shaft(front, front_tau)
-    t4 = fivebar.phi_torque_from_shaft(rear, rear_tau)
-    try:
-        return fivebar.leg_force(kin, t1, t4)
+    try:  # fivebar.phi_torque_from_shaft of each, written out (twice a leg a tick)
+        return fivebar.leg_force(kin, front.sign * front_tau, rear.sign * rear_tau)
     except ValueError:
         return 0.0, 0.0
 
@@ -117,7 +115,11 @@ def estimate_trusted(thetas) -> bool:
     30 N push); a robot that leaves the ground does so with its legs near
     vertical (drop, jump, a bump at speed).
     """
-    return all(abs(t) < P.FN_TRUST_THETA for t in thetas)
+    limit = P.FN_TRUST_THETA
+    for theta in thetas:  # all(abs(t) < limit for t in thetas), without a generator every tick
+        if not abs(theta) < limit:
+            return False
+    return True
 
 
 class ContactDebounce:

@@ -59,23 +59,19 @@ DEBUG_FIELDS = {
 }
 
 
-# each leg's keys (L0, L0_ref, theta, T, Tp) and support-force key, named once
-_LEG_KEYS = tuple((leg, tuple(f"{leg}_{key}" for key in ("L0", "L0_ref", "theta", "T", "Tp")), f"Fn_{leg}")
-                  for leg in LEGS)
-
-
 def debug_record(last: LastOutput) -> dict:
-    """The trace's flat debug record (key -> number) of ``last``; read by no control path."""
+    """The trace's flat debug record (key -> number) of ``last``; read by no control path.
+
+    One dict display, in ``DEBUG_FIELDS``' order (built once a tick: no key-by-key stores)."""
     c = last.chassis
-    record = {"x": c.x_m, "x_ref": c.x_ref_m, "x_integral": c.x_integral_m_s,
-              "balance_theta": c.balance_theta_rad, "hold_torque": c.hold_torque_nm, "speed": c.speed_m_s,
-              "slipping": float(c.slipping), "speed_ref": c.speed_ref_m_s,
-              "pitch": c.pitch_rad, "roll": c.roll_rad, "yaw": c.yaw_rad, "yaw_ref": c.yaw_ref_rad}
-    for leg, (length, length_ref, theta, wheel, hip), _ in _LEG_KEYS:
-        s = c.legs[leg]
-        record[length], record[length_ref], record[theta] = s.length_m, s.length_ref_m, s.theta_rad
-        record[wheel], record[hip] = s.wheel_torque_nm, s.leg_torque_nm
-    for leg, _, fn_key in _LEG_KEYS:
-        record[fn_key] = last.support_n[leg]
-    record["jump_phase"] = int(last.jump_phase)
-    return record
+    left, right = c.legs["left"], c.legs["right"]
+    fn = last.support_n
+    return {"x": c.x_m, "x_ref": c.x_ref_m, "x_integral": c.x_integral_m_s,
+            "balance_theta": c.balance_theta_rad, "hold_torque": c.hold_torque_nm, "speed": c.speed_m_s,
+            "slipping": float(c.slipping), "speed_ref": c.speed_ref_m_s,
+            "pitch": c.pitch_rad, "roll": c.roll_rad, "yaw": c.yaw_rad, "yaw_ref": c.yaw_ref_rad,
+            "left_L0": left.length_m, "left_L0_ref": left.length_ref_m, "left_theta": left.theta_rad,
+            "left_T": left.wheel_torque_nm, "left_Tp": left.leg_torque_nm,
+            "right_L0": right.length_m, "right_L0_ref": right.length_ref_m, "right_theta": right.theta_rad,
+            "right_T": right.wheel_torque_nm, "right_Tp": right.leg_torque_nm,
+            "Fn_left": fn["left"], "Fn_right": fn["right"], "jump_phase": int(last.jump_phase)}

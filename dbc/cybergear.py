@@ -63,8 +63,10 @@ _TYPE_SHIFT, _TYPE_MASK = _REQ["Type"].shift, _REQ["Type"].mask
 _TARGET_SHIFT, _TARGET_MASK = _REQ["Target"].shift, _REQ["Target"].mask
 _HOST_SHIFT, _HOST_MASK = _REQ["Host"].shift, _REQ["Host"].mask
 _TORQUE_SHIFT, _TORQUE_MASK = _MOT["TorqueRef"].shift, _MOT["TorqueRef"].mask
+_MOTION_TARGET_SHIFT, _MOTION_TARGET_MASK = _MOT["Target"].shift, _MOT["Target"].mask
 _MOTION_TYPE = _MOT["Type"].put(T_MOTION)
-_TORQUE_TRUNCATE = (_TORQUE_SIGNAL.minimum, _TORQUE_SIGNAL.maximum, (1 << _TORQUE_SIGNAL.length) - 1)
+# (lowest N m, highest N m, full raw) of the torque field: truncate's first three arguments
+_TORQUE_LO, _TORQUE_HI, _TORQUE_FULL = _TORQUE_SIGNAL.minimum, _TORQUE_SIGNAL.maximum, (1 << _TORQUE_SIGNAL.length) - 1
 
 
 def comm_type(can_id: int) -> int:
@@ -95,8 +97,10 @@ def request_host(can_id: int) -> int:
 
 def motion_id(torque_nm: float, motor: int) -> int:
     """Id of a type-1 motion command carrying ``torque_nm`` (truncating encoder)."""
-    raw = truncate(*_TORQUE_TRUNCATE, torque_nm)  # truncating_raw of the torque signal
-    return _MOTION_TYPE | ((raw & _TORQUE_MASK) << _TORQUE_SHIFT) | _MOT["Target"].put(motor)
+    raw = truncate(_TORQUE_LO, _TORQUE_HI, _TORQUE_FULL, torque_nm)  # truncating_raw of the torque signal
+    # the target field's put (_Field.put) written out: four frames a control tick
+    return (_MOTION_TYPE | ((raw & _TORQUE_MASK) << _TORQUE_SHIFT)
+            | ((int(motor) & _MOTION_TARGET_MASK) << _MOTION_TARGET_SHIFT))
 
 
 def motion_torque(can_id: int) -> float:

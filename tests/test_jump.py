@@ -1,6 +1,5 @@
 """The jump phase table (controller/jump.py), the thrust's sizing and the modes it adds."""
 import math
-from dataclasses import replace
 
 import pytest
 
@@ -80,22 +79,22 @@ CALM = Inputs(switch=Switch.STAND, devices_ok=True, reenable=False, jump=False, 
 
 
 def test_modes_for_air_and_jumps():
-    assert next_mode(Mode.BALANCE, replace(CALM, off_ground=True)) == Mode.AIRBORNE
-    assert next_mode(Mode.MOVE, replace(CALM, switch=Switch.MOVE, off_ground=True)) == Mode.AIRBORNE
-    assert next_mode(Mode.AIRBORNE, replace(CALM, off_ground=True)) == Mode.AIRBORNE
+    assert next_mode(Mode.BALANCE, CALM._replace(off_ground=True)) == Mode.AIRBORNE
+    assert next_mode(Mode.MOVE, CALM._replace(switch=Switch.MOVE, off_ground=True)) == Mode.AIRBORNE
+    assert next_mode(Mode.AIRBORNE, CALM._replace(off_ground=True)) == Mode.AIRBORNE
     assert next_mode(Mode.AIRBORNE, CALM) == Mode.BALANCE
-    assert next_mode(Mode.BALANCE, replace(CALM, jump=True)) == Mode.JUMP
-    assert next_mode(Mode.JUMP, replace(CALM, off_ground=True)) == Mode.JUMP  # Fn ignored in a jump
-    assert next_mode(Mode.JUMP, replace(CALM, jump_done=True)) == Mode.BALANCE
-    assert next_mode(Mode.STAND_UP, replace(CALM, jump=True)) == Mode.STAND_UP  # no jump before standing
+    assert next_mode(Mode.BALANCE, CALM._replace(jump=True)) == Mode.JUMP
+    assert next_mode(Mode.JUMP, CALM._replace(off_ground=True)) == Mode.JUMP  # Fn ignored in a jump
+    assert next_mode(Mode.JUMP, CALM._replace(jump_done=True)) == Mode.BALANCE
+    assert next_mode(Mode.STAND_UP, CALM._replace(jump=True)) == Mode.STAND_UP  # no jump before standing
 
 
 def test_a_tumble_in_the_air_turns_torque_off_and_estop_wins_everywhere():
     for mode in (Mode.JUMP, Mode.AIRBORNE):
-        assert next_mode(mode, replace(CALM, fallen=True)) == Mode.FALLEN
-        assert next_mode(mode, replace(CALM, switch=Switch.ESTOP, fallen=True)) == Mode.ESTOP
+        assert next_mode(mode, CALM._replace(fallen=True)) == Mode.FALLEN
+        assert next_mode(mode, CALM._replace(switch=Switch.ESTOP, fallen=True)) == Mode.ESTOP
     assert next_mode(Mode.FALLEN, CALM) == Mode.FALLEN  # stays down until the operator asks
-    assert next_mode(Mode.FALLEN, replace(CALM, reenable=True)) == Mode.STAND_UP
+    assert next_mode(Mode.FALLEN, CALM._replace(reenable=True)) == Mode.STAND_UP
 
 
 # -- the thrust sized for the measured weight (jump.plan_thrust and its parts) -----------------

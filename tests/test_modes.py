@@ -1,5 +1,4 @@
 """The operating-mode machine: E-stop wins, re-enable only on command."""
-from dataclasses import replace
 
 from wheelleg.controller.modes import ENABLED, Inputs, Mode, Switch, next_mode
 
@@ -9,32 +8,32 @@ CALM = Inputs(switch=Switch.STAND, devices_ok=True, reenable=False, jump=False, 
 
 def test_idle_rises_when_the_remote_asks_and_all_is_well():
     assert next_mode(Mode.IDLE, CALM) == Mode.STAND_UP
-    assert next_mode(Mode.IDLE, replace(CALM, devices_ok=False)) == Mode.IDLE
-    assert next_mode(Mode.IDLE, replace(CALM, switch=Switch.ESTOP)) == Mode.ESTOP
+    assert next_mode(Mode.IDLE, CALM._replace(devices_ok=False)) == Mode.IDLE
+    assert next_mode(Mode.IDLE, CALM._replace(switch=Switch.ESTOP)) == Mode.ESTOP
 
 
 def test_estop_from_every_mode():
     for mode in Mode:
-        assert next_mode(mode, replace(CALM, switch=Switch.ESTOP)) == Mode.ESTOP
+        assert next_mode(mode, CALM._replace(switch=Switch.ESTOP)) == Mode.ESTOP
 
 
 def test_offline_device_disables_every_running_mode():
     for mode in ENABLED:
-        assert next_mode(mode, replace(CALM, devices_ok=False)) == Mode.DISABLED
+        assert next_mode(mode, CALM._replace(devices_ok=False)) == Mode.DISABLED
 
 
 def test_disabled_comes_back_only_on_reenable():
     assert next_mode(Mode.DISABLED, CALM) == Mode.DISABLED
-    assert next_mode(Mode.DISABLED, replace(CALM, reenable=True)) == Mode.STAND_UP
-    assert next_mode(Mode.DISABLED, replace(CALM, reenable=True, devices_ok=False)) == Mode.DISABLED
+    assert next_mode(Mode.DISABLED, CALM._replace(reenable=True)) == Mode.STAND_UP
+    assert next_mode(Mode.DISABLED, CALM._replace(reenable=True, devices_ok=False)) == Mode.DISABLED
 
 
 def test_stand_up_then_balance_then_move_and_back():
-    assert next_mode(Mode.STAND_UP, replace(CALM, stood_up=True)) == Mode.BALANCE
-    assert next_mode(Mode.BALANCE, replace(CALM, switch=Switch.MOVE)) == Mode.MOVE
+    assert next_mode(Mode.STAND_UP, CALM._replace(stood_up=True)) == Mode.BALANCE
+    assert next_mode(Mode.BALANCE, CALM._replace(switch=Switch.MOVE)) == Mode.MOVE
     assert next_mode(Mode.MOVE, CALM) == Mode.BALANCE
 
 
 def test_fall_turns_torque_off():
-    assert next_mode(Mode.BALANCE, replace(CALM, fallen=True)) == Mode.FALLEN
+    assert next_mode(Mode.BALANCE, CALM._replace(fallen=True)) == Mode.FALLEN
     assert Mode.FALLEN not in ENABLED

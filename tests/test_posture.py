@@ -33,3 +33,21 @@ def test_legs_swung_back_under_a_nose_down_body_put_it_on_the_ground():
 
 def test_roll_on_one_side():
     assert body_clearance(0.5, 0.0, _legs(0.17)) < body_clearance(0.1, 0.0, _legs(0.17))
+
+
+def test_the_lowest_corner_is_the_least_of_all_eight_bit_for_bit():
+    # body_clearance works out one corner picked by the height row's signs; every corner's
+    # height, as the sum is rounded, must never come out below it
+    import itertools
+    import random
+
+    from wheelleg.controller import posture
+
+    rng = random.Random(7)
+    half = tuple(0.5 * v for v in C.BODY_SIZE)
+    corners = list(itertools.product(*((-h, h) for h in half)))
+    for _ in range(2000):
+        roll, pitch = rng.uniform(-math.pi, math.pi), rng.uniform(-math.pi, math.pi)
+        row = posture._height_row(roll, pitch)
+        least = min(posture._height_in(row, corner) for corner in corners)
+        assert posture._height_in(row, posture._lowest_corner(row)) == least
