@@ -139,6 +139,19 @@ def test_balance_lean_puts_the_com_over_the_axle():
     assert lqr.balance_lean(-5.0, 0.17, 0.35) == 0.35
 
 
+def test_the_hold_torque_of_a_lean_is_balance_leans_inverse():
+    """The balance point is learnt from the legs' lean: the hold torque that goes with a lean
+    must give that lean back, at every length and weight ratio, and lean and torque have
+    opposite signs (CoM forward: hold torque > 0, wheels ahead of the hips: theta < 0)."""
+    for L0 in (0.12, 0.17, 0.26):
+        for theta in (-0.2, -0.05, 0.1):
+            for ratio in (0.8, 1.0, 1.3):
+                hold = lqr.lean_hold_torque(theta, L0, ratio)
+                assert hold * theta < 0.0
+                assert lqr.balance_lean(hold, L0, 1.0, ratio) == pytest.approx(theta, abs=1e-12)
+    assert lqr.lean_hold_torque(0.0, 0.17) == 0.0
+
+
 def test_static_arm_is_the_moment_of_body_and_leg_about_the_axle():
     """A 1.42 kg half body 3 cm off its hip needs 0.42 N m at the hip and ~0.16 rad of lean at 0.17 m."""
     from wheelleg.controller.design import lqr as design

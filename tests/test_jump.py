@@ -8,7 +8,7 @@ from wheelleg.controller import fivebar
 from wheelleg.controller import params as P
 from wheelleg.controller.jump import (PHASES, JumpSequencer, JumpView, Phase, StanceWeight, Thrust, hold_leg_angle,
                                       next_phase, plan_thrust, push_limit, stroke_work, takeoff_work,
-                                      thrust_amplitude, thrust_force)
+                                      planned_rate, thrust_amplitude, thrust_force, tracked_thrust_force)
 from wheelleg.controller.modes import Inputs, Mode, Switch, next_mode
 
 DT = P.CONTROL_PERIOD
@@ -61,9 +61,13 @@ def test_sequencer_runs_a_whole_jump_and_commands_each_phase():
 
 
 def test_thrust_force_decays_to_gravity_at_full_stroke():
+    """The planned push: legs lengthening faster than planned (0.01 m in a tick) get the
+    carried weight at full stroke; held still there they get the tracking's push."""
     seq = JumpSequencer(DT)
     seq.phase = Phase.THRUST
+    seq.step((P.JUMP_THRUST_END_LENGTH - 0.01,) * 2, True)
     assert seq.step((P.JUMP_THRUST_END_LENGTH - 1e-6,) * 2, True).leg_force < P.LEG_GRAVITY_FF + 1e-3
+    assert seq.step((P.JUMP_THRUST_END_LENGTH - 1e-6,) * 2, True).leg_force > 5 * P.LEG_GRAVITY_FF
 
 
 def test_a_jump_that_never_leaves_the_ground_still_ends():
@@ -192,3 +196,26 @@ def test_the_sequencer_pushes_harder_after_standing_heavier_and_holds_the_lean_i
     assert hold.axle_offset_m == pytest.approx((0.125 * math.sin(0.1), 0.127 * math.sin(0.12)))
     assert hold.pitch_rad == 0.03
     assert _thrust_command(NOMINAL_CARRIED_N + axle_weight, forward=True).stance_hold is None
+
+
+def test_the_thrust_pushes_harder_only_while_the_legs_lag_its_plan():
+    """At the planned rate the push is the plan's; slower (the hips' armature takes work the
+    plan does not know) it grows by JUMP_RATE_KP per m/s, never past the hips' limit; faster,
+    it is the plan's (no braking)."""
+    thrust = plan_thrust(P.LEG_GRAVITY_FF)
+    length = 0.5 * (P.JUMP_SQUAT_DONE_LENGTH + P.JUMP_THRUST_END_LENGTH)
+    rate = planned_rate(thrust, length)
+    assert rate > 0.5 and planned_rate(thrust, P.JUMP_SQUAT_DONE_LENGTH) == 0.0
+    planned = thrust_force(thrust, length)
+    assert tracked_thrust_force(thrust, length, rate) == pytest.approx(planned)
+    assert tracked_thrust_force(thrust, length, rate + 1.0) == pytest.approx(planned)
+    assert tracked_thrust_force(thrust, length, rate - 0.01) == pytest.approx(planned + 0.01 * P.JUMP_RATE_KP, rel=1e-6)
+    assert tracked_thrust_force(thrust, length, 0.0) == pytest.approx(push_limit(length), rel=1e-2)
+
+
+def test_the_planned_rate_is_the_bodys_speed_from_the_pushs_work():
+    """By the stroke's end the plan's rate is the take-off speed ``takeoff_work`` asked for."""
+    thrust = plan_thrust(P.LEG_GRAVITY_FF)
+    mass = thrust.carried_n / C.GRAVITY
+    end = planned_rate(thrust, P.JUMP_THRUST_END_LENGTH)
+    assert 0.5 * mass * end ** 2 == pytest.approx(takeoff_work(thrust.carried_n), rel=1e-6)
