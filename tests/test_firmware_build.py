@@ -13,7 +13,7 @@ from wheelleg.dbc import cybergear as cg
 from wheelleg.hil import firmware_build
 
 from firmware_feed import FULL_SCALE, Firmware, commands, python_step, recorded_ticks
-from sharing import same_fixture, same_run
+from sharing import each_run, same_fixture, session_dir
 
 pytestmark = pytest.mark.skipif(shutil.which("cc") is None or shutil.which("make") is None,
                                 reason="no C compiler or make")
@@ -26,7 +26,9 @@ COMMAND_TOLERANCE = 0.02
 
 @pytest.fixture(scope="module")
 def library(tmp_path_factory):
-    return firmware_build.build("lib", tmp_path_factory.mktemp("fw"))
+    """Built from scratch once a session (warnings as errors), whichever worker asks first;
+    the others wait on the build's lock and find it made."""
+    return firmware_build.build("lib", session_dir(tmp_path_factory, "firmware-lib"))
 
 
 @pytest.mark.slow
@@ -130,12 +132,11 @@ def test_python_and_c_agree_on_recorded_inputs(library, trace):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("scenario,duration", [
-    pytest.param("jump", None, marks=same_run("jump")), pytest.param("drive", 5.0)])
-def test_python_and_c_agree_on_drive_and_jump(library, rig_run, scenario, duration):
+@pytest.mark.parametrize("scenario", each_run(["jump", "drive"]))  # runs test_scenarios_* judge too
+def test_python_and_c_agree_on_drive_and_jump(library, rig_run, scenario):
     """A run's recorded inputs (the jump's squat, thrust, flight and landing; driving off,
-    cruising and braking at 1 m/s) to both programs."""
-    run = rig_run(scenario, duration=duration)
+    cruising and braking at 1 m/s forward and back) to both programs."""
+    run = rig_run(scenario)
     worst, modes, others = _compare(library, recorded_ticks(run.log_path))
     assert modes == [] and others == []
     assert max(worst.values()) < COMMAND_TOLERANCE, worst
