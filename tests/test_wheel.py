@@ -3,7 +3,6 @@ plugin working in a project that has its own ``controller`` and ``hil`` packages
 from __future__ import annotations
 
 import subprocess
-import sys
 import textwrap
 import zipfile
 
