@@ -42,9 +42,8 @@ def receive(client: foxglove_client.Client) -> dict:
 
 
 def test_a_client_sees_the_channels_and_scene_poses_that_match_ground_truth(tmp_path):
-    seconds = 2  # of balance: what is streamed each period is the same over 2 s as over the scenario's 10 s
     run = subprocess.Popen([sys.executable, "-m", "wheelleg.hil.cli", "run", "balance", "--live", "--port", "0",
-                            "--live-wait", "60", "--duration", str(seconds), "--out", str(tmp_path), "--no-plot", "-q"],
+                            "--live-wait", "60", "--out", str(tmp_path), "--no-plot", "-q"],
                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         line = run.stdout.readline()
@@ -55,9 +54,9 @@ def test_a_client_sees_the_channels_and_scene_poses_that_match_ground_truth(tmp_
     finally:
         run.kill()
     assert run.returncode == 0, err
-    # every message from the start (--live-wait): scenes at 2 ms, then every 20 ms to the end; the state every tick
-    assert [t for t, _ in got["/scene"][:2]] == [2_000_000, 20_000_000] and len(got["/scene"]) == 1 + 50 * seconds
-    assert len(got["/sim/state"]) == 500 * seconds and got["/can/vcan1"]
+    # every message from the start (--live-wait): scenes at 2 ms, then every 20 ms to 10 s; the state every tick
+    assert [t for t, _ in got["/scene"][:2]] == [2_000_000, 20_000_000] and len(got["/scene"]) == 501
+    assert len(got["/sim/state"]) == 5000 and got["/can/vcan1"]
     scene_class = got.pop("scene_class")
 
     motion = recorded_motion(tmp_path / "balance.mcap")  # the plant's poses, from the trace
@@ -86,7 +85,7 @@ def test_a_client_sees_the_channels_and_scene_poses_that_match_ground_truth(tmp_
     live = [(f.t_ns, f.arbitration_id, f.data) for t_ns, payload in got["/can/vcan1"]
             for f in can_batch.unpack(payload, t_ns, "vcan1")]
     traced = [(f.t_ns, f.arbitration_id, f.data) for f in reader.frames("vcan1") if f.t_ns >= live[0][0]]
-    assert live == traced and len(live) > 1_000 * seconds
+    assert live == traced and len(live) > 10_000
 
 
 def test_a_port_in_use_is_a_one_line_usage_error(tmp_path):
