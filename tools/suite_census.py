@@ -7,8 +7,9 @@ Per test (one JSON line in ``DIR/<worker>.jsonl``): wall seconds of setup, call 
 teardown together, the worker's own CPU seconds and those of the processes it waited
 for (``RUSAGE_CHILDREN``). CPU seconds are what a loaded, shared machine changes least;
 the wall clock follows the other jobs. Per ``Rig.run`` in the worker: the scenario, its
-seed, simulated seconds, plant overrides, program and the CPU of the thread that ran it, so the summary shows runs made
-more than once (on two workers, or by two tests that could share one ``rig_run``).
+seed, simulated seconds, plant overrides, program and the CPU of the thread that ran it,
+so the summary shows runs made more than once (on two workers, or by two tests that
+could share one ``rig_run``).
 Runs inside processes a test starts (``wheelleg run``, a campaign's workers) are counted
 in the test's children CPU, not listed.
 """
