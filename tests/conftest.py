@@ -7,6 +7,8 @@ import uuid
 import can
 import pytest
 
+import throwaway_venv
+
 # As `wheelleg` itself does (hil/cli.py): no test renders, and without this MuJoCo loads an OpenGL
 # back end (glfw) on import, 0.1-0.2 s in each xdist worker and in each process a test starts
 os.environ.setdefault("MUJOCO_GL", "disable")
@@ -24,6 +26,13 @@ def vbus_pair():
     yield buses
     for bus in buses:
         bus.shutdown()
+
+
+@pytest.fixture(scope="session")
+def checkout_wheel(tmp_path_factory):
+    """This checkout's wheel, built once a session (its tests share one xdist worker:
+    ``sharing.BUILDS_THE_SOURCE_TREE``)."""
+    return throwaway_venv.build_wheel(tmp_path_factory.mktemp("wheel"))
 
 
 def _is_long(item) -> bool:

@@ -4,6 +4,7 @@ with vectors from docs/protocols.md."""
 from __future__ import annotations
 
 import gzip
+import json
 import logging
 import math
 import re
@@ -22,6 +23,8 @@ from wheelleg import dbc
 from wheelleg.dbc import all_dbc_files, load_bus, load_file, truncating_raw
 from wheelleg.dbc import cybergear as cg
 from wheelleg.dbc.codec import MessageCodec
+
+from sharing import same_fixture
 
 FILES = all_dbc_files()
 TRACES = Path(__file__).resolve().parent / "traces"
@@ -74,23 +77,63 @@ def test_loads_strictly_without_warnings(path, caplog):
     assert db.messages and all(m.signals or m.length == 8 for m in db.messages)
 
 
+# cantools' command line (``python -m cantools ARGS``) for each call in one fresh interpreter, which
+# imports nothing of the rig: each call parses its own argv and reads its own stdin as its own process
+# would; one start-up (~1.2 s of CPU: the interpreter, cantools) instead of one a call
+_CANTOOLS_CALLS = r"""
+import contextlib, io, json, sys
+import cantools
+results = []
+for argv, stdin in json.load(sys.stdin):
+    out, err, code = io.StringIO(), io.StringIO(), 0
+    sys.argv, sys.stdin = ["cantools", *argv], io.StringIO(stdin)
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        try:
+            cantools._main()  # what `python -m cantools` runs
+        except SystemExit as exc:  # sys.exit("error: ...") as a process prints and exits 1
+            code = exc.code if isinstance(exc.code, int) or exc.code is None else print(exc.code, file=sys.stderr) or 1
+    results.append((code or 0, out.getvalue(), err.getvalue()))
+json.dump(results, sys.__stdout__)
+"""
+DECODE_LOG = TRACES / "motor-fault.log.gz"
+
+
+def _dump_args(path: Path) -> list[str]:
+    return ["dump", str(path)]
+
+
+def _decode_args(name: str) -> list[str]:
+    return ["decode", "--single-line", str(dbc.dbc_path(name)), "-m", "0x1F000000"]
+
+
+@pytest.fixture(scope="module")
+def cantools_cli() -> dict[tuple, subprocess.CompletedProcess]:
+    """argv -> the outcome of ``python -m cantools ARGV`` for every call this module's tests check."""
+    log = gzip.decompress(DECODE_LOG.read_bytes()).decode()
+    calls = [(_dump_args(p), "") for p in FILES] + [(_decode_args(n), log) for n in sorted(dbc.CYBERGEAR_FILES.values())]
+    done = subprocess.run([sys.executable, "-c", _CANTOOLS_CALLS], input=json.dumps(calls), capture_output=True,
+                          text=True, timeout=600)
+    assert done.returncode == 0, done.stderr[-3000:]
+    return {tuple(argv): subprocess.CompletedProcess(["cantools", *argv], *outcome)
+            for (argv, _), outcome in zip(calls, json.loads(done.stdout))}
+
+
+@same_fixture("cantools cli")
 @pytest.mark.parametrize("path", FILES, ids=lambda p: p.name)
-def test_cantools_dump_reads_every_file(path):
-    result = subprocess.run([sys.executable, "-m", "cantools", "dump", str(path)], capture_output=True,
-                            text=True, timeout=120)
+def test_cantools_dump_reads_every_file(path, cantools_cli):
+    result = cantools_cli[tuple(_dump_args(path))]
     assert result.returncode == 0, result.stderr
     for msg in load_file(path.name).messages:
         assert msg.name in result.stdout
     assert "Traceback" not in result.stderr
 
 
+@same_fixture("cantools cli")
 @pytest.mark.parametrize("name", sorted(dbc.CYBERGEAR_FILES.values()))
-def test_cantools_decode_matches_a_rig_log_by_the_type_alone(name):
+def test_cantools_decode_matches_a_rig_log_by_the_type_alone(name, cantools_cli):
     """`cantools decode cybergear.dbc -m 0x1F000000 < run.log`: one message per type, no overwriting
     warning, every CyberGear frame of a rig log decoded (the standard ids are rig.dbc's and c620.dbc's)."""
-    log = gzip.decompress((TRACES / "motor-fault.log.gz").read_bytes()).decode()
-    result = subprocess.run([sys.executable, "-m", "cantools", "decode", "--single-line", str(dbc.dbc_path(name)),
-                             "-m", "0x1F000000"], input=log, capture_output=True, text=True, timeout=300)
+    result = cantools_cli[tuple(_decode_args(name))]
     assert result.returncode == 0 and result.stderr == ""
     extended = [line for line in result.stdout.splitlines() if len(line.split()[2].partition("#")[0]) == 8]
     assert len(extended) > 5000

@@ -1,9 +1,9 @@
 """A robot from outside the rig: tests/plugin_robot (the ``wheelleg-balancer`` package) installed by pip.
 
-One throwaway virtualenv (``python -m venv --system-site-packages``: the
-rig's dependencies come from the interpreter running the tests) gets the rig
-(editable, --no-deps) and the balancer package, each by that venv's own pip.
-Then, with that venv's ``wheelleg`` and nothing of the rig changed: the
+One throwaway virtualenv (tests/throwaway_venv.py: the rig's dependencies come
+from the interpreter running the tests) gets the rig (the session's wheel of this
+checkout, --no-deps, as a team installs it) and the balancer package, built and
+installed into it by pip. Then, with that venv's ``wheelleg`` and nothing of the rig changed: the
 robot is listed with its package, its two scenarios pass, their traces
 replay identically, a small campaign runs, inspect and decode read its trace,
 and the pytest plugin's ``rig_run`` runs its scenario; a skeleton of ``wheelleg new-robot``
@@ -14,17 +14,16 @@ from __future__ import annotations
 import json
 import os
 import shutil
-import site
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
 
 from sharing import BUILDS_THE_SOURCE_TREE
+from throwaway_venv import make_venv, pip_install
 from wheelleg.hil import robots
 
-pytestmark = BUILDS_THE_SOURCE_TREE  # the venv fixture installs this checkout (editable)
+pytestmark = BUILDS_THE_SOURCE_TREE  # the venv fixture installs the session's wheel of this checkout
 
 ROOT = Path(__file__).resolve().parents[1]
 PLUGIN = ROOT / "tests" / "plugin_robot"
@@ -45,19 +44,15 @@ def ok(done: subprocess.CompletedProcess) -> str:
 
 
 @pytest.fixture(scope="module")
-def venv(tmp_path_factory) -> Path:
-    """A venv with the rig (editable) and the balancer package installed by its own pip."""
+def venv(tmp_path_factory, checkout_wheel) -> Path:
+    """A venv with the rig (this checkout's wheel) and the balancer package installed by pip."""
     home = tmp_path_factory.mktemp("plugin-venv")
     venv = home / "venv"
-    subprocess.run([sys.executable, "-m", "venv", "--system-site-packages", str(venv)], check=True, timeout=300)
-    # the rig's dependencies from the interpreter running the tests, wherever it keeps them (its own venv)
-    own = next((venv / "lib").glob("python3*/site-packages"))
-    (own / "test-interpreter.pth").write_text("\n".join(site.getsitepackages()) + "\n")
+    python = make_venv(venv)  # sees the rig's dependencies, not this interpreter's wheelleg
     source = home / "plugin_robot"  # built from a copy: pip builds a local folder in place
     shutil.copytree(PLUGIN, source, ignore=shutil.ignore_patterns("__pycache__", "build", "*.egg-info"))
-    flags = ("--no-deps", "--no-build-isolation", "--quiet", "--disable-pip-version-check")
-    ok(run(venv, "python", "-m", "pip", "install", *flags, "-e", str(ROOT), timeout_s=900))
-    ok(run(venv, "python", "-m", "pip", "install", *flags, str(source), timeout_s=900))
+    pip_install(python, "--no-deps", str(checkout_wheel))
+    pip_install(python, "--no-deps", "--no-build-isolation", str(source))
     return venv
 
 
@@ -115,8 +110,7 @@ def test_the_pytest_plugin_runs_the_installed_robots_scenario(venv, tmp_path):
 @pytest.mark.slow
 def test_a_new_robots_skeleton_installs_and_is_listed(venv, tmp_path):
     ok(run(venv, "wheelleg", "new-robot", "my-bot", "--dir", str(tmp_path / "my-bot")))
-    ok(run(venv, "python", "-m", "pip", "install", "--no-deps", "--no-build-isolation", "--quiet",
-           "--disable-pip-version-check", str(tmp_path / "my-bot"), timeout_s=900))
+    pip_install(venv / "bin" / "python", "--no-deps", "--no-build-isolation", str(tmp_path / "my-bot"))
     listed = ok(run(venv, "wheelleg", "list", "--robot", "my-bot"))
     assert listed.startswith("my-bot (run as my-bot/NAME or --robot my-bot) from wheelleg-my-bot 0.1.0: ")
     out = ok(run(venv, "wheelleg", "run", "my-bot/balance", "--duration", "2.5", "--out", str(tmp_path / "out"),

@@ -6,6 +6,8 @@ import pytest
 
 from wheelleg.hil.commands.run import execute
 
+from sharing import each_run
+
 pytestmark = pytest.mark.slow  # scenario runs: scheduled first (tests/conftest.py)
 
 BASIC = ("balance", "stand-up", "drive", "turn", "height")
@@ -19,12 +21,13 @@ def run_scenario(name: str, out: Path, seed: int = 0, duration=None):
     return outcome, results
 
 
-@pytest.mark.parametrize("name", BASIC)
-def test_scenario_passes_its_checks(name, tmp_path):
-    outcome, results = run_scenario(name, tmp_path)
-    assert outcome.trace_path.exists() and outcome.log_path.exists()
-    failed = [f"{r.name}: {r.detail}" for r in results if not r.passed]
-    assert results and not failed, f"{name} failed (trace {outcome.trace_path}): {failed}"
+@pytest.mark.parametrize("name", each_run(BASIC))
+def test_scenario_passes_its_checks(rig_run, name):
+    """Through ``rig_run``: the runs other tests judge too (the firmware's drive) are made once."""
+    run = rig_run(name)
+    assert run.trace_path.exists() and run.log_path.exists()
+    assert run.checks
+    run.assert_passed()
 
 
 def test_same_scenario_and_seed_give_byte_identical_logs(tmp_path):

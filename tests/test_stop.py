@@ -39,8 +39,11 @@ def _started_run(out, *extra: str) -> subprocess.Popen:
 @pytest.mark.parametrize("mode", [(), ("--realtime",)], ids=["lockstep", "realtime"])
 def test_a_stopped_run_leaves_a_closed_trace_and_says_where_it_stopped(tmp_path, signum, status, words, mode):
     proc = _started_run(tmp_path, *mode)
-    proc.send_signal(signum)
-    _, err = proc.communicate(timeout=60)
+    try:
+        proc.send_signal(signum)
+        _, err = proc.communicate(timeout=60)
+    finally:
+        proc.kill()  # a run that ignored the signal (one started with SIGINT ignored) does not outlive the test
     assert proc.returncode == status, err[-2000:]
     line = err.strip().splitlines()[-1]
     assert words in line and "s simulated" in line and str(tmp_path / "balance.mcap") in line, line

@@ -9,6 +9,9 @@ import pytest
 from wheelleg.hil import cli
 from wheelleg.hil.watch.scene import QPOS_PERIOD_S, recorded_motion
 
+from sharing import same_run
+
+pytestmark = same_run("jump 1.6 s")  # every test here draws from rig_run("jump", duration=1.6): one worker, one run
 needs_gl = pytest.mark.skipif(not (ctypes.util.find_library("OSMesa") or ctypes.util.find_library("EGL")),
                               reason="no offscreen OpenGL: apt-get install libosmesa6 (.ci/run does)")
 

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 import x11_helpers
+from sharing import same_run
 
 pytestmark = [pytest.mark.slow,
               pytest.mark.skipif(x11_helpers.available() is not None, reason=str(x11_helpers.available()))]
@@ -82,8 +83,9 @@ def test_view_without_a_display_is_a_one_line_usage_error(tmp_path):
     assert done.returncode == 2 and "needs a display" in done.stderr and done.stderr.count("\n") == 1
 
 
+@same_run("balance")  # test_scenarios_basic's run
 def test_replay_view_shows_the_recorded_robot_after_its_verdict_until_closed(rig_run):
-    trace = rig_run("balance").trace_path
+    trace = rig_run("balance").trace_path  # 10 s: the view plays it at real time and closes at its end
     with x11_helpers.xvfb() as display:
         screen = x11_helpers.Display(display)
         try:

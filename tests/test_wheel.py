@@ -2,42 +2,21 @@
 plugin working in a project that has its own ``controller`` and ``hil`` packages."""
 from __future__ import annotations
 
-import shutil
 import subprocess
-import sys
 import textwrap
 import zipfile
-from pathlib import Path
 
 import pytest
 
 from sharing import BUILDS_THE_SOURCE_TREE
-from throwaway_venv import make_venv, pip_install
+from throwaway_venv import REPO, make_venv, pip_install
 
 pytestmark = pytest.mark.slow  # a wheel build and a venv: scheduled first (tests/conftest.py)
 
-REPO = Path(__file__).resolve().parent.parent
 
-
-@pytest.fixture(scope="module")
-def wheel(tmp_path_factory) -> Path:
-    out = tmp_path_factory.mktemp("wheel")
-    # built from a copy of the checkout: setuptools builds a local folder in place (build/, the
-    # egg-info, the compiled extension), and another test's editable install of this checkout
-    # left state there that broke this build in CI
-    source = out / "source"
-    shutil.copytree(REPO, source, ignore=shutil.ignore_patterns(".git", ".venv", "build", "out", "*.egg-info",
-                                                                 "__pycache__", "*.so", ".hypothesis", ".pytest_cache"))
-    done = subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "-q",
-                           "-w", str(out), str(source)], capture_output=True, text=True)
-    assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-4000:]
-    (path,) = out.glob("wheelleg_hil-*.whl")
-    return path
-
-
-@BUILDS_THE_SOURCE_TREE  # and shares the module's wheel
-def test_the_wheel_has_one_top_level_package(wheel):
-    with zipfile.ZipFile(wheel) as zf:
+@BUILDS_THE_SOURCE_TREE  # the session's wheel (tests/conftest.py)
+def test_the_wheel_has_one_top_level_package(checkout_wheel):
+    with zipfile.ZipFile(checkout_wheel) as zf:
         names = zf.namelist()
     tops = {n.split("/")[0] for n in names if not n.split("/")[0].endswith((".dist-info", ".data"))}
     assert tops == {"wheelleg"}
@@ -51,17 +30,17 @@ def test_the_wheel_has_one_top_level_package(wheel):
                 for pattern in ("Makefile", "**/*.c", "**/*.h") for path in (REPO / "firmware").glob(pattern)
                 if "build" not in path.relative_to(REPO / "firmware").parts}
     assert len(firmware) > 30 and firmware <= set(names), sorted(firmware - set(names))
-    with zipfile.ZipFile(wheel) as zf:  # its robots, registered as any robot package registers its own
+    with zipfile.ZipFile(checkout_wheel) as zf:  # its robots, registered as any robot package registers its own
         points = zf.read(next(n for n in names if n.endswith(".dist-info/entry_points.txt"))).decode()
     assert "[wheelleg.robots]\nquadruped = wheelleg.hil.robots.quadruped:ROBOT\n" in points
 
 
-@BUILDS_THE_SOURCE_TREE  # and shares the module's wheel
-def test_a_project_with_its_own_controller_and_hil_uses_rig_run(wheel, tmp_path):
+@BUILDS_THE_SOURCE_TREE  # the session's wheel (tests/conftest.py)
+def test_a_project_with_its_own_controller_and_hil_uses_rig_run(checkout_wheel, tmp_path):
     """The collision the editable install hid: a team's own ``controller``/``hil`` packages."""
     # the dependencies come from this interpreter's site-packages; the package only from the wheel
     py = make_venv(tmp_path / "venv")
-    pip_install(py, "--no-deps", "--force-reinstall", str(wheel))
+    pip_install(py, "--no-deps", "--force-reinstall", str(checkout_wheel))
     project = tmp_path / "team"
     for package in ("controller", "hil"):
         (project / package).mkdir(parents=True)
