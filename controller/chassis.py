@@ -120,7 +120,7 @@ class ChassisController:
         self.accel_ref = 0.0  # m/s^2, the speed set point's own (motion.speed_set_point)
         self.travel = Travel.STANDING  # what the speed set point does (motion.travel_phase)
         self.yaw_ref = 0.0  # rad
-        self.yaw_rate_ref = 0.0  # rad/s, the commanded turn rate eased in and out (YAW_RATE_TAU)
+        self.yaw_rate_ref = 0.0  # rad/s, the commanded turn rate eased in and out (YAW_ACCEL_LIMIT)
         self.leg_ref = {leg: P.LEG_LENGTH_NOMINAL for leg in LEGS}
         self.roll_offset = 0.0  # m, integral levelling: left minus right leg length
         self.lean = 0.0  # rad, roll set point into a turn, lagging the command (TURN_LEAN_TAU)
@@ -316,7 +316,8 @@ class ChassisController:
             self.x_ref = self.x - clamp(self.x - self.x_ref, P.POSITION_ERROR_LIMIT)
         # standing, it stays put: pushed away, the robot comes back to its spot, with the
         # error the LQR sees clamped (_lqr), so at a bounded speed
-        self.yaw_rate_ref += (clamp(cmd.yaw_rate, P.YAW_RATE_LIMIT) - self.yaw_rate_ref) * min(1.0, self.dt / P.YAW_RATE_TAU)
+        change = clamp(cmd.yaw_rate, P.YAW_RATE_LIMIT) - self.yaw_rate_ref
+        self.yaw_rate_ref += clamp(change, P.YAW_ACCEL_LIMIT * self.dt)
         self.yaw_ref = wrap(self.yaw_ref + self.yaw_rate_ref * self.dt)
         target_lean = turn_lean(self.speed_ref, self.yaw_rate_ref)
         self.lean += (target_lean - self.lean) * min(1.0, self.dt / P.TURN_LEAN_TAU)

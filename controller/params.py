@@ -53,16 +53,18 @@ ROLL_LEVEL_LIMIT = 0.13
 # rad, largest lean into a turn (roll set point -atan(v w / g)): 20 deg is
 # 2 m/s at 1.8 rad/s; beyond it the leg difference (0.115 m) nears ROLL_LEVEL_LIMIT
 TURN_LEAN_LIMIT = 0.35
-# s, the commanded turn rate is eased in and out through this lag (the heading and the
+# rad/s^2, the commanded turn rate is eased in and out at this rate (the heading and the
 # yaw loop follow the eased rate), and the lean follows the eased rate through
 # TURN_LEAN_TAU. A stepped lean (and 0.2 s on a stepped rate) lifted the inner, then the
 # outer wheel at 1.5 m/s, 2 rad/s (turn-fast); 0.3 s on the lean alone kept both >= 10 N
 # nominal, but the yaw loop stopped the turn in ~0.1 s while the lean still held 17 deg: the
-# outer wheel lifted for a moment at the turn's end on sourced tolerance plants. Easing the
-# rate (0.3 s) and the lean after it (0.1 s): the least wheel load 15.8 N nominal (11.1
-# before), 16.2 N on the plant that lifted. The measured yaw rate is no better: lean ->
-# leg difference -> yaw closes a loop that toppled a straight sprint.
-YAW_RATE_TAU = 0.3
+# outer wheel lifted for a moment at the turn's end on sourced tolerance plants. Eased
+# (6 rad/s^2: 2 rad/s in 0.33 s) with the lean 0.1 s behind: the least wheel load 14.4 N
+# nominal (11.1 before), 14.7 N on the plant that lifted; 10 rad/s^2 lifted it again. A
+# 0.3 s lag on the rate instead kept the loads but its tail left `pose`'s 45 deg turn 2.4 deg
+# short at the check; a ramp ends when the command's area is done. The measured yaw rate is
+# no better: lean -> leg difference -> yaw closes a loop that toppled a straight sprint.
+YAW_ACCEL_LIMIT = 6.0
 TURN_LEAN_TAU = 0.1
 
 # --- split legs (keep both legs at the same angle) ------------------------------

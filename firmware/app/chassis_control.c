@@ -102,7 +102,7 @@ static void track_references(wl_chassis_t *c, const wl_chassis_cmd_t *cmd) {
         c->x_ref = c->x - wl_clamp(c->x - c->x_ref, WL_P_POSITION_ERROR_LIMIT);
     }
     float yaw_rate = wl_clamp(cmd->yaw_rate, WL_P_YAW_RATE_LIMIT);
-    c->yaw_rate_ref += (yaw_rate - c->yaw_rate_ref) * wl_minf(1.0f, c->dt / WL_P_YAW_RATE_TAU);
+    c->yaw_rate_ref += wl_clamp(yaw_rate - c->yaw_rate_ref, WL_P_YAW_ACCEL_LIMIT * c->dt);
     c->yaw_ref = wl_wrap(c->yaw_ref + c->yaw_rate_ref * c->dt);
     float target_lean = wl_turn_lean(c->speed_ref, c->yaw_rate_ref);
     c->lean += (target_lean - c->lean) * wl_minf(1.0f, c->dt / WL_P_TURN_LEAN_TAU);

@@ -37,7 +37,7 @@ typedef struct {
     float dt;
     double dt_d;                     /* s, the period in double for the trim's timer */
     float x, x_ref, speed_ref, accel_ref, yaw_ref, roll_offset, lean, x_integral;
-    float yaw_rate_ref;              /* rad/s, the commanded turn rate eased in and out (YAW_RATE_TAU) */
+    float yaw_rate_ref;              /* rad/s, the commanded turn rate eased in and out (YAW_ACCEL_LIMIT) */
     double trim_hold_s;              /* s (double: the same tick as the Python's sum) */
     float takeoff_speed, takeoff_error;
     float speed_prev, accel;         /* m/s a period ago, m/s^2 lagged: the balance point's acceleration */

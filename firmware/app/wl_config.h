@@ -86,7 +86,7 @@
 #define WL_P_ROLL_LEVEL_KI 0.5f
 #define WL_P_ROLL_LEVEL_LIMIT 0.13f
 #define WL_P_TURN_LEAN_LIMIT 0.35f
-#define WL_P_YAW_RATE_TAU 0.3f
+#define WL_P_YAW_ACCEL_LIMIT 6.0f
 #define WL_P_TURN_LEAN_TAU 0.1f
 #define WL_P_SPLIT_KP 12.0f
 #define WL_P_SPLIT_KD 1.0f
