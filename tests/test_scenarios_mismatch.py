@@ -13,8 +13,8 @@ their ground point, the push along the leaning legs left the CoM and the robot t
 off spinning.
 
 With the trim alone the CoM 3 cm forward still moved the body 8.5 cm while the
-integral built up (0.8 s); the balance point (the hip torque that holds the body,
-learnt standing, and the lean it implies) keeps it to 2.7 cm.
+integral built up (0.8 s); the balance point (the legs' lean standing still, and the
+hip torque that holds the body there) keeps it to 2.9 cm.
 """
 import numpy as np
 import pytest
