@@ -10,10 +10,11 @@ integral on the attitude error, body frame).
 
 ``BalancePointObserver``: a body whose CoM sits off the hip (the build, a battery
 moved, a payload) or an IMU mounted tilted makes the robot balance with the legs
-leaning, not upright. The hip torque that holds the body standing still says how
-far: its mean is learnt, and the LQR balances about the lean it implies
-(controller/lqr.py ``balance_lean``) instead of dragging the wheels away from it
-until the position integral has caught up.
+leaning, not upright. Standing still, the legs' lean says how far (the whole CoM is
+over the axle, whatever the hips' dry friction holds); the hold torque of that lean
+(controller/lqr.py ``lean_hold_torque``) is learnt, and the LQR balances about the lean
+it implies (``balance_lean``) instead of dragging the wheels away from it until the
+position integral has caught up.
 
 Quaternions are (w, x, y, z) tuples, body to world; rates rad/s, body frame.
 """
@@ -159,13 +160,14 @@ class SlipObserver:
 class BalancePointObserver:
     """The hip torque (N m per leg) that holds the body at rest: the balance point.
 
-    ``hold_torque`` follows the torque the legs' LQR asks (``update``, called only
-    standing still) through a first-order lag: ``tau_learn_s`` for the first
+    ``hold_torque`` follows the hold torque of the legs' lean (``update``, fed by the
+    chassis with ``lqr.lean_hold_torque`` of the mean leg angle less the acceleration's
+    lean) through a first-order lag: ``tau_learn_s`` for the first
     ``learn_s`` of standing after start-up, so the robot finds its balance point
     before it has rolled far from where it was put down; ``tau_s`` afterwards, slow
-    enough that a push's torque (a few hundred ms) barely moves it. It is kept across
+    enough that a push's lean (a few hundred ms) barely moves it. It is kept across
     falls and re-enables: the CoM does not move when the robot falls. A push at body
-    height loads the hip as a CoM offset does: nothing is learnt while the robot moves
+    height leans the legs as a CoM offset does: nothing is learnt while the robot moves
     faster than ``still_m_s`` (m/s) nor for ``settle_s`` after, so a sudden push leaks
     in only the few ms before the robot picks up speed.
     """
@@ -178,8 +180,8 @@ class BalancePointObserver:
         self.hold_torque = 0.0  # N m per leg
         self.learnt_s = 0.0  # s of standing seen so far
 
-    def update(self, leg_torque_nm: float, speed_m_s: float, standing: bool) -> float:
-        """One period: the mean virtual hip torque asked (N m per leg), the ground speed
+    def update(self, lean_hold_torque_nm: float, speed_m_s: float, standing: bool) -> float:
+        """One period: the hold torque the legs' lean implies (N m per leg), the ground speed
         (m/s) and whether the robot stands still and settled (its position integral runs)."""
         if abs(speed_m_s) > self.still_m_s:
             self._blocked_s = self.settle_s
@@ -188,5 +190,5 @@ class BalancePointObserver:
             return self.hold_torque
         tau = self.tau_learn_s if self.learnt_s < self.learn_s else self.tau_s
         self.learnt_s += self.dt_s
-        self.hold_torque += (leg_torque_nm - self.hold_torque) * min(1.0, self.dt_s / tau)
+        self.hold_torque += (lean_hold_torque_nm - self.hold_torque) * min(1.0, self.dt_s / tau)
         return self.hold_torque

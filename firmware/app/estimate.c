@@ -146,13 +146,13 @@ void wl_balance_point_init(wl_balance_point_t *b, float dt, float tau_learn, flo
     b->blocked_s = b->hold_torque = b->learnt_s = 0.0f;
 }
 
-float wl_balance_point_update(wl_balance_point_t *b, float leg_torque, float speed, bool standing) {
+float wl_balance_point_update(wl_balance_point_t *b, float lean_hold_torque, float speed, bool standing) {
     if (fabsf(speed) > b->still) b->blocked_s = b->settle;
     b->blocked_s = wl_maxf(0.0f, b->blocked_s - b->dt);
     if (!standing || b->blocked_s > 0.0f) return b->hold_torque;
     float tau = b->learnt_s < b->learn_s ? b->tau_learn : b->tau;
     b->learnt_s += b->dt;
-    b->hold_torque += (leg_torque - b->hold_torque) * wl_minf(1.0f, b->dt / tau);
+    b->hold_torque += (lean_hold_torque - b->hold_torque) * wl_minf(1.0f, b->dt / tau);
     return b->hold_torque;
 }
 

@@ -49,7 +49,7 @@ bool wl_slip_update(wl_slip_t *s, float accel, float wheels_body_speed);
 
 void wl_balance_point_init(wl_balance_point_t *b, float dt, float tau_learn, float learn_s, float tau, float still,
                            float settle);
-float wl_balance_point_update(wl_balance_point_t *b, float leg_torque, float speed, bool standing);
+float wl_balance_point_update(wl_balance_point_t *b, float lean_hold_torque, float speed, bool standing);
 
 void wl_lowpass_init(wl_lowpass_t *f, float tau, float dt);
 float wl_lowpass(wl_lowpass_t *f, float x);
