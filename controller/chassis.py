@@ -133,8 +133,10 @@ class ChassisController:
         self.balance_point = estimate.BalancePointObserver(dt, P.BALANCE_POINT_TAU_LEARN, P.BALANCE_POINT_LEARN_S,
                                                            P.BALANCE_POINT_TAU, P.BALANCE_POINT_STILL,
                                                            P.BALANCE_POINT_SETTLE_S)
-        self.speed_prev = 0.0  # m/s, the ground speed a period ago ...
-        self.accel = 0.0  # m/s^2, ... and its change, lagged (BALANCE_POINT_ACCEL_TAU): the balance point's
+        self.speed_prev = 0.0  # m/s, the ground speed a period ago
+        # m/s^2, the ground speed's change lagged by BALANCE_POINT_ACCEL_TAU: its lean is taken
+        # off the legs' before the balance point learns from them
+        self.accel = 0.0
         self.balance_theta = 0.0  # rad, the legs' lean at the balance point (lqr.balance_lean), this tick
 
     def observe(self, bus: BusState) -> Sensed | None:
