@@ -28,6 +28,7 @@ from wheelleg.hil.watch.options import WatchError
 from wheelleg.hil.watch.scene_record import SCENE_PERIOD_S, SCENE_TOPIC
 
 DEBUG_TOPIC = "/controller/debug"
+DRAIN_S = 1.0  # s a subscribed client has, at the end, to take the last messages
 CAN_WINDOW_NS = 100_000_000  # each bus's frames of 100 ms of bus time are one /can/ message, as in the trace
 
 
@@ -124,5 +125,10 @@ class LiveServer:
         self._windows = {}
 
     def close(self) -> None:
+        """Stop serving; a subscribed client first gets DRAIN_S to take what is queued (the
+        SDK sends from its own thread and its stop drops what is still queued: the last
+        /scene message went missing under load)."""
         self._rig.trace.event = self._record_event
+        if self._scene.has_sinks():
+            time.sleep(DRAIN_S)
         self.server.stop()
