@@ -333,8 +333,10 @@ def test_a_free_running_command_that_hangs_fails_the_deadline_check_from_the_bus
     assert "[FAIL] no controller deadline miss: its commands on the bus: can1:" in out, out
     run = load_run(tmp_path / "balance.mcap")
     assert run.program["judged_by"] == "bus"
-    ends = [float(t[-1]) for t in run.command_times.values()]
-    assert max(ends) < 1.0  # 100 ticks of 2 ms and nothing after, whatever the machine's load
+    # 100 ticks and nothing after, counted rather than timed: a loaded or slower machine
+    # stretches the program's 2 ms ticks in wall time, not their number
+    assert all(0 < len(times) <= 100 for times in run.command_times.values()), \
+        {bus: len(times) for bus, times in run.command_times.items()}
 
 
 def test_an_external_controller_in_real_time_is_judged_from_the_bus(tmp_path):
