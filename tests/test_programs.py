@@ -20,6 +20,7 @@ from wheelleg.hil.program.checks import ran_to_the_end
 from wheelleg.hil.program.process import command_argv
 from wheelleg.hil.record.rundata import load_run
 from wheelleg.hil.record.sources import open_recording
+from wheelleg.hil.record.rundata import busy_since_ns
 from wheelleg.hil.run.loop_timing import bus_timing
 from wheelleg.hil.run.rig import RunOutcome
 from wheelleg.hil.run.scenario import CheckResult, RunData
@@ -146,6 +147,27 @@ def test_bus_timing_finds_a_whole_missed_period():
     timing = bus_timing(gap, 0.002, 1.0)
     assert timing["missed_deadlines"] == 2 and timing["longest_gap_s"] == pytest.approx(0.006)
     assert bus_timing(ticks[:100], 0.002, 1.0)["missed_deadlines"] == 400  # stopped at 0.198 s: 802 ms silent
+
+
+def test_a_tick_queued_behind_a_burst_is_late_not_missed():
+    # the re-enable of four CyberGears (twelve frames) fills the bus: the next tick's command
+    # leaves 2.2 ms late, right before the one after it; the bus was busy all along
+    ticks = np.arange(0, 0.02, 0.002)
+    late = ticks.copy()
+    late[5] += 0.0022
+    late[6] += 0.0009  # 0.8 ms after the late one: the two read as one tick, a 4.3 ms gap
+    assert bus_timing(late, 0.002, 0.02)["missed_deadlines"] == 1
+    queued = late.copy()
+    queued[5] = ticks[4] + 0.0003  # back-to-back frames since just after the tick before
+    assert bus_timing(late, 0.002, 0.02, queued)["missed_deadlines"] == 0
+    silent = np.delete(ticks, [5, 6])  # two ticks that sent nothing, on an idle bus: each frame its own start
+    assert bus_timing(silent, 0.002, 0.02, silent)["missed_deadlines"] == 2
+
+
+def test_busy_since_follows_back_to_back_frames_only():
+    wire = [150_000] * 5  # ns: 8-byte extended frames at 1 Mbit/s
+    t = np.array([0, 150_000, 300_000, 800_000, 950_000])  # three back to back, idle, two back to back
+    assert busy_since_ns(t, wire).tolist() == [0, 0, 0, 800_000, 800_000]
 
 
 def _bus_judged(times: dict) -> RunData:

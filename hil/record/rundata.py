@@ -1,7 +1,7 @@
 """Read a run's trace back into arrays for checks and plots (``RunData``)."""
 from __future__ import annotations
 
-from collections import defaultdict
+from collections import defaultdict, namedtuple
 from pathlib import Path
 
 import numpy as np
@@ -9,7 +9,7 @@ import numpy as np
 from wheelleg.dbc import cybergear as cg
 from wheelleg.dbc import CAN1, load_file
 from wheelleg.hil import robots
-from wheelleg.hil.bus.busload import LOAD_TOPIC, wire_ns
+from wheelleg.hil.bus.busload import LOAD_TOPIC, wire_ns_batch
 from wheelleg.hil.record.frame import Frame, FrameColumns
 from wheelleg.hil.record.sources import TraceError, is_heartbeat, open_recording, sent_by_controller
 from wheelleg.hil.record.trace import TraceReader
@@ -17,6 +17,7 @@ from wheelleg.hil.run.scenario import NoHeartbeat, RunData
 
 
 LOAD_WINDOW_NS = 100_000_000  # the /bus/load windows
+_Wire = namedtuple("_Wire", "arbitration_id is_extended data")  # what ``wire_ns_batch`` reads of a frame
 _CG_MOTOR = 0xFF  # a CyberGear request id's motor id bits (7..0)
 _MOTION = load_file("cybergear.dbc").get_message_by_name("CG_MotionCmd")
 _KP, _KD = _MOTION.get_signal_by_name("Kp"), _MOTION.get_signal_by_name("Kd")  # big-endian u16, bytes 4-5, 6-7
@@ -100,12 +101,14 @@ def _program_frames(reader: TraceReader, channels: dict, dbs: dict) -> dict:
     tick's frames queue behind others and the next tick's can follow close, so bursts do not
     mark ticks. ``program_load``: role -> the largest share of a 100 ms window its own frames
     (heartbeats aside) held the bus at 1 Mbit/s: a flood is the program's, whatever else loads the bus."""
-    out, load = {}, {}
+    out, queued, load = {}, {}, {}
     for role, channel in channels.items():
         columns = reader.frame_columns(channel)
         known: dict[tuple[int, bool, int], bool] = {}
         rows: dict[tuple[int, bool], list[int]] = defaultdict(list)
         held: dict[int, int] = {}  # 100 ms window -> ns its frames held the bus
+        wire = wire_ns_batch([_Wire(i, e, d) for i, e, d in zip(columns.arbitration_id.tolist(),
+                                                                columns.is_extended.tolist(), columns.data)], 1_000_000)
         for i, (ident, ext, err) in enumerate(zip(columns.arbitration_id.tolist(), columns.is_extended.tolist(),
                                                   columns.is_error.tolist())):
             key = (ident, ext, len(columns.data[i]))
@@ -115,11 +118,31 @@ def _program_frames(reader: TraceReader, channels: dict, dbs: dict) -> dict:
             if known[key]:
                 rows[(ident & _CG_MOTOR if ext else ident, ext)].append(i)
                 window = int(columns.t_ns[i]) // LOAD_WINDOW_NS
-                held[window] = held.get(window, 0) + wire_ns(ident, ext, columns.data[i], 1_000_000)
+                held[window] = held.get(window, 0) + wire[i]
         busiest = max(sorted(rows), key=lambda k: len(rows[k]), default=None)
-        out[role] = columns.t_ns[rows[busiest]] / 1e9 if busiest is not None else np.zeros(0)
+        picked = rows[busiest] if busiest is not None else []
+        out[role] = columns.t_ns[picked] / 1e9 if picked else np.zeros(0)
+        queued[role] = busy_since_ns(columns.t_ns, wire)[picked] / 1e9 if picked else np.zeros(0)
         load[role] = max(held.values(), default=0) / LOAD_WINDOW_NS
-    return {"command_times": out, "program_load": load}
+    return {"command_times": out, "command_queued": queued, "program_load": load}
+
+
+BACK_TO_BACK_SLACK_NS = 5_000  # ns past the longer frame's wire time (3 bits of intermission at 1 Mbit/s, and rounding)
+
+
+def busy_since_ns(t_ns, wire) -> np.ndarray:
+    """(n,) ns: for each frame of a bus (times ``t_ns`` (n,) in order, ``wire`` (n,) ns each holds
+    the bus at 1 Mbit/s), when the stretch of back-to-back frames it ends began: the earliest
+    its sender can have queued it, as every frame of the stretch may have held it back. A
+    frame after idle bus time is its own start. Captures with timing noise (a real vcan)
+    rarely look back to back, so there this is the frame's own time."""
+    times = np.asarray(t_ns, dtype=np.int64)
+    if times.size < 2:
+        return times.copy()
+    wire = np.asarray(wire, dtype=np.int64)
+    back_to_back = np.diff(times) <= np.maximum(wire[1:], wire[:-1]) + BACK_TO_BACK_SLACK_NS
+    first = np.where(np.concatenate(([False], back_to_back)), 0, np.arange(times.size))
+    return times[np.maximum.accumulate(first)]
 
 
 def _bus_load(reader: TraceReader, buses: dict) -> dict:

@@ -126,7 +126,7 @@ def _stall_cause(cause: str) -> str:
     return f"{cause}: the machine woke it late" if cause == "late wake" else cause
 
 
-def bus_timing(times_s, period_s: float, end_s: float) -> dict:
+def bus_timing(times_s, period_s: float, end_s: float, queued_s=None) -> dict:
     """A program's command timing as the bus saw it, for a program whose ticks the rig cannot
     see (no heartbeat, another process): ``times_s`` (n,) s of the commands it sent to one device
     on one bus (``RunData.command_times``), in order; ``end_s`` the run's end (s). A tick's frames to
@@ -136,16 +136,23 @@ def bus_timing(times_s, period_s: float, end_s: float) -> dict:
     the run's end included (a program that stopped sending). A gap longer than two periods
     holds at least one whole period of the program's own grid without a tick, whatever its
     phase and the record's resolution: ``missed_deadlines`` counts those periods (floor(gap / T) - 1
-    of each); shorter irregular gaps show as jitter."""
+    of each); shorter irregular gaps show as jitter. ``queued_s`` (n,) s, if given: the earliest
+    each frame can have been sent (``rundata.busy_since_ns``: a full bus holds frames back):
+    a gap counts as missed periods only by its length to there, so a tick whose frames
+    queued behind a burst is late, not missing."""
     times = np.asarray(times_s, dtype=float)
     if not period_s > 0:
         raise ValueError(f"period_s must be > 0, got {period_s!r}")
-    starts = times[np.concatenate(([True], np.diff(times) > period_s / 2))] if times.size else times
+    is_start = np.concatenate(([True], np.diff(times) > period_s / 2)) if times.size else np.zeros(0, bool)
+    starts = times[is_start]
     periods = np.diff(starts)
     gaps = np.append(periods, end_s - starts[-1]) if starts.size else np.array([end_s])
     jitter = np.abs(periods - period_s)
     nan = float("nan")
-    long_gaps = gaps[gaps > 2 * period_s]
+    unqueued = gaps.copy()
+    if queued_s is not None and starts.size > 1:
+        unqueued[:-1] = np.asarray(queued_s, dtype=float)[is_start][1:] - starts[:-1]
+    long_gaps = unqueued[unqueued > 2 * period_s]
     return {
         "ticks": int(starts.size),
         "period_s": float(period_s),

@@ -109,6 +109,8 @@ class RunData:
     program: dict = field(default_factory=dict)  # the trace's ``program`` record (hil/program): kind, judged_by, ...
     command_times: dict = field(default_factory=dict)  # "can1"/"can2" -> (n,) s of the program's commands to its
     # most commanded device there (hil/record/rundata.py); read for programs other than the in-process Python one
+    command_queued: dict = field(default_factory=dict)  # the same frames' (n,) s since the bus was busy before each
+    # without a pause: the earliest the program can have sent it (``rundata.busy_since_ns``)
     program_load: dict = field(default_factory=dict)  # "can1"/"can2" -> peak share of a 100 ms window the program's
     # own frames held the bus (heartbeats aside); the same programs
 

@@ -18,7 +18,7 @@ from wheelleg.controller.modes import Mode
 from wheelleg.emulators.physics import TerrainFeature
 from wheelleg.hil.run.scenario import Check, NotJudged, RunData, Scenario
 from wheelleg.hil.scenarios.common import (CURRENT_OFF_A, DEG, TORQUE_OFF_NM, first_mode, no_deadline_miss, push,
-                                  remote, stand, torque_after, tracks)
+                                  remote, stand, level_within, torque_after, tracks)
 
 # rig.dbc Heartbeat.Mode carries the controller's Mode values
 ESTOP, STAND_UP, BALANCE, MOVE, JUMP, AIRBORNE, FALLEN = (
@@ -133,6 +133,52 @@ def torque_off_after_fall(grace_s: float = CONTROL_PERIOD_S) -> Check:
     return Check("torque off from FALLEN until re-enable", fn)
 
 
+# Whether a fallen body can stand again is whether its wheels are on the floor: then the
+# recovery stand rolls them under it (lying on its nose or its tail); on its back, on its
+# side or up on its nose with the wheels in the air, the legs only wave.
+WHEEL_ON_FLOOR_N = 1.0  # N of normal force a wheel needs to count as on the floor
+LYING_WINDOW_S = 0.1  # s before the re-enable over which it is judged (the mean force)
+
+
+def lying(run: RunData, t_s: float) -> tuple[bool, str]:
+    """(whether both wheels are on the floor at ``t_s``, where the body lies, in words)."""
+    i = min(int(np.searchsorted(run.state["t"], t_s)), len(run.state["t"]) - 1)
+    pitch, roll = float(run.state["pitch"][i]), float(run.state["roll"][i])
+    tilt = math.degrees(math.acos(max(-1.0, min(1.0, math.cos(pitch) * math.cos(roll)))))
+    loads = [float(np.mean(run.window(f"{side}_normal_force", t_s - LYING_WINDOW_S, t_s))) for side in ("left", "right")]
+    on_floor = min(loads) > WHEEL_ON_FLOOR_N
+    axle_up = math.cos(pitch) * math.sin(roll)  # z of the body's y axis: its wheels' axle
+    where = ("on its back" if tilt > 120 else "on its side" if abs(axle_up) > math.sin(math.radians(45))
+             else f"on its {'nose' if pitch > 0 else 'tail'}")
+    return on_floor, f"{where} ({tilt:.0f} deg from upright, wheels {loads[0]:.1f}/{loads[1]:.1f} N)"
+
+
+def stands_up_where_it_can(last_s: float = 1.0) -> Check:
+    """After the operator's re-enable: upright (``upright_at_end``) if the body lay with both wheels
+    on the floor, from where the recovery stand can roll them under it; lying with a wheel in
+    the air (on its back, its side), which no stand-up of this robot leaves, it stays FALLEN
+    with the torque off (from a tick after the re-enable to the end). Where a hard fall ends
+    is the fall's (a tumble at 4-5 m/s); what the program does there is the program's."""
+    upright = upright_at_end(last_s)
+
+    def fn(run: RunData):
+        reenables = [e["t"] for e in run.events_of("operator") if e.get("Reenable")]
+        if not reenables:
+            raise NotJudged("no re-enable in the timeline")
+        can_stand, where = lying(run, reenables[0])
+        if can_stand:
+            ok, detail = upright.fn(run)
+            return ok, f"lay {where} at the re-enable; {detail}"
+        hip, wheel = torque_after(run, reenables[0] + CONTROL_PERIOD_S)
+        modes = run.heartbeat["Mode"]
+        ok = hip < TORQUE_OFF_NM and wheel < CURRENT_OFF_A and len(modes) > 0 and int(modes[-1]) == FALLEN
+        return ok, (f"lay {where} at the re-enable, a wheel in the air: after it max |hip torque| "
+                    f"{hip:.3f} N m, max |wheel current| {wheel:.3f} A, last mode "
+                    f"{MODE_NAMES[int(modes[-1])] if len(modes) else 'none'}")
+
+    return Check(f"re-enabled: upright over the last {last_s:g} s, or off where it cannot stand", fn)
+
+
 def estops_cut_torque(expected_modes: tuple) -> Check:
     """Each E-stop event: the ESTOP heartbeat within one remote period plus one control
     period, no torque commanded after it until the switch leaves E-stop, and the
@@ -217,14 +263,15 @@ def drop_scenario(height_m: float = 0.5) -> Scenario:
 
 
 def fall_scenario(force_n: float = 40.0, duration_s: float = 1.0) -> Scenario:
-    """A push it cannot save: detected, torque off; lying, the operator re-enables and it stands.
+    """A push it cannot save: detected, torque off; lying, the operator re-enables and it
+    stands where it can (``stands_up_where_it_can``).
 
     The default leans on the body with 40 N (0.9 of its weight) for 1 s: holding
-    that would take a lean past the fall limits, so any balance law topples, and
-    it topples nose first at walking pace. A short violent shove (50 N for 0.3 s)
-    sends it off at 4 m/s instead; where that tumble ends (on its nose, or over
-    onto its back, from where it cannot stand) turned on a millimetre of the run
-    (seed, controller), which made the scenario a coin toss.
+    that would take a lean past the fall limits, so any balance law topples. The
+    wheels run with it to their top speed and the body goes over at 4-5 m/s; where
+    that tumble ends (on its nose or tail, or over onto its back or side, from where
+    it cannot stand) turns on a millimetre of the run (seed, controller, plant), so
+    the check judges the program's answer to where it lies, not where that is.
     """
     _positive("force_n", force_n, 500.0)
     _positive("duration_s", duration_s, 2.5)
@@ -234,7 +281,7 @@ def fall_scenario(force_n: float = 40.0, duration_s: float = 1.0) -> Scenario:
         timeline=(stand(), *push(0.5, (force_n, 0.0, 0.0), duration_s), remote(3.0, Reenable=1),
                   remote(3.2, Reenable=0)),
         checks=(mode_seen(FALLEN), torque_off_after_fall(), mode_seen(STAND_UP, 3.0),
-                upright_at_end(1.0), no_deadline_miss()))
+                stands_up_where_it_can(1.0), no_deadline_miss()))
 
 
 ESTOP_S = 0.06  # s the switch stays on E-stop: torque off, the robot barely sags
@@ -259,17 +306,35 @@ def estop_scenario() -> Scenario:
                 no_deadline_miss()))
 
 
+# rad: how far the IMU's board may sit off the body's frame on a real build (docs/robot.md,
+# "The tolerance box": the chip on its board, the standoffs, the plate; +-1.5 deg), which
+# nothing on this robot measures: a level stance is judged within it plus the 1 deg hold.
+IMU_MOUNT_TILT_RAD = 1.5 * DEG
+POSE_HOLD_RAD = 1 * DEG
+
+
 def pose_scenario() -> Scenario:
-    """Pitch, roll, height and then yaw set points while standing, one after the other."""
+    """Pitch, roll, height and then yaw set points while standing, one after the other.
+
+    Pitch and roll are judged as their change from the level stance the robot holds at
+    7.5-8 s (every set point zero), and that stance within the IMU mount's tolerance:
+    a board mounted 1.5 deg off turns every pose by 1.5 deg, which no program can see
+    (a wheel-legged robot's legs give no reference for the body's pitch over the floor).
+    """
     yaw_turn = math.pi / 4
+    level = (7.5, 8.0)
     return Scenario(
         "pose", "pitch +-0.1 rad, roll +-0.1 rad, height 0.22 m, then a 45 deg yaw while standing", 10.5,
         standing(),
         timeline=(stand(), remote(0.5, Pitch=0.1), remote(2.0, Pitch=-0.1), remote(3.5, Pitch=0.0, Roll=0.1),
                   remote(5.0, Roll=-0.1), remote(6.5, Roll=0.0, LegLength=0.22),
                   remote(8.0, Mode=2, YawRate=1.0), remote(8.0 + yaw_turn, YawRate=0.0)),
-        checks=(tracks("pitch", 0.1, 1.5, 2.0, 1 * DEG), tracks("pitch", -0.1, 3.0, 3.5, 1 * DEG),
-                tracks("roll", 0.1, 4.5, 5.0, 1 * DEG), tracks("roll", -0.1, 6.0, 6.5, 1 * DEG),
+        checks=(tracks("pitch", 0.1, 1.5, 2.0, POSE_HOLD_RAD, level=level),
+                tracks("pitch", -0.1, 3.0, 3.5, POSE_HOLD_RAD, level=level),
+                tracks("roll", 0.1, 4.5, 5.0, POSE_HOLD_RAD, level=level),
+                tracks("roll", -0.1, 6.0, 6.5, POSE_HOLD_RAD, level=level),
+                level_within("pitch", *level, IMU_MOUNT_TILT_RAD + POSE_HOLD_RAD),
+                level_within("roll", *level, IMU_MOUNT_TILT_RAD + POSE_HOLD_RAD),
                 mean_leg_tracks(0.22, 7.5, 10.5), tracks("yaw", yaw_turn, 9.5, 10.5, 2 * DEG),
                 never_fallen(), no_deadline_miss()))
 

@@ -98,16 +98,46 @@ def first_mode(run: RunData, mode: int, after_s: float = 0.0) -> float | None:
 
 
 def tracks(field: str, target: float, t0: float, t1: float, tol: float, unit: str = "deg",
-           scale: float = 1 / DEG) -> Check:
-    """Mean of a /sim/state field over [t0, t1) within tol of target; also its spread."""
+           scale: float = 1 / DEG, level: tuple[float, float] | None = None) -> Check:
+    """Mean of a /sim/state field over [t0, t1) within tol of target; also its spread.
+
+    With ``level`` (s, s): the field's change from its mean over that window, where the
+    robot was asked for zero (an attitude judged apart from the IMU's mount, as
+    ``pitch_steady`` does: nothing on a wheel-legged robot measures the mount's pitch, so a
+    pose asked of it is a pose from where it believes level is; ``level_within`` judges
+    that level apart).
+    """
 
     def fn(run: RunData):
         values = run.window(field, t0, t1)
-        mean, worst = float(np.mean(values)), float(np.max(np.abs(values - target)))
-        return worst < tol, (f"{field} {mean * scale:.2f} {unit} (target {target * scale:.2f}), "
+        offset = _window_mean(run, field, level) if level else 0.0
+        change = values - offset
+        mean, worst = float(np.mean(change)), float(np.max(np.abs(change - target)))
+        what = f"{field} {mean * scale:.2f} {unit}"
+        if level:
+            what += f" from its level ({offset * scale:.2f} at {level[0]:g}-{level[1]:g} s)"
+        return worst < tol, (f"{what} (target {target * scale:.2f}), "
                              f"worst error {worst * scale:.2f} over {t0:g}-{t1:g} s (limit {tol * scale:g})")
 
-    return Check(f"{field} holds {target * scale:.1f} {unit} over {t0:g}-{t1:g} s", fn)
+    name = f"{field} holds {target * scale:.1f} {unit} over {t0:g}-{t1:g} s"
+    return Check(name + (f" from its level at {level[0]:g}-{level[1]:g} s" if level else ""), fn)
+
+
+def level_within(field: str, t0: float, t1: float, tol: float) -> Check:
+    """Mean |field| (rad) over [t0, t1), where the robot is asked to stand level, below ``tol``."""
+
+    def fn(run: RunData):
+        mean = _window_mean(run, field, (t0, t1))
+        return abs(mean) < tol, f"{field} {mean / DEG:.2f} deg over {t0:g}-{t1:g} s (limit {tol / DEG:g})"
+
+    return Check(f"level: |{field}| < {tol / DEG:g} deg over {t0:g}-{t1:g} s", fn)
+
+
+def _window_mean(run: RunData, field: str, window: tuple[float, float]) -> float:
+    values = run.window(field, *window)
+    if not len(values):
+        raise NotJudged(f"no {field} samples in {window[0]:g}-{window[1]:g} s")
+    return float(np.mean(values))
 
 
 def no_deadline_miss() -> Check:
@@ -139,7 +169,7 @@ def bus_command_timing(run: RunData) -> tuple[bool, str]:
         return False, "judged from the bus: no frames of the program recorded"
     ok, lines = True, []
     for bus, times in sorted(run.command_times.items()):
-        timing = bus_timing(times, period, end)
+        timing = bus_timing(times, period, end, run.command_queued.get(bus))
         ok = ok and timing["ticks"] >= 2 and timing["missed_deadlines"] == 0
         lines.append(describe_bus(bus, timing))
     return ok, "its commands on the bus: " + "; ".join(lines)
