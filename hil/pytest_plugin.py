@@ -118,7 +118,7 @@ class RigRun(RunData):
                  f"  replay:  {self.replay_command}",
                  f"  rerun:   {rerun_command(self.meta)}",
                  f"  inspect: wheelleg inspect {self.trace_path} --plot {self.trace_path.with_suffix('.inspect.png')}"]
-        lines += [f"  [{'PASS' if c.passed else 'FAIL'}] {c.name}: {c.detail}" for c in self.checks]
+        lines += [f"  [{c.mark}] {c.name}: {c.detail}" for c in self.checks]
         return "\n".join(lines)
 
     def assert_passed(self) -> None:

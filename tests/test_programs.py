@@ -186,14 +186,16 @@ def test_the_deadline_check_can_fail_for_a_program_without_heartbeat():
 
 
 def test_a_check_that_needs_the_heartbeat_says_a_bus_judged_program_sent_none():
-    """A free-running program sends no heartbeat: the fault scenarios' heartbeat checks fail saying so
-    (they raised KeyError 't' before)."""
-    from wheelleg.hil.run.scenario import NoHeartbeat
+    """A free-running program sends no heartbeat: a check of its report there does not apply (N/A, not
+    counted); any other check that reads the heartbeat fails saying why (they raised KeyError 't' once)."""
+    from wheelleg.hil.run.scenario import Check, NoHeartbeat
     from wheelleg.hil.scenarios.faults import heartbeat_reports
 
     run = replace(_bus_judged({}), heartbeat=NoHeartbeat(), events=[{"t": 0.5, "kind": "fault_silent"}])
     result = heartbeat_reports("fault_silent", ["left_wheel"])(run)
-    assert not result.passed and result.detail.startswith("not judged: no heartbeat in the trace"), result.detail
+    assert result.mark == "N/A" and result.detail.startswith("does not apply: the program sends no heartbeat")
+    reads_mode = Check("mode", lambda r: (bool(len(r.heartbeat["Mode"])), "read"))(run)
+    assert not reads_mode.passed and reads_mode.detail.startswith("not judged: no heartbeat in the trace")
 
 
 def test_a_real_time_run_the_plant_could_not_keep_is_not_real_time():

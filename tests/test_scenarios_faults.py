@@ -1,5 +1,6 @@
 """The fault scenarios, run in the rig (one cached run each) and judged from their traces."""
 import argparse
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -7,7 +8,7 @@ import pytest
 from wheelleg.controller import detect
 from wheelleg.controller.modes import Mode
 from wheelleg.hil.commands.run import execute
-from wheelleg.hil.run.scenario import RunData
+from wheelleg.hil.run.scenario import NoHeartbeat, RunData
 from wheelleg.hil.scenarios import faults as fs
 
 from sharing import each_run, same_run
@@ -134,3 +135,17 @@ def test_bus_load_windows_cover_the_whole_run(rig_run):
         assert len(t) == 5, t
         assert t[-1] == pytest.approx(0.45, abs=0.002)
         assert 0.5 < load[-1] < 0.75  # a partial window is judged over its own length
+
+
+def _without_heartbeat(run: RunData) -> RunData:
+    """The same run as a program on its own clock records it: no heartbeat, judged on the bus."""
+    return replace(run, heartbeat=NoHeartbeat(), program={"kind": "command", "judged_by": "bus"})
+
+
+def test_a_program_without_heartbeat_is_judged_on_its_commands_and_its_report_does_not_apply():
+    stays_off = fs.motors_stay_off("fault_silent", 0.022)
+    assert stays_off(_without_heartbeat(_synthetic(1.020))).passed
+    assert not stays_off(_without_heartbeat(_synthetic(1.2))).passed  # torque commanded after the stop
+    report = fs.heartbeat_reports("fault_silent", ["left_front_hip"])(_without_heartbeat(_synthetic(1.02, mask=0x02)))
+    assert not report.applies and report.mark == "N/A" and "no heartbeat" in report.detail
+    assert fs.heartbeat_reports("fault_silent", ["left_front_hip"])(_synthetic(1.02, mask=0x02)).mark == "FAIL"

@@ -102,7 +102,7 @@ def run_job(job: Job, settings: RunSettings) -> dict:
         run = load_run(outcome.trace_path)
         results = [check(run) for check in (*scenario.checks, *program_checks(run.program))]
         row["checks"] = [{"name": r.name, "passed": r.passed, "figure": first_number(r.detail),
-                          "detail": r.detail} for r in results]
+                          "detail": r.detail, **({} if r.applies else {"applies": False})} for r in results]
         row["passed"] = all(r.passed for r in results)
     except Exception as exc:  # noqa: BLE001 - a run that cannot run has failed, with the reason kept
         row["error"] = f"{type(exc).__name__}: {exc}".splitlines()[0]

@@ -227,7 +227,7 @@ def run(args: argparse.Namespace) -> int:
     print(f"  trace {outcome.trace_path}\n  log   {outcome.log_path}")
     print_bus_load(data)
     for r in results:
-        print(f"  [{'PASS' if r.passed else 'FAIL'}] {r.name}: {r.detail}")
+        print(f"  [{r.mark}] {r.name}: {r.detail}")
     ok = all(r.passed for r in results)
     print(f"{args.scenario}: {verdict(ok, outcome, results)}")
     return 0 if ok else 1

@@ -18,6 +18,12 @@ class CheckResult:
     passed: bool
     detail: str  # the measured figure against its bound, in words
     pace_bound: bool = True  # False: the verdict holds whether or not a real-time plant kept real time
+    applies: bool = True  # False: the program gives it nothing to judge (``Check.needs_heartbeat``); not counted
+
+    @property
+    def mark(self) -> str:
+        """PASS, FAIL, or N/A for a check that does not apply to the program that ran."""
+        return "N/A" if not self.applies else "PASS" if self.passed else "FAIL"
 
 
 class NotJudged(Exception):
@@ -44,8 +50,15 @@ class Check:
     name: str
     fn: Callable
     pace_bound: bool = True
+    # judges what the program reports in the rig's heartbeat (mode, offline mask, warning level):
+    # for a program that sends none (one on its own clock, judged on the bus) it does not apply,
+    # and says so (N/A) instead of failing "not judged" or passing on nothing
+    needs_heartbeat: bool = False
 
     def __call__(self, run: "RunData") -> CheckResult:
+        if self.needs_heartbeat and isinstance(run.heartbeat, NoHeartbeat):
+            return CheckResult(self.name, True, "does not apply: the program sends no heartbeat to report in "
+                               "(a program on its own clock, judged on the bus)", self.pace_bound, applies=False)
         try:
             passed, detail = self.fn(run)
         except NotJudged as exc:  # too short a run fails the check, saying why
