@@ -100,3 +100,16 @@ def test_controller_debug_has_a_described_schema_for_foxglove(tmp_path):
     valid = validator(schema)
     for _, payload in messages:
         valid.validate(payload)
+
+
+def test_a_later_command_in_the_same_process_counts_its_start_up_from_its_own_call(tmp_path, capsys, monkeypatch):
+    """The first ``main`` counts the imports; a process that calls it again (a test session, a
+    worker) an hour on does not print that hour as the next run's start-up."""
+    import re
+    from wheelleg.hil import cli
+
+    monkeypatch.setattr(cli, "STARTED_S", cli.STARTED_S - 3600.0)  # as if imported an hour ago
+    monkeypatch.setattr(cli, "_IMPORTS_COUNTED", True)  # and a command already ran
+    cli.main(["run", "balance", "--duration", "0.1", "--no-plot", "--out", str(tmp_path)])
+    start_up = float(re.search(r"start-up ([0-9.]+) s", capsys.readouterr().out).group(1))
+    assert start_up < 600.0
