@@ -7,6 +7,7 @@ import pytest
 from wheelleg.controller import constants as C
 from wheelleg.controller import params as P
 from wheelleg.controller.legs import leg_targets, roll_leg_difference, turn_lean
+from wheelleg.hil.run.scenario import RunData
 from wheelleg.hil.scenarios import ground
 
 from sharing import each_run, same_run
@@ -58,3 +59,20 @@ def test_factories_refuse_nonsense_sizes():
                  lambda: ground.sprint_scenario(0.0)):
         with pytest.raises(ValueError):
             make()
+
+
+def test_a_wheel_counts_as_lifted_when_its_load_stays_off_not_for_one_contact_sample():
+    """One 2 ms sample of 0 N with the wheel pressed into the floor is MuJoCo's contact; 20 ms off is a tip."""
+    t = np.arange(0, 1.0, 0.002)
+
+    def run(right_n):
+        return RunData(state={"t": t, "left_normal_force": np.full(len(t), 20.0), "right_normal_force": right_n},
+                       heartbeat={}, hip_torque={}, wheel_current={})
+
+    blip = np.full(len(t), 18.0)
+    blip[250] = 0.0
+    assert ground.both_wheels_down(0.2, 0.8)(run(blip)).passed
+    lifted = np.full(len(t), 18.0)
+    lifted[250:260] = 0.0
+    result = ground.both_wheels_down(0.2, 0.8)(run(lifted))
+    assert not result.passed and "least sample 0.0 N" in result.detail
