@@ -276,7 +276,7 @@ def fall_scenario(force_n: float = 40.0, duration_s: float = 1.0) -> Scenario:
     _positive("force_n", force_n, 500.0)
     _positive("duration_s", duration_s, 2.5)
     return Scenario(
-        "fall", f"{force_n:g} N push for {duration_s:g} s topples it; torque off; re-enable stands it up", 7.0,
+        "fall", f"{force_n:g} N push for {duration_s:g} s topples it; torque off; re-enable stands it where its wheels are down", 7.0,
         standing(),
         timeline=(stand(), *push(0.5, (force_n, 0.0, 0.0), duration_s), remote(3.0, Reenable=1),
                   remote(3.2, Reenable=0)),
