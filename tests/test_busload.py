@@ -1,7 +1,10 @@
 """Bus-load model: frame lengths with exact bit stuffing, arbitration rank."""
 import random
 
-from wheelleg.hil.bus.busload import BATCH_MIN, arbitration_priority, frame_bits, wire_ns, wire_ns_batch
+import numpy as np
+
+from wheelleg.hil.bus.busload import (BATCH_MIN, arbitration_priority, frame_bits, max_frame_bits, wire_ns,
+                                      wire_ns_batch)
 from wheelleg.hil.record.frame import Frame
 
 
@@ -68,3 +71,14 @@ def test_wire_time_of_a_batch_is_each_frames_wire_time():
         assert wire_ns_batch(frames[:BATCH_MIN - 1], bitrate) == expected[:BATCH_MIN - 1]  # one by one
     odd = [*frames[:BATCH_MIN], Frame(0, "vcan0", 0x900, False, b"\x01", 1)]  # a standard id past 11 bits
     assert wire_ns_batch(odd, 1_000_000)[-1] == wire_ns(0x900, False, b"\x01", 1_000_000)
+
+
+def test_max_frame_bits_bounds_every_frame_of_its_format():
+    rng = np.random.default_rng(7)
+    for extended in (False, True):
+        for length in range(9):
+            bound = int(max_frame_bits([extended], [length])[0])
+            for payload in (bytes(length), b"\xff" * length, bytes(rng.integers(0, 256, length, dtype=np.uint8))):
+                for ident in (0, (1 << (29 if extended else 11)) - 1, int(rng.integers(0, 1 << 11))):
+                    assert frame_bits(ident, extended, payload) <= bound
+            assert bound - frame_bits(0, extended, bytes(length)) < 30  # a bound, not a guess far off

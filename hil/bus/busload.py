@@ -153,6 +153,15 @@ def wire_ns(arbitration_id: int, is_extended: bool, data: bytes, bitrate: int) -
     return frame_bits(arbitration_id, is_extended, data) * 1_000_000_000 // bitrate
 
 
+def max_frame_bits(is_extended, dlc) -> np.ndarray:
+    """The most bits a classic data frame of each format can take, whatever its id and payload:
+    ``is_extended`` (n,) bools, ``dlc`` (n,) payload lengths. Worst-case stuffing (a stuff bit
+    after every four bits of SOF..CRC), so never below ``frame_bits``; for a bound where the
+    exact figure costs a pass over every payload."""
+    stuffable = np.where(np.asarray(is_extended, dtype=bool), 54, 34) + 8 * np.asarray(dlc, dtype=np.int64)
+    return stuffable + (stuffable - 1) // 4 + TRAILER_BITS
+
+
 BATCH_MIN = 64  # frames from which ``wire_ns_batch`` goes through numpy (below: ``frame_bits`` one by one)
 _CRC_ARRAY = np.array(_CRC_TABLE, dtype=np.int64)
 _STUFF_ARRAY = np.array(_STUFF, dtype=np.int64)

@@ -9,7 +9,7 @@ import numpy as np
 from wheelleg.dbc import cybergear as cg
 from wheelleg.dbc import CAN1, load_file
 from wheelleg.hil import robots
-from wheelleg.hil.bus.busload import LOAD_TOPIC, wire_ns_batch
+from wheelleg.hil.bus.busload import LOAD_TOPIC, max_frame_bits, wire_ns_batch
 from wheelleg.hil.record.frame import Frame, FrameColumns
 from wheelleg.hil.record.sources import TraceError, is_heartbeat, open_recording, sent_by_controller
 from wheelleg.hil.record.trace import TraceReader
@@ -104,38 +104,49 @@ def _program_frames(reader: TraceReader, channels: dict, dbs: dict) -> dict:
     out, queued, load = {}, {}, {}
     for role, channel in channels.items():
         columns = reader.frame_columns(channel)
-        known: dict[tuple[int, bool, int], bool] = {}
-        rows: dict[tuple[int, bool], list[int]] = defaultdict(list)
-        held: dict[int, int] = {}  # 100 ms window -> ns its frames held the bus
-        wire = wire_ns_batch([_Wire(i, e, d) for i, e, d in zip(columns.arbitration_id.tolist(),
-                                                                columns.is_extended.tolist(), columns.data)], 1_000_000)
-        for i, (ident, ext, err) in enumerate(zip(columns.arbitration_id.tolist(), columns.is_extended.tolist(),
-                                                  columns.is_error.tolist())):
-            key = (ident, ext, len(columns.data[i]))
-            if key not in known:
-                frame = Frame(0, channel, ident, ext, columns.data[i], key[2], role, err)
-                known[key] = not err and sent_by_controller(frame, dbs) and not is_heartbeat(frame)
-            if known[key]:
-                rows[(ident & _CG_MOTOR if ext else ident, ext)].append(i)
-                window = int(columns.t_ns[i]) // LOAD_WINDOW_NS
-                held[window] = held.get(window, 0) + wire[i]
-        busiest = max(sorted(rows), key=lambda k: len(rows[k]), default=None)
-        picked = rows[busiest] if busiest is not None else []
-        out[role] = columns.t_ns[picked] / 1e9 if picked else np.zeros(0)
-        queued[role] = busy_since_ns(columns.t_ns, wire)[picked] / 1e9 if picked else np.zeros(0)
-        load[role] = max(held.values(), default=0) / LOAD_WINDOW_NS
+        ids = columns.arbitration_id.astype(np.int64)
+        extended = columns.is_extended.astype(bool)
+        dlc = np.fromiter(map(len, columns.data), dtype=np.int64, count=len(columns.data))
+        # whose each frame is: worked out once per (id, extended, length, error)
+        kinds = ids | (extended.astype(np.int64) << 32) | (dlc << 33) | (columns.is_error.astype(np.int64) << 40)
+        unique, which = np.unique(kinds, return_inverse=True)
+        theirs = np.array([_program_frame(int(k), channel, role, dbs) for k in unique.tolist()], dtype=bool)
+        mine = np.flatnonzero(theirs[which]) if len(unique) else np.zeros(0, dtype=np.int64)
+        t_ns = np.asarray(columns.t_ns, dtype=np.int64)
+        if len(mine):
+            wire = np.asarray(wire_ns_batch([_Wire(int(ids[i]), bool(extended[i]), columns.data[i]) for i in mine.tolist()],
+                                            1_000_000), dtype=np.int64)
+            windows, held = np.unique(t_ns[mine] // LOAD_WINDOW_NS, return_inverse=True)
+            load[role] = float(np.bincount(held, weights=wire).max()) / LOAD_WINDOW_NS
+            # a device: a CyberGear by its motor id, a standard frame by its id; sorted (device, extended)
+            device = (np.where(extended[mine], ids[mine] & _CG_MOTOR, ids[mine]) << 1) | extended[mine]
+            devices, counts = np.unique(device, return_counts=True)
+            picked = mine[device == devices[np.argmax(counts)]]
+            bound = max_frame_bits(extended, dlc) * 1_000  # ns at 1 Mbit/s
+            out[role] = t_ns[picked] / 1e9
+            queued[role] = busy_since_ns(t_ns, bound)[picked] / 1e9
+        else:
+            out[role], queued[role], load[role] = np.zeros(0), np.zeros(0), 0.0
     return {"command_times": out, "command_queued": queued, "program_load": load}
+
+
+def _program_frame(kind: int, channel: str, role: str, dbs: dict) -> bool:
+    """Whether frames of ``kind`` (id | extended << 32 | length << 33 | error << 40) are the
+    program's own (the DBC's senders say so), heartbeats aside."""
+    ident, ext, length, err = kind & 0xFFFFFFFF, bool(kind >> 32 & 1), kind >> 33 & 0x7F, bool(kind >> 40 & 1)
+    frame = Frame(0, channel, ident, ext, bytes(length), length, role, err)
+    return not err and sent_by_controller(frame, dbs) and not is_heartbeat(frame)
 
 
 BACK_TO_BACK_SLACK_NS = 5_000  # ns past the longer frame's wire time (3 bits of intermission at 1 Mbit/s, and rounding)
 
 
 def busy_since_ns(t_ns, wire) -> np.ndarray:
-    """(n,) ns: for each frame of a bus (times ``t_ns`` (n,) in order, ``wire`` (n,) ns each holds
-    the bus at 1 Mbit/s), when the stretch of back-to-back frames it ends began: the earliest
-    its sender can have queued it, as every frame of the stretch may have held it back. A
-    frame after idle bus time is its own start. Captures with timing noise (a real vcan)
-    rarely look back to back, so there this is the frame's own time."""
+    """(n,) ns: for each frame of a bus (times ``t_ns`` (n,) in order, ``wire`` (n,) ns each may
+    hold the bus: its length, or ``max_frame_bits``' bound), when the stretch of back-to-back
+    frames it ends began: the earliest its sender can have queued it, as every frame of the
+    stretch may have held it back. A frame after idle bus time is its own start. Captures with
+    timing noise (a real vcan) rarely look back to back, so there this is the frame's own time."""
     times = np.asarray(t_ns, dtype=np.int64)
     if times.size < 2:
         return times.copy()
