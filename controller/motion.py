@@ -27,6 +27,8 @@ class Travel(enum.Enum):
 # the params the set point reads every tick, and the phases it names, as module names (an
 # attribute lookup each, and an Enum member's class lookup costs ~10 globals' in CPython 3.11)
 _EASE_JERK, _JERK, _ACCEL_LIMIT = P.SPEED_EASE_JERK, P.SPEED_JERK, P.ACCEL_LIMIT
+_EASE_TOP_FROM, _EASE_TOP_SLOPE = P.SPEED_EASE_TOP_FROM, (
+    (P.SPEED_EASE_JERK_TOP - P.SPEED_EASE_JERK) / (P.SPEED_LIMIT - P.SPEED_EASE_TOP_FROM))
 _STANDING, _SPEEDING_UP, _CRUISING, _BRAKING = Travel.STANDING, Travel.SPEEDING_UP, Travel.CRUISING, Travel.BRAKING
 
 
@@ -35,14 +37,14 @@ def speed_set_point(speed: float, accel: float, target: float, dt: float) -> tup
     ``target`` (m/s) from ``speed`` and the ``accel`` it had.
 
     The acceleration ramps at SPEED_JERK up to ACCEL_LIMIT and eases back to 0 at
-    SPEED_EASE_JERK as the speed arrives (no overshoot); a reversal is one curve through
+    ``ease_jerk(target)`` as the speed arrives (no overshoot); a reversal is one curve through
     0; a target changed midway is headed for from where the curve is.
     """
     gap = target - speed
     direction = math.copysign(1.0, gap) if gap else 0.0
-    # the largest acceleration from which easing off at SPEED_EASE_JERK lands on the
+    # the largest acceleration from which easing off at the easing jerk lands on the
     # target: easing off from a gains a^2 / (2 jerk)
-    landing = math.sqrt(2.0 * _EASE_JERK * abs(gap))
+    landing = math.sqrt(2.0 * ease_jerk(target) * abs(gap))
     if accel * direction >= landing:
         accel = direction * landing  # easing off along that parabola, at SPEED_EASE_JERK
     else:
@@ -52,6 +54,15 @@ def speed_set_point(speed: float, accel: float, target: float, dt: float) -> tup
     if (target - speed) * direction <= 0.0:
         return target, 0.0
     return speed, accel
+
+
+def ease_jerk(target: float) -> float:
+    """m/s^3 the acceleration eases off at onto ``target`` (m/s): SPEED_EASE_JERK, falling
+    linearly from SPEED_EASE_TOP_FROM to SPEED_EASE_JERK_TOP at SPEED_LIMIT (params.py: the
+    wheels overtake the set point as the lean comes out, and near the top there is no speed
+    left for that)."""
+    over = abs(target) - _EASE_TOP_FROM
+    return _EASE_JERK if over <= 0.0 else _EASE_JERK + _EASE_TOP_SLOPE * min(over, P.SPEED_LIMIT - _EASE_TOP_FROM)
 
 
 def travel_phase(speed: float, accel: float) -> Travel:

@@ -98,6 +98,17 @@ SPEED_JERK = 20.0
 # 9 cm short; 5 m/s^3: 23 cm past it, 17 cm with the old 4 m/s^2 slew). A stop from
 # 1 m/s takes 0.01 m longer.
 SPEED_EASE_JERK = 5.0
+# Near the top speed the easing is slower. Taking the lean out swings the legs back under the
+# body, so the wheels overtake the set point while it eases: by 0.26 m/s easing onto 2 m/s at
+# 5 m/s^3 (nominal `sprint`: 2.26 m/s at the wheels). The M3508 turns at most 482 rpm on 24 V
+# through a C620 (constants.M3508_NO_LOAD_SPEED), 2.21 m/s on a 50 mm wheel at a flat 6S
+# pack's 21 V: there the wheels had no torque left, the legs stayed leaning and the robot
+# fell forward (3 of 10 sourced `sprint` draws, 21.35-21.42 V). At 2.5 m/s^3 the wheels
+# overtake by 0.19 m/s and the same draws pass. From SPEED_EASE_TOP_FROM (m/s, the target's
+# size) the easing jerk falls linearly to SPEED_EASE_JERK_TOP at SPEED_LIMIT; below it, and
+# every stop, are as before (drive, turn-fast at 1.5 m/s, the forward jump's 0.8 m/s run-up).
+SPEED_EASE_TOP_FROM = 1.5
+SPEED_EASE_JERK_TOP = 2.5
 # rad per m/s^2: leg angle theta of the model accelerating steadily with the body level
 # (controller/design/lqr.py acceleration_equilibrium: 0.1765 at L0 = 0.17 m, 0.206 at 0.12,
 # 0.151 at 0.26; the LQR's position and speed terms take up the rest at other lengths)

@@ -2,7 +2,7 @@
 import pytest
 
 from wheelleg.controller import params as P
-from wheelleg.controller.motion import Travel, speed_set_point, travel_phase
+from wheelleg.controller.motion import Travel, ease_jerk, speed_set_point, travel_phase
 
 DT = P.CONTROL_PERIOD
 
@@ -82,3 +82,17 @@ def test_the_phases_of_a_drive_and_back():
     runs = [p for i, p in enumerate(phases) if i == 0 or p is not phases[i - 1]]
     assert runs == [Travel.STANDING, Travel.SPEEDING_UP, Travel.CRUISING, Travel.BRAKING, Travel.SPEEDING_UP,
                     Travel.CRUISING, Travel.BRAKING, Travel.STANDING]
+
+
+def test_near_the_top_speed_the_acceleration_eases_off_slower():
+    """Onto SPEED_LIMIT the easing takes SPEED_EASE_JERK / SPEED_EASE_JERK_TOP times as long (the
+    wheels overtake the set point as the lean comes out: headroom a flat battery lacks); onto
+    1.5 m/s and lower, and every stop, as before."""
+    assert ease_jerk(P.SPEED_LIMIT) == ease_jerk(-P.SPEED_LIMIT) == P.SPEED_EASE_JERK_TOP
+    assert ease_jerk(0.0) == ease_jerk(P.SPEED_EASE_TOP_FROM) == P.SPEED_EASE_JERK
+    assert P.SPEED_EASE_JERK_TOP < ease_jerk(1.75) < P.SPEED_EASE_JERK
+    top = curve(0.0, P.SPEED_LIMIT)
+    ease_ticks = sum(1 for (_, a0), (_, a1) in zip(top, top[1:]) if a1 < a0)  # from ACCEL_LIMIT down to 0
+    assert ease_ticks * DT == pytest.approx(P.ACCEL_LIMIT / P.SPEED_EASE_JERK_TOP, abs=0.01)  # as the curve's
+    speeds = [v for v, _ in top]
+    assert speeds == sorted(speeds)  # no overshoot

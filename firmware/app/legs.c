@@ -78,10 +78,19 @@ void wl_leg_targets(float length, float difference, float targets[2]) {
     targets[WL_RIGHT] = mean - sign * half;
 }
 
+float wl_ease_jerk(float target) {
+    float over = fabsf(target) - WL_P_SPEED_EASE_TOP_FROM;
+    if (over <= 0.0f) {
+        return WL_P_SPEED_EASE_JERK;
+    }
+    float slope = (WL_P_SPEED_EASE_JERK_TOP - WL_P_SPEED_EASE_JERK) / (WL_P_SPEED_LIMIT - WL_P_SPEED_EASE_TOP_FROM);
+    return WL_P_SPEED_EASE_JERK + slope * wl_minf(over, WL_P_SPEED_LIMIT - WL_P_SPEED_EASE_TOP_FROM);
+}
+
 void wl_speed_set_point(float *speed, float *accel, float target, float dt) {
     float gap = target - *speed;
     float direction = gap > 0.0f ? 1.0f : gap < 0.0f ? -1.0f : 0.0f;
-    float landing = sqrtf(2.0f * WL_P_SPEED_EASE_JERK * fabsf(gap));
+    float landing = sqrtf(2.0f * wl_ease_jerk(target) * fabsf(gap));
     float a = *accel;
     if (a * direction >= landing) {
         a = direction * landing;

@@ -33,6 +33,8 @@ float wl_turn_lean(float speed, float yaw_rate);
 float wl_roll_leg_difference(float roll_set_point, float level_offset);
 void wl_leg_targets(float length, float difference, float targets[2]);
 /* The S-curve one period dt on: speed (m/s) and accel (m/s^2) updated towards target */
+/* m/s^3 the speed set point eases off at onto target (m/s): slower near the top speed (params.py) */
+float wl_ease_jerk(float target);
 void wl_speed_set_point(float *speed, float *accel, float target, float dt);
 wl_travel_t wl_travel_phase(float speed, float accel);
 
