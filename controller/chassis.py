@@ -77,6 +77,7 @@ class ChassisReport(NamedTuple):
     hold_torque_nm: float  # hip torque per leg holding the body there (estimate.BalancePointObserver)
     speed_m_s: float  # mean axle speed along the ground (the IMU's figure while the wheels slip)
     slipping: bool  # the wheels' speed and the IMU's part (estimate.SlipObserver)
+    blocked: float  # +1/-1: held back driving forward/backward (``_blocked_target``), 0: free
     speed_ref_m_s: float
     pitch_rad: float  # nose down positive
     roll_rad: float
@@ -511,7 +512,7 @@ class ChassisController:
         return ChassisReport(
             x_m=self.x, x_ref_m=self.x_ref, x_integral_m_s=self.x_integral, balance_theta_rad=self.balance_theta,
             hold_torque_nm=self.balance_point.hold_torque, speed_m_s=speed, slipping=self.slip.slipping,
-            speed_ref_m_s=self.speed_ref,
+            blocked=self.blocked, speed_ref_m_s=self.speed_ref,
             pitch_rad=att.pitch, roll_rad=att.roll, yaw_rad=att.yaw, yaw_ref_rad=self.yaw_ref,
             legs={leg: LegReport(legs[leg].L0, self.leg_ref[leg], legs[leg].theta, wheel_t[leg], tp[leg])
                   for leg in LEGS})
