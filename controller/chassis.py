@@ -77,6 +77,7 @@ class ChassisReport(NamedTuple):
     hold_torque_nm: float  # hip torque per leg holding the body there (estimate.BalancePointObserver)
     speed_m_s: float  # mean axle speed along the ground (the IMU's figure while the wheels slip)
     slipping: bool  # the wheels' speed and the IMU's part (estimate.SlipObserver)
+    blocked: float  # +1/-1: held back driving forward/backward (``_blocked_target``), 0: free
     speed_ref_m_s: float
     pitch_rad: float  # nose down positive
     roll_rad: float
@@ -119,6 +120,10 @@ class ChassisController:
         self.speed_ref = 0.0  # m/s, slewed
         self.accel_ref = 0.0  # m/s^2, the speed set point's own (motion.speed_set_point)
         self.travel = Travel.STANDING  # what the speed set point does (motion.travel_phase)
+        # +1/-1: driving forward/backward the robot was held back (a wall): the command is not
+        # followed that way until it stops asking for it (``_blocked_target``); 0: free
+        self.blocked = 0.0
+        self.unblock_s = 0.0  # s the command has not asked the blocked way
         self.yaw_ref = 0.0  # rad
         self.yaw_rate_ref = 0.0  # rad/s, the commanded turn rate eased in and out (YAW_ACCEL_LIMIT)
         self.leg_ref = {leg: P.LEG_LENGTH_NOMINAL for leg in LEGS}
@@ -169,7 +174,7 @@ class ChassisController:
         att = self.attitude(bus)
         self.x = self.x_ref = self.x_integral = self.trim_hold_s = 0.0
         self.u_prev = {leg: (0.0, 0.0) for leg in LEGS}
-        self.speed_ref = self.accel_ref = 0.0
+        self.speed_ref = self.accel_ref = self.blocked = self.unblock_s = 0.0
         self.travel = Travel.STANDING
         self.lean = 0.0
         self.yaw_ref = att.yaw
@@ -202,9 +207,10 @@ class ChassisController:
         standing = self._trim(speed, cmd, mean_length)
         out = Output(legs=legs)
         wheel_t, tp = {}, {}
+        wheel_limit = P.BLOCKED_WHEEL_TORQUE if self.blocked else P.WHEEL_TORQUE_LIMIT
         for leg in LEGS:
             wheel_t[leg], tp[leg] = self._lqr(legs[leg], leg, speed, att, cmd, mean_length)
-            self.u_prev[leg] = (clamp(wheel_t[leg], P.WHEEL_TORQUE_LIMIT), tp[leg])
+            self.u_prev[leg] = (clamp(wheel_t[leg], wheel_limit), tp[leg])
         # the legs' lean standing still says where the CoM is, whatever the hips' friction
         # holds (the torque the LQR asks does not: docs/control.md, the balance point);
         # less the lean the robot's acceleration asks for (finding its feet after start-up)
@@ -222,7 +228,7 @@ class ChassisController:
             force = push + sign * roll_f
             self._hips(out, leg, legs[leg], force, tp[leg], tp[leg] - self.balance_point.hold_torque)
             wheel = LEG_WHEEL[leg]
-            out.wheel_torque[wheel.esc_id] = wheel.forward_sign * clamp(wheel_t[leg], P.WHEEL_TORQUE_LIMIT)
+            out.wheel_torque[wheel.esc_id] = wheel.forward_sign * clamp(wheel_t[leg], wheel_limit)
         self._limit_hips(out, cmd.hip_torque_limit)
         out.report = self._report(legs, att, speed, wheel_t, tp)
         return out
@@ -299,8 +305,33 @@ class ChassisController:
             self.leg_integral[leg] = 0.0
 
     # -- pieces ----------------------------------------------------------------
+    def _blocked_target(self, target: float) -> float:
+        """The speed (m/s) to head for instead of ``target``: 0 while the robot is held back
+        that way (docs/control.md, collisions).
+
+        Cruising, the body (the IMU's speed, which a wheel bouncing off the obstacle does not
+        fool) more than BLOCKED_LAG behind the set point is held back: a wall, a kerb. Pushing
+        on, the LQR's speed term asks the wheels for a lean into it (at the wheel's 5.5 N m
+        travel limit 0.22 rad), and a heavier body or a slipping wheel goes over the wall.
+        The set point and the spot are then where the robot is (standing, it pushes nothing)
+        and stay so until the command stops asking to go that way."""
+        if self.travel is Travel.CRUISING and \
+                (self.speed_ref - self.slip.speed_m_s) * math.copysign(1.0, self.speed_ref) > P.BLOCKED_LAG:
+            self.blocked = math.copysign(1.0, self.speed_ref)
+            self.speed_ref = self.accel_ref = 0.0
+            self.x_ref = self.x
+        if target * self.blocked > 0.0:
+            self.unblock_s = 0.0
+            return 0.0
+        # released once the command has not asked that way for BLOCKED_RELEASE_S: the one
+        # tick of BALANCE (speed 0) after a wheel's hop off the wall (AIRBORNE) is no release
+        self.unblock_s += self.dt
+        if self.unblock_s >= P.BLOCKED_RELEASE_S:
+            self.blocked = 0.0
+        return target
+
     def _track_references(self, cmd: Command, att: Attitude) -> None:
-        target = clamp(cmd.speed, P.SPEED_LIMIT)
+        target = self._blocked_target(clamp(cmd.speed, P.SPEED_LIMIT))
         self.speed_ref, self.accel_ref = motion.speed_set_point(self.speed_ref, self.accel_ref, target, self.dt)
         self.travel = motion.travel_phase(self.speed_ref, self.accel_ref)
         self.x_ref += self.speed_ref * self.dt
@@ -481,7 +512,7 @@ class ChassisController:
         return ChassisReport(
             x_m=self.x, x_ref_m=self.x_ref, x_integral_m_s=self.x_integral, balance_theta_rad=self.balance_theta,
             hold_torque_nm=self.balance_point.hold_torque, speed_m_s=speed, slipping=self.slip.slipping,
-            speed_ref_m_s=self.speed_ref,
+            blocked=self.blocked, speed_ref_m_s=self.speed_ref,
             pitch_rad=att.pitch, roll_rad=att.roll, yaw_rad=att.yaw, yaw_ref_rad=self.yaw_ref,
             legs={leg: LegReport(legs[leg].L0, self.leg_ref[leg], legs[leg].theta, wheel_t[leg], tp[leg])
                   for leg in LEGS})

@@ -133,6 +133,21 @@ CRUISE_TRIM_TAU = 0.5
 # pushed along, the robot is not where a disturbance would leave it
 CRUISE_TRIM_WINDOW = 0.5
 YAW_RATE_LIMIT = 4.0  # rad/s
+# Collisions (chassis._blocked_target, docs/control.md): driving into a wall, the LQR's speed
+# term asks the blocked wheels for a lean into it (at the 5.5 N m travel limit ~0.22 rad) and
+# its balance terms for far more torque than the floor can carry; the wheel spins, climbs the
+# wall's face, lifts off and the body goes over (9 of 10 sourced `wall` draws).
+# m/s: cruising, the body (the IMU's speed) this far behind the set point is held back. Cruising,
+# nominal drive, sprint and bump lag < 0.01 m/s, turn-fast 0.13 (its heading swings); the wall 0.4+
+BLOCKED_LAG = 0.25
+# s the command must stop asking that way before it is followed again: the one tick of BALANCE
+# (speed 0) after a wheel's hop off the wall (AIRBORNE) is no release
+BLOCKED_RELEASE_S = 0.1
+# N m per wheel while held back: about what the floor carries, mu Fn R = 0.85 x 23 N x 0.05 m
+# = 1.0 N m, plus the wall's own friction on the wheel. More spins the wheel up the wall (it
+# lifts off: no grip, no righting torque); less rights the lean too slowly. Sourced draws
+# 0, 3, 4 (python): 1.0 N m passed 1/3, 1.5 N m 2/3, 2.0 N m 2/3; 1.5 passed 8 of the 9
+BLOCKED_WHEEL_TORQUE = 1.5
 # N m per wheel, largest LQR wheel torque for the travel (position, speed, their integral),
 # limited before the balance terms are added: a 5 N s push asks for far more there, and
 # summed first the balance terms drowned in the saturation (push FALLEN with a stiffer

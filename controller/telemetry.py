@@ -44,6 +44,7 @@ DEBUG_FIELDS = {
     "hold_torque": "hip torque per leg that holds the body at the balance point (N m)",
     "speed": "axle speed along the ground, mean of both wheels; the IMU's figure while they slip (m/s)",
     "slipping": "1 while the wheels' speed and the IMU's part (estimate.SlipObserver), else 0",
+    "blocked": "+1/-1 while held back driving forward/backward, a wall (chassis._blocked_target), else 0",
     "speed_ref": "speed reference after the acceleration limit (m/s)",
     "pitch": "body pitch from the IMU, nose down positive (rad)",
     "roll": "body roll from the IMU, left side up positive (rad)",
@@ -68,7 +69,7 @@ def debug_record(last: LastOutput) -> dict:
     fn = last.support_n
     return {"x": c.x_m, "x_ref": c.x_ref_m, "x_integral": c.x_integral_m_s,
             "balance_theta": c.balance_theta_rad, "hold_torque": c.hold_torque_nm, "speed": c.speed_m_s,
-            "slipping": float(c.slipping), "speed_ref": c.speed_ref_m_s,
+            "slipping": float(c.slipping), "blocked": c.blocked, "speed_ref": c.speed_ref_m_s,
             "pitch": c.pitch_rad, "roll": c.roll_rad, "yaw": c.yaw_rad, "yaw_ref": c.yaw_ref_rad,
             "left_L0": left.length_m, "left_L0_ref": left.length_ref_m, "left_theta": left.theta_rad,
             "left_T": left.wheel_torque_nm, "left_Tp": left.leg_torque_nm,

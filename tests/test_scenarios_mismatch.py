@@ -189,3 +189,29 @@ def test_a_trim_wound_up_by_a_steady_push_unwinds_past_the_clamp(rig_run):
     x, t = run.state["x"], run.state["t"]
     late = t > t[-1] - 5.0
     assert float(x[late].max() - x[late].min()) < 0.02, "still creeping over the last 5 s"
+
+
+def test_driving_into_a_wall_stops_pushing_and_stays_up(rig_run):
+    """Sourced tolerance draw (`wheelleg campaign wall --preset tolerance --seed 3141`, sample 0):
+    at 0.4 m/s into the wall the wheels stop dead, the LQR's speed term asked them for a lean
+    into the wall (~0.22 rad at the travel limit) and its balance terms for 10-20 N m, which
+    spun them up the wall's face until they lifted off; the body went over the wall at 2.3 s.
+    Held back, the robot now stops pushing and its wheels keep to what the floor carries
+    (docs/control.md, collisions): it stands at the wall, its legs leaning at most 0.24 rad."""
+    plant = {"battery_resistance_ohm": 0.104453, "body_mass_scale": 1.04055, "com_x_m": 0.0167325,
+             "com_y_m": 0.00745846, "com_z_m": -0.00971351, "command_delay_s": 4.31072e-05,
+             "feedback_delay_s": 0.000643138, "friction": 0.856348, "hip_armature": 0.00210625,
+             "hip_damping": 0.00201335, "hip_frictionloss_left": 0.234431, "hip_frictionloss_right": 0.334838,
+             "hip_kt_scale_left": 1.00436, "hip_kt_scale_right": 0.971422, "hip_torque_lag_s": 0.00134007,
+             "hip_zero_offset_left_front": 7.29704e-05, "hip_zero_offset_left_rear": -0.00631485,
+             "hip_zero_offset_right_front": 0.0104527, "hip_zero_offset_right_rear": 0.0127985,
+             "imu_gyro_bias_x": -0.00153873, "imu_gyro_bias_y": -0.0138268, "imu_gyro_bias_z": 0.00692377,
+             "imu_noise_scale": 1.67721, "imu_tilt_pitch_deg": 0.181049, "imu_tilt_roll_deg": -0.777817,
+             "inertia_scale": 1.237, "supply_voltage_v": 24.6396, "wheel_damping": 0.00298773,
+             "wheel_frictionloss_left": 0.100545, "wheel_frictionloss_right": 0.158808,
+             "wheel_kt_scale_left": 0.918249, "wheel_kt_scale_right": 0.947953, "wheel_radius_scale": 0.9641,
+             "wheel_torque_lag_s": 0.000411747}
+    run = rig_run("wall", seed=1315027255, plant=plant)
+    run.assert_passed()
+    lean = max(float(np.max(np.abs(run.state[f"{leg}_leg_angle"]))) for leg in ("left", "right"))
+    assert lean < 0.3, f"the legs leaned {lean:.2f} rad into the wall: still pushing on it"

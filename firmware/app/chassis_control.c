@@ -63,7 +63,8 @@ void wl_chassis_reset(wl_chassis_t *c, const wl_bus_state_t *bus) {
     c->x = c->x_ref = c->x_integral = 0.0f;
     c->trim_hold_s = 0.0;
     memset(c->u_prev, 0, sizeof c->u_prev);
-    c->speed_ref = c->accel_ref = 0.0f;
+    c->speed_ref = c->accel_ref = c->blocked = 0.0f;
+    c->unblock_s = 0.0;
     c->travel = WL_TRAVEL_STANDING;
     c->lean = 0.0f;
     c->yaw_ref = s.att.yaw;
@@ -91,8 +92,28 @@ void wl_chassis_touchdown(wl_chassis_t *c, const wl_bus_state_t *bus, bool keep_
 /* -- pieces -------------------------------------------------------------------------- */
 static float roll_set_point(const wl_chassis_t *c, const wl_chassis_cmd_t *cmd) { return cmd->roll + c->lean; }
 
+/* The speed to head for instead of target: 0 while the robot is held back that way
+ * (controller/chassis.py _blocked_target). Cruising, the body (the IMU's speed) more than
+ * BLOCKED_LAG behind the set point is held back: the set point and the spot become where the
+ * robot is until the command has not asked that way for BLOCKED_RELEASE_S. */
+static float blocked_target(wl_chassis_t *c, float target) {
+    if (c->travel == WL_TRAVEL_CRUISING &&
+        (c->speed_ref - c->slip.speed) * copysignf(1.0f, c->speed_ref) > WL_P_BLOCKED_LAG) {
+        c->blocked = copysignf(1.0f, c->speed_ref);
+        c->speed_ref = c->accel_ref = 0.0f;
+        c->x_ref = c->x;
+    }
+    if (target * c->blocked > 0.0f) {
+        c->unblock_s = 0.0;
+        return 0.0f;
+    }
+    c->unblock_s += c->dt_d;
+    if (c->unblock_s >= WL_P_BLOCKED_RELEASE_S_D) c->blocked = 0.0f;
+    return target;
+}
+
 static void track_references(wl_chassis_t *c, const wl_chassis_cmd_t *cmd) {
-    float target = wl_clamp(cmd->speed, WL_P_SPEED_LIMIT);
+    float target = blocked_target(c, wl_clamp(cmd->speed, WL_P_SPEED_LIMIT));
     wl_speed_set_point(&c->speed_ref, &c->accel_ref, target, c->dt);
     c->travel = wl_travel_phase(c->speed_ref, c->accel_ref);
     c->x_ref += c->speed_ref * c->dt;
@@ -313,9 +334,10 @@ void wl_chassis_step(wl_chassis_t *c, const wl_chassis_cmd_t *cmd, const wl_sens
                                            weight_ratio(c));
     track_references(c, cmd);
     bool standing = trim(c, speed, cmd, mean_length);
+    float wheel_limit = c->blocked != 0.0f ? WL_P_BLOCKED_WHEEL_TORQUE : WL_P_WHEEL_TORQUE_LIMIT;
     for (int leg = 0; leg < 2; leg++) {
         lqr_leg(c, &legs[leg], leg, speed, att, cmd, mean_length, &out->wheel_t[leg], &out->tp[leg]);
-        c->u_prev[leg][0] = wl_clamp(out->wheel_t[leg], WL_P_WHEEL_TORQUE_LIMIT);
+        c->u_prev[leg][0] = wl_clamp(out->wheel_t[leg], wheel_limit);
         c->u_prev[leg][1] = out->tp[leg];
     }
     /* the legs' lean standing still says where the CoM is, whatever the hips' friction holds;
@@ -335,7 +357,7 @@ void wl_chassis_step(wl_chassis_t *c, const wl_chassis_cmd_t *cmd, const wl_sens
         float push = cmd->has_leg_force ? cmd->leg_force : leg_force(c, &legs[leg], leg);
         hips(out, leg, &legs[leg], push + sign * roll_f, out->tp[leg], out->tp[leg] - c->balance_point.hold_torque);
         int w = wl_wheel_of(leg);
-        out->wheel_torque[w] = (float)WL_WHEELS[w].forward_sign * wl_clamp(out->wheel_t[leg], WL_P_WHEEL_TORQUE_LIMIT);
+        out->wheel_torque[w] = (float)WL_WHEELS[w].forward_sign * wl_clamp(out->wheel_t[leg], wheel_limit);
     }
     limit_hips(out, cmd->hip_torque_limit);
     out->speed = speed;

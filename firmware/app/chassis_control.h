@@ -43,6 +43,8 @@ typedef struct {
     float speed_prev, accel;         /* m/s a period ago, m/s^2 lagged: the balance point's acceleration */
     bool in_air;
     wl_travel_t travel;
+    float blocked;                   /* +1/-1: held back driving forward/backward (a wall); 0: free */
+    double unblock_s;                /* s the command has not asked the blocked way (double: the Python's sum) */
     float leg_ref[2], leg_integral[2];
     float u_prev[2][2];              /* (T, Tp) per leg, sent last period */
     float balance_theta;

@@ -17,7 +17,7 @@
 /* the last run tick's output, read by the next ticks (telemetry.LastOutput) */
 typedef struct {
     bool valid;
-    float x, x_ref, x_integral, balance_theta, hold_torque, speed, slipping, speed_ref;
+    float x, x_ref, x_integral, balance_theta, hold_torque, speed, slipping, blocked, speed_ref;
     float pitch, roll, yaw, yaw_ref;
     float L0[2], L0_ref[2], theta[2], T[2], Tp[2];
     float fn[2];
@@ -258,6 +258,7 @@ static void remember(const wl_sensed_t *sensed, const wl_chassis_out_t *out) {
     l->hold_torque = c->balance_point.hold_torque;
     l->speed = out->speed;
     l->slipping = c->slip.slipping ? 1.0f : 0.0f;
+    l->blocked = c->blocked;
     l->speed_ref = c->speed_ref;
     l->pitch = sensed->att.pitch;
     l->roll = sensed->att.roll;
@@ -376,17 +377,17 @@ chassis_status_t chassis_status(void) {
 }
 
 const char CHASSIS_DEBUG_NAMES[] =
-    "x,x_ref,x_integral,balance_theta,hold_torque,speed,slipping,speed_ref,pitch,roll,yaw,yaw_ref,"
+    "x,x_ref,x_integral,balance_theta,hold_torque,speed,slipping,blocked,speed_ref,pitch,roll,yaw,yaw_ref,"
     "left_L0,left_L0_ref,left_theta,left_T,left_Tp,right_L0,right_L0_ref,right_theta,right_T,right_Tp,"
     "Fn_left,Fn_right,jump_phase";
 
 int chassis_debug(float *values, int max_values) {
     const last_output_t *l = &s.last;
-    float v[25] = {l->x, l->x_ref, l->x_integral, l->balance_theta, l->hold_torque, l->speed, l->slipping,
-                   l->speed_ref, l->pitch, l->roll, l->yaw, l->yaw_ref,
+    float v[26] = {l->x, l->x_ref, l->x_integral, l->balance_theta, l->hold_torque, l->speed, l->slipping,
+                   l->blocked, l->speed_ref, l->pitch, l->roll, l->yaw, l->yaw_ref,
                    l->L0[0], l->L0_ref[0], l->theta[0], l->T[0], l->Tp[0],
                    l->L0[1], l->L0_ref[1], l->theta[1], l->T[1], l->Tp[1], l->fn[0], l->fn[1], l->jump_phase};
     int n = 0;
-    for (; n < 25 && n < max_values; n++) values[n] = v[n];
+    for (; n < 26 && n < max_values; n++) values[n] = v[n];
     return n;
 }
