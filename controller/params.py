@@ -167,7 +167,12 @@ SLIP_TRAVEL_TORQUE_LIMIT = 1.0
 # taken off (below): `balance --plant com_x_m=+-0.03` and the three sourced samples'
 # balance, drive and push pass. 3 cm of CoM offset needs ~0.15 rad of lean at 0.17 m.
 BALANCE_POINT_TAU_LEARN = 0.3  # s, lag of the learnt lean after start-up
-BALANCE_POINT_LEARN_S = 1.5  # s of standing still learnt at that pace
+# s from the first standing tick learnt at that pace, in time: counted in standing time, a
+# slippery-floor sudden push (tolerance: friction 0.56-0.59) walked the robot back outside
+# the position clamp for 3 s, the window was still open when the steady push came and
+# learnt its lean (hold -0.49 N m, 0.23 rad); past the clamp nothing relearns it and the
+# robot crept 2.4 m off (docs/control.md, the balance point)
+BALANCE_POINT_LEARN_S = 1.5
 BALANCE_POINT_TAU = 1.5  # s, lag afterwards
 # s, lag of the acceleration whose lean is taken off the legs' (LEAN_PER_ACCEL): without
 # it the com 3 cm `balance` drifted 5.6 cm (it learnt the lean of finding its feet); taken
