@@ -181,3 +181,31 @@ def test_a_trim_wound_up_by_a_steady_push_unwinds_past_the_clamp(rig_run):
     x, t = run.state["x"], run.state["t"]
     late = t > t[-1] - 5.0
     assert float(x[late].max() - x[late].min()) < 0.02, "still creeping over the last 5 s"
+
+
+# sourced tolerance draw (`wheelleg campaign ... push --preset tolerance --samples 10 --seed 3142`, sample 3):
+# a slippery floor (friction 0.56) and a light, low-inertia body
+_SLIPPERY_PUSH = {
+    "battery_resistance_ohm": 0.0523374, "body_mass_scale": 0.965148, "com_x_m": -0.00113406,
+    "com_y_m": 0.00779846, "com_z_m": 0.00608508, "command_delay_s": 6.86377e-06, "feedback_delay_s": 0.000198869,
+    "friction": 0.562156, "hip_armature": 0.00733696, "hip_damping": 0.00485163, "hip_frictionloss_left": 0.381155,
+    "hip_frictionloss_right": 0.276966, "hip_kt_scale_left": 1.00545, "hip_kt_scale_right": 1.004,
+    "hip_torque_lag_s": 0.00128416, "hip_zero_offset_left_front": -0.0157255, "hip_zero_offset_left_rear": 0.00904529,
+    "hip_zero_offset_right_front": 0.0106752, "hip_zero_offset_right_rear": 0.00447021,
+    "imu_gyro_bias_x": -0.0172331, "imu_gyro_bias_y": -0.0150483, "imu_gyro_bias_z": 0.0174618,
+    "imu_noise_scale": 1.46408, "imu_tilt_pitch_deg": 0.887491, "imu_tilt_roll_deg": 1.27554,
+    "inertia_scale": 0.736878, "supply_voltage_v": 23.6543, "wheel_damping": 0.00221912,
+    "wheel_frictionloss_left": 0.149472, "wheel_frictionloss_right": 0.101024, "wheel_kt_scale_left": 0.931102,
+    "wheel_kt_scale_right": 1.02399, "wheel_radius_scale": 0.991583, "wheel_torque_lag_s": 0.000599652}
+
+
+def test_a_steady_push_after_a_long_walk_home_is_not_learnt_as_the_balance_point(rig_run):
+    """The sudden front push skids the wheels on this floor and the robot walks back from
+    0.88 m, outside the position clamp (nothing learnt) until the steady push begins. The
+    balance point's fast start-up lag was counted in standing time, so it was still on:
+    it learnt the push's lean (hold torque -0.49 N m, 0.23 rad) and the robot crept 2.4 m
+    off its spot (limit 0.5). Counted in time from start-up the window is long shut: 0.11 m."""
+    run = rig_run("push", seed=854873602, plant=_SLIPPERY_PUSH)
+    run.assert_passed()
+    x, y = run.state["x"], run.state["y"]
+    assert float(np.max(np.hypot(x - x[0], y - y[0]))) > 0.6, "the sudden push no longer skids it far: the case is lost"
