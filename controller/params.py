@@ -268,6 +268,18 @@ JUMP_HOLD_SINE_LIMIT = 0.5
 JUMP_RETRACT_TARGET = 0.13  # m
 JUMP_RETRACT_LENGTH = 0.14  # m, retract until the legs are this short
 JUMP_RETRACT_TIMEOUT = 0.15  # s
+# The retraction's leg PD (chassis ``_air_step`` with ``air_tuck``), stiffer than the holding
+# one (LEG_KP, LEG_KD within AIR_LEG_FORCE_LIMIT): the rotors of hips reflect up to
+# 0.014 kg m^2 in the sourced box (0.0012 the rotor alone), and with the holding PD the
+# retraction ran out its 0.15 s in every jump, nominal too, the legs still 0.17-0.20 m long
+# at the top: a draw with a heavy body, weak hips and a 21.8 V battery cleared 19.2 cm (need
+# 20). Measured (`wheelleg run jump`, that draw's plant): 1000 N/m, 40 N s/m within 100 N
+# reaches 0.14 m in 0.11 s (nominal) and 0.12 s (the draw), the legs' shortest 0.121 m
+# (stop 0.105), the draw clearing 22.5 cm, nominal 26.0 (27.2 before); 1500/50/150 cleared
+# 23.0 but came to 0.115 m of the stop
+JUMP_RETRACT_KP = 1000.0  # N/m
+JUMP_RETRACT_KD = 40.0  # N s/m
+JUMP_RETRACT_FORCE_LIMIT = 100.0  # N
 JUMP_LAND_LENGTH = 0.18  # m, legs held here in flight: stroke to absorb the landing
 JUMP_FLIGHT_MIN_S = 0.05  # s, ignore the retraction's own Fn transient
 JUMP_FLIGHT_TIMEOUT = 1.0  # s
