@@ -276,7 +276,7 @@ JUMP_RETRACT_TIMEOUT = 0.15  # s
 # 20). Measured (`wheelleg run jump`, that draw's plant): 1000 N/m, 40 N s/m within 100 N
 # reaches 0.14 m in 0.11 s (nominal) and 0.12 s (the draw), the legs' shortest 0.121 m
 # (stop 0.105), the draw clearing 22.5 cm, nominal 26.0 (27.2 before); 1500/50/150 cleared
-# 23.0 but came to 0.115 m of the stop
+# 23.0 but came to 0.115 m of the stop. Not in a forward jump (jump.JumpSequencer.step).
 JUMP_RETRACT_KP = 1000.0  # N/m
 JUMP_RETRACT_KD = 40.0  # N s/m
 JUMP_RETRACT_FORCE_LIMIT = 100.0  # N
