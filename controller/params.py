@@ -275,7 +275,7 @@ JUMP_RETRACT_TIMEOUT = 0.15  # s
 # at the top: a draw with a heavy body, weak hips and a 21.8 V battery cleared 19.2 cm (need
 # 20). Measured (`wheelleg run jump`, that draw's plant): 1000 N/m, 40 N s/m within 100 N
 # reaches 0.14 m in 0.11 s (nominal) and 0.12 s (the draw), the legs' shortest 0.121 m
-# (stop 0.105), the draw clearing 22.5 cm, nominal 26.0 (27.2 before); 1500/50/150 cleared
+# (stop 0.105), the draw clearing 22.5 cm, nominal 26.0 (27.2 before; firmware 25.4, 26.5); 1500/50/150 cleared
 # 23.0 but came to 0.115 m of the stop. Not in a forward jump (jump.JumpSequencer.step).
 JUMP_RETRACT_KP = 1000.0  # N/m
 JUMP_RETRACT_KD = 40.0  # N s/m

@@ -257,7 +257,9 @@ static float ground_speed(const wl_chassis_t *c, const wl_leg_state_t legs[2]) {
 /* leg force (N, lengthening +) of the in-air leg PD from the length error (m) and rate (m/s);
    tuck: the retraction's stiffer PD (controller/chassis.py air_leg_force) */
 static float air_leg_force(float error, float rate, bool tuck) {
-    if (tuck) return wl_clamp(WL_P_JUMP_RETRACT_KP * error - WL_P_JUMP_RETRACT_KD * rate, WL_P_JUMP_RETRACT_FORCE_LIMIT);
+    if (tuck) {
+        return wl_clamp(WL_P_JUMP_RETRACT_KP * error - WL_P_JUMP_RETRACT_KD * rate, WL_P_JUMP_RETRACT_FORCE_LIMIT);
+    }
     return wl_clamp(WL_P_LEG_KP * error - WL_P_LEG_KD * rate, WL_P_AIR_LEG_FORCE_LIMIT);
 }
 
