@@ -181,7 +181,10 @@ class BalancePointObserver:
         self.still_m_s, self.settle_s = still_m_s, settle_s
         self._blocked_s = 0.0  # s left before learning again after the robot last moved fast
         self.hold_torque = 0.0  # N m per leg
-        self.learnt_s = 0.0  # s since it first stood (the start-up window: tau_learn_s up to learn_s)
+        # the start-up window in ticks, counted from the first standing one: a whole count, so
+        # the firmware's window ends on the same tick (a float sum of dt_s may not)
+        self.learn_ticks = round(learn_s / dt_s)
+        self.learnt_ticks = 0
 
     def update(self, lean_hold_torque_nm: float, speed_m_s: float, standing: bool) -> float:
         """One period: the hold torque the legs' lean implies (N m per leg), the ground speed
@@ -189,9 +192,9 @@ class BalancePointObserver:
         if abs(speed_m_s) > self.still_m_s:
             self._blocked_s = self.settle_s
         self._blocked_s = max(0.0, self._blocked_s - self.dt_s)
-        tau = self.tau_learn_s if self.learnt_s < self.learn_s else self.tau_s
-        if (standing or self.learnt_s > 0.0) and self.learnt_s < self.learn_s:  # runs on once begun
-            self.learnt_s += self.dt_s
+        tau = self.tau_learn_s if self.learnt_ticks < self.learn_ticks else self.tau_s
+        if (standing or self.learnt_ticks > 0) and self.learnt_ticks < self.learn_ticks:  # runs on once begun
+            self.learnt_ticks += 1
         if not standing or self._blocked_s > 0.0:
             return self.hold_torque
         self.hold_torque += (lean_hold_torque_nm - self.hold_torque) * min(1.0, self.dt_s / tau)
