@@ -271,7 +271,7 @@ JUMP_RETRACT_TIMEOUT = 0.15  # s
 # The retraction's leg PD (chassis ``_air_step`` with ``air_tuck``), stiffer than the holding
 # one (LEG_KP, LEG_KD within AIR_LEG_FORCE_LIMIT): the rotors of hips reflect up to
 # 0.014 kg m^2 in the sourced box (0.0012 the rotor alone), and with the holding PD the
-# retraction ran out its 0.15 s in every jump, nominal too, the legs still 0.17-0.20 m long
+# retraction ran out its 0.15 s in every jump traced, the legs still up to 0.16-0.20 m long
 # at the top: a draw with a heavy body, weak hips and a 21.8 V battery cleared 19.2 cm (need
 # 20). Measured (`wheelleg run jump`, that draw's plant): 1000 N/m, 40 N s/m within 100 N
 # reaches 0.14 m in 0.11 s (nominal) and 0.12 s (the draw), the legs' shortest 0.121 m

@@ -212,7 +212,7 @@ def test_a_steady_push_after_a_long_walk_home_is_not_learnt_as_the_balance_point
 
 
 # sourced tolerance draw (the same campaign, `jump` sample 4): the body x1.09, hips 9-10 % weak,
-# a 21.8 V battery (the thrust's hips at their limit and slowed by their back-EMF)
+# a 21.8 V battery (its thrust at the hips' limit)
 _HEAVY_WEAK_LOW_BATTERY = {
     "battery_resistance_ohm": 0.0525517, "body_mass_scale": 1.08535, "com_x_m": 0.0142408, "com_y_m": -0.0034985,
     "com_z_m": 0.000635901, "command_delay_s": 0.000117444, "feedback_delay_s": 0.000189078, "friction": 0.763745,
@@ -230,7 +230,7 @@ _HEAVY_WEAK_LOW_BATTERY = {
 
 def test_a_jump_on_weak_hips_and_a_low_battery_tucks_its_legs_in_time(rig_run):
     """Retracted by the PD that holds the legs in the air (400 N/m within 40 N) the legs ran
-    out the retraction's 0.15 s still 0.17-0.20 m long, so the wheels hung under the body at
+    out the retraction's 0.15 s still 0.16-0.20 m long, so the wheels hung under the body at
     the top and the lower one cleared 19.2 cm (need 20). The retraction's own stiffer PD
     tucks them to 0.14 m within it: 22.5 cm, and in the air they stop short of their
     mechanical stop (0.105 m; the landing may reach it)."""
