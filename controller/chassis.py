@@ -46,8 +46,17 @@ class Command:
     hip_torque_limit: float = P.HIP_TORQUE_LIMIT  # N m, raised only for a jump's thrust
     air_leg_hold: bool = True  # in the air, hold the legs vertical (False: Tp 0, legs swing free)
     air_pitch_hold: bool = False  # in the air, level the body with the wheels' reaction (flight only)
+    air_tuck: bool = False  # in the air, pull the legs in with the retraction's PD (a jump's RETRACT)
     trim: bool = False  # standing or moving on the wheels: integrate the position error (``_trim``)
     stance_hold: StanceHold | None = None  # a jump in place: the hips over their start (``_lqr_hold``), the lean in the air
+
+
+def air_leg_force(error_m: float, rate_m_s: float, tuck: bool) -> float:
+    """Leg force (N, lengthening positive) of the in-air leg PD: the length error (m, set point
+    less measured) and the leg's rate (m/s); ``tuck``: the retraction's stiffer PD."""
+    if tuck:
+        return clamp(P.JUMP_RETRACT_KP * error_m - P.JUMP_RETRACT_KD * rate_m_s, P.JUMP_RETRACT_FORCE_LIMIT)
+    return clamp(P.LEG_KP * error_m - P.LEG_KD * rate_m_s, P.AIR_LEG_FORCE_LIMIT)
 
 
 class Sensed(NamedTuple):
@@ -269,8 +278,8 @@ class ChassisController:
             # the wheel's reaction acts on its leg: the hip passes it on to the body
             tp[leg] += wheel_t[leg]
             self.u_prev[leg] = (0.0, tp[leg])
-            force = cmd.leg_force if cmd.leg_force is not None else clamp(
-                P.LEG_KP * (self.leg_ref[leg] - s.L0) - P.LEG_KD * s.dL0, P.AIR_LEG_FORCE_LIMIT)
+            force = cmd.leg_force if cmd.leg_force is not None else air_leg_force(
+                self.leg_ref[leg] - s.L0, s.dL0, cmd.air_tuck)
             self._hips(out, leg, s, force, tp[leg], tp[leg])
             wheel = LEG_WHEEL[leg]
             out.wheel_torque[wheel.esc_id] = wheel.forward_sign * wheel_t[leg]

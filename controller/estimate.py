@@ -163,9 +163,12 @@ class BalancePointObserver:
     ``hold_torque`` follows the hold torque of the legs' lean (``update``, fed by the
     chassis with ``lqr.lean_hold_torque`` of the mean leg angle less the acceleration's
     lean) through a first-order lag: ``tau_learn_s`` for the first
-    ``learn_s`` of standing after start-up, so the robot finds its balance point
-    before it has rolled far from where it was put down; ``tau_s`` afterwards, slow
-    enough that a push's lean (a few hundred ms) barely moves it. It is kept across
+    ``learn_s`` after it first stands (time, whether it stands on or not), so the robot
+    finds its balance point before it has rolled far from where it was put down;
+    ``tau_s`` afterwards, slow enough that a push's lean (a few hundred ms) barely moves
+    it. Counted in standing time only, a robot pushed off its spot early (walking back,
+    nothing is learnt) still had the fast lag seconds later, and a steady push then was
+    learnt as the CoM's lean (docs/control.md, the balance point). It is kept across
     falls and re-enables: the CoM does not move when the robot falls. A push at body
     height leans the legs as a CoM offset does: nothing is learnt while the robot moves
     faster than ``still_m_s`` (m/s) nor for ``settle_s`` after, so a sudden push leaks
@@ -178,7 +181,10 @@ class BalancePointObserver:
         self.still_m_s, self.settle_s = still_m_s, settle_s
         self._blocked_s = 0.0  # s left before learning again after the robot last moved fast
         self.hold_torque = 0.0  # N m per leg
-        self.learnt_s = 0.0  # s of standing seen so far
+        # the start-up window in ticks, counted from the first standing one: a whole count, so
+        # the firmware's window ends on the same tick (a float sum of dt_s may not)
+        self.learn_ticks = round(learn_s / dt_s)
+        self.learnt_ticks = 0
 
     def update(self, lean_hold_torque_nm: float, speed_m_s: float, standing: bool) -> float:
         """One period: the hold torque the legs' lean implies (N m per leg), the ground speed
@@ -186,9 +192,10 @@ class BalancePointObserver:
         if abs(speed_m_s) > self.still_m_s:
             self._blocked_s = self.settle_s
         self._blocked_s = max(0.0, self._blocked_s - self.dt_s)
+        tau = self.tau_learn_s if self.learnt_ticks < self.learn_ticks else self.tau_s
+        if (standing or self.learnt_ticks > 0) and self.learnt_ticks < self.learn_ticks:  # runs on once begun
+            self.learnt_ticks += 1
         if not standing or self._blocked_s > 0.0:
             return self.hold_torque
-        tau = self.tau_learn_s if self.learnt_s < self.learn_s else self.tau_s
-        self.learnt_s += self.dt_s
         self.hold_torque += (lean_hold_torque_nm - self.hold_torque) * min(1.0, self.dt_s / tau)
         return self.hold_torque

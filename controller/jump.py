@@ -109,6 +109,7 @@ class JumpCommand:
     leg_force: float | None  # N per leg, open-loop push replacing the leg PID (None: PID)
     hip_torque_limit: float  # N m
     stance_hold: StanceHold | None = None  # pushing and in the air: the legs' lean (StanceHold)
+    tuck: bool = False  # in the air, the retraction's stiffer leg PD (in place, RETRACT; P.JUMP_RETRACT_KP)
 
 
 # --- sizing the thrust ------------------------------------------------------------------
@@ -350,4 +351,7 @@ class JumpSequencer:
         force = None
         if spec.force is not None:
             force = spec.force(JumpView(self.elapsed_s, pick(lengths), touching, thrust=self.thrust, rate_m_s=rate))
-        return JumpCommand(self.phase, spec.airborne, spec.leg_length, force, spec.hip_torque_limit, hold)
+        # a forward jump retracts with the holding PD: tucked at once, FLIGHT put the legs back out
+        # to P.JUMP_LAND_LENGTH 40 ms sooner and nominal `jump-step` landed 12.7 cm past the edge, not 21.7
+        tuck = self.phase == Phase.RETRACT and not self.forward
+        return JumpCommand(self.phase, spec.airborne, spec.leg_length, force, spec.hip_torque_limit, hold, tuck)

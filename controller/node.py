@@ -293,7 +293,7 @@ class Controller:
         ahead = self._jump_forward and jc.phase in (Phase.SQUAT, Phase.THRUST, Phase.RETRACT, Phase.FLIGHT)
         cmd.speed, cmd.yaw_rate = (P.JUMP_FORWARD_SPEED if ahead else 0.0), 0.0
         cmd.airborne, cmd.leg_force, cmd.hip_torque_limit = jc.airborne, jc.leg_force, jc.hip_torque_limit
-        cmd.air_pitch_hold, cmd.stance_hold = jc.airborne, jc.stance_hold
+        cmd.air_pitch_hold, cmd.stance_hold, cmd.air_tuck = jc.airborne, jc.stance_hold, jc.tuck
         if jc.leg_length is not None:
             cmd.leg_length = jc.leg_length
 

@@ -193,7 +193,12 @@ SLIP_TRAVEL_TORQUE_LIMIT = 1.0
 # taken off (below): `balance --plant com_x_m=+-0.03` and the three sourced samples'
 # balance, drive and push pass. 3 cm of CoM offset needs ~0.15 rad of lean at 0.17 m.
 BALANCE_POINT_TAU_LEARN = 0.3  # s, lag of the learnt lean after start-up
-BALANCE_POINT_LEARN_S = 1.5  # s of standing still learnt at that pace
+# s from the first standing tick learnt at that pace, in time: counted in standing time, a
+# slippery-floor sudden push (tolerance: friction 0.56-0.59) walked the robot back outside
+# the position clamp for 3 s, the window was still open when the steady push came and
+# learnt its lean (hold -0.49 N m, 0.23 rad); past the clamp nothing relearns it and the
+# robot crept 2.4 m off (docs/control.md, the balance point)
+BALANCE_POINT_LEARN_S = 1.5
 BALANCE_POINT_TAU = 1.5  # s, lag afterwards
 # s, lag of the acceleration whose lean is taken off the legs' (LEAN_PER_ACCEL): without
 # it the com 3 cm `balance` drifted 5.6 cm (it learnt the lean of finding its feet); taken
@@ -289,6 +294,18 @@ JUMP_HOLD_SINE_LIMIT = 0.5
 JUMP_RETRACT_TARGET = 0.13  # m
 JUMP_RETRACT_LENGTH = 0.14  # m, retract until the legs are this short
 JUMP_RETRACT_TIMEOUT = 0.15  # s
+# The retraction's leg PD (chassis ``_air_step`` with ``air_tuck``), stiffer than the holding
+# one (LEG_KP, LEG_KD within AIR_LEG_FORCE_LIMIT): the rotors of hips reflect up to
+# 0.014 kg m^2 in the sourced box (0.0012 the rotor alone), and with the holding PD the
+# retraction ran out its 0.15 s in every jump traced, the legs still up to 0.16-0.20 m long
+# at the top: a draw with a heavy body, weak hips and a 21.8 V battery cleared 19.2 cm (need
+# 20). Measured (`wheelleg run jump`, that draw's plant): 1000 N/m, 40 N s/m within 100 N
+# reaches 0.14 m in 0.11 s (nominal) and 0.12 s (the draw), the legs' shortest 0.121 m
+# (stop 0.105), the draw clearing 22.5 cm, nominal 26.0 (27.2 before; firmware 25.4, 26.5); 1500/50/150 cleared
+# 23.0 but came to 0.115 m of the stop. Not in a forward jump (jump.JumpSequencer.step).
+JUMP_RETRACT_KP = 1000.0  # N/m
+JUMP_RETRACT_KD = 40.0  # N s/m
+JUMP_RETRACT_FORCE_LIMIT = 100.0  # N
 JUMP_LAND_LENGTH = 0.18  # m, legs held here in flight: stroke to absorb the landing
 JUMP_FLIGHT_MIN_S = 0.05  # s, ignore the retraction's own Fn transient
 JUMP_FLIGHT_TIMEOUT = 1.0  # s

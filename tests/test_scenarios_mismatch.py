@@ -215,3 +215,63 @@ def test_driving_into_a_wall_stops_pushing_and_stays_up(rig_run):
     run.assert_passed()
     lean = max(float(np.max(np.abs(run.state[f"{leg}_leg_angle"]))) for leg in ("left", "right"))
     assert lean < 0.3, f"the legs leaned {lean:.2f} rad into the wall: still pushing on it"
+
+
+# sourced tolerance draw (`wheelleg campaign ... push --preset tolerance --samples 10 --seed 3142`, sample 3):
+# a slippery floor (friction 0.56) and a light, low-inertia body
+_SLIPPERY_PUSH = {
+    "battery_resistance_ohm": 0.0523374, "body_mass_scale": 0.965148, "com_x_m": -0.00113406,
+    "com_y_m": 0.00779846, "com_z_m": 0.00608508, "command_delay_s": 6.86377e-06, "feedback_delay_s": 0.000198869,
+    "friction": 0.562156, "hip_armature": 0.00733696, "hip_damping": 0.00485163, "hip_frictionloss_left": 0.381155,
+    "hip_frictionloss_right": 0.276966, "hip_kt_scale_left": 1.00545, "hip_kt_scale_right": 1.004,
+    "hip_torque_lag_s": 0.00128416, "hip_zero_offset_left_front": -0.0157255, "hip_zero_offset_left_rear": 0.00904529,
+    "hip_zero_offset_right_front": 0.0106752, "hip_zero_offset_right_rear": 0.00447021,
+    "imu_gyro_bias_x": -0.0172331, "imu_gyro_bias_y": -0.0150483, "imu_gyro_bias_z": 0.0174618,
+    "imu_noise_scale": 1.46408, "imu_tilt_pitch_deg": 0.887491, "imu_tilt_roll_deg": 1.27554,
+    "inertia_scale": 0.736878, "supply_voltage_v": 23.6543, "wheel_damping": 0.00221912,
+    "wheel_frictionloss_left": 0.149472, "wheel_frictionloss_right": 0.101024, "wheel_kt_scale_left": 0.931102,
+    "wheel_kt_scale_right": 1.02399, "wheel_radius_scale": 0.991583, "wheel_torque_lag_s": 0.000599652}
+
+
+def test_a_steady_push_after_a_long_walk_home_is_not_learnt_as_the_balance_point(rig_run):
+    """The sudden front push skids the wheels on this floor and the robot walks back from
+    0.88 m, outside the position clamp (nothing learnt) until the steady push begins. The
+    balance point's fast start-up lag was counted in standing time, so it was still on:
+    it learnt the push's lean (hold torque -0.49 N m, 0.23 rad) and the robot crept 2.4 m
+    off its spot (limit 0.5). Counted in time from start-up the window is long shut: 0.11 m."""
+    run = rig_run("push", seed=854873602, plant=_SLIPPERY_PUSH)
+    run.assert_passed()
+    x, y = run.state["x"], run.state["y"]
+    assert float(np.max(np.hypot(x - x[0], y - y[0]))) > 0.6, "the sudden push no longer skids it far: the case is lost"
+
+
+# sourced tolerance draw (the same campaign, `jump` sample 4): the body x1.09, hips 9-10 % weak,
+# a 21.8 V battery (its thrust at the hips' limit)
+_HEAVY_WEAK_LOW_BATTERY = {
+    "battery_resistance_ohm": 0.0525517, "body_mass_scale": 1.08535, "com_x_m": 0.0142408, "com_y_m": -0.0034985,
+    "com_z_m": 0.000635901, "command_delay_s": 0.000117444, "feedback_delay_s": 0.000189078, "friction": 0.763745,
+    "hip_armature": 0.00594532, "hip_damping": 0.00244863, "hip_frictionloss_left": 0.392479,
+    "hip_frictionloss_right": 0.227869, "hip_kt_scale_left": 0.911148, "hip_kt_scale_right": 0.902335,
+    "hip_torque_lag_s": 0.000713081, "hip_zero_offset_left_front": -0.00593681,
+    "hip_zero_offset_left_rear": -0.0119765, "hip_zero_offset_right_front": 0.017046,
+    "hip_zero_offset_right_rear": -0.00530989, "imu_gyro_bias_x": 0.00394396, "imu_gyro_bias_y": 0.00298197,
+    "imu_gyro_bias_z": 0.00942551, "imu_noise_scale": 1.19127, "imu_tilt_pitch_deg": -1.03588,
+    "imu_tilt_roll_deg": 0.465377, "inertia_scale": 0.885151, "supply_voltage_v": 21.8039,
+    "wheel_damping": 0.00394863, "wheel_frictionloss_left": 0.139683, "wheel_frictionloss_right": 0.109792,
+    "wheel_kt_scale_left": 0.924178, "wheel_kt_scale_right": 0.956892, "wheel_radius_scale": 1.0076,
+    "wheel_torque_lag_s": 0.000697779}
+
+
+def test_a_jump_on_weak_hips_and_a_low_battery_tucks_its_legs_in_time(rig_run):
+    """Retracted by the PD that holds the legs in the air (400 N/m within 40 N) the legs ran
+    out the retraction's 0.15 s still 0.16-0.20 m long, so the wheels hung under the body at
+    the top and the lower one cleared 19.2 cm (need 20). The retraction's own stiffer PD
+    tucks them to 0.14 m within it: 22.5 cm, and in the air they stop short of their
+    mechanical stop (0.105 m; the landing may reach it)."""
+    run = rig_run("jump", seed=571565450, plant=_HEAVY_WEAK_LOW_BATTERY)
+    run.assert_passed()
+    spans = airborne_spans(run)
+    assert spans, "never in the air"
+    for side in ("left", "right"):
+        shortest = min(float(np.min(run.window(f"{side}_leg_length", t0, t1 + 1e-9))) for t0, t1 in spans)
+        assert shortest > 0.11, f"{side} leg {shortest:.3f} m in the air: near its stop"

@@ -275,6 +275,15 @@ static float ground_speed(const wl_chassis_t *c, const wl_leg_state_t legs[2]) {
     return wl_mean_speed(legs);
 }
 
+/* leg force (N, lengthening +) of the in-air leg PD from the length error (m) and rate (m/s);
+   tuck: the retraction's stiffer PD (controller/chassis.py air_leg_force) */
+static float air_leg_force(float error, float rate, bool tuck) {
+    if (tuck) {
+        return wl_clamp(WL_P_JUMP_RETRACT_KP * error - WL_P_JUMP_RETRACT_KD * rate, WL_P_JUMP_RETRACT_FORCE_LIMIT);
+    }
+    return wl_clamp(WL_P_LEG_KP * error - WL_P_LEG_KD * rate, WL_P_AIR_LEG_FORCE_LIMIT);
+}
+
 static void air_step(wl_chassis_t *c, const wl_sensed_t *s, float speed, const wl_chassis_cmd_t *cmd,
                      wl_chassis_out_t *out) {
     c->x_ref = c->x;
@@ -299,10 +308,8 @@ static void air_step(wl_chassis_t *c, const wl_sensed_t *s, float speed, const w
         out->tp[leg] = tp;
         c->u_prev[leg][0] = 0.0f;
         c->u_prev[leg][1] = tp;
-        float force = cmd->has_leg_force
-                          ? cmd->leg_force
-                          : wl_clamp(WL_P_LEG_KP * (c->leg_ref[leg] - l->L0) - WL_P_LEG_KD * l->dL0,
-                                     WL_P_AIR_LEG_FORCE_LIMIT);
+        float force = cmd->has_leg_force ? cmd->leg_force
+                                         : air_leg_force(c->leg_ref[leg] - l->L0, l->dL0, cmd->air_tuck);
         hips(out, leg, l, force, tp, tp);
         int w = wl_wheel_of(leg);
         out->wheel_torque[w] = (float)WL_WHEELS[w].forward_sign * out->wheel_t[leg];

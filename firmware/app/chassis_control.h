@@ -14,6 +14,7 @@
 typedef struct {
     float speed, yaw_rate, leg_length, pitch, roll;  /* m/s, rad/s, m, rad (nose down +), rad */
     bool airborne, air_leg_hold, air_pitch_hold, trim;
+    bool air_tuck;  /* in the air, pull the legs in with the retraction's PD (a jump's RETRACT) */
     bool has_leg_force;
     float leg_force;         /* N per leg (jump thrust) */
     float hip_torque_limit;  /* N m */

@@ -196,6 +196,7 @@ static void jump_command(wl_chassis_cmd_t *cmd) {
     cmd->hip_torque_limit = jc.hip_torque_limit;
     cmd->air_pitch_hold = jc.airborne;
     cmd->stance_hold = jc.hold;
+    cmd->air_tuck = jc.tuck;
     if (jc.has_leg_length) cmd->leg_length = jc.leg_length;
 }
 

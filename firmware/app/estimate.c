@@ -143,15 +143,18 @@ void wl_balance_point_init(wl_balance_point_t *b, float dt, float tau_learn, flo
     b->tau = tau;
     b->still = still;
     b->settle = settle;
-    b->blocked_s = b->hold_torque = b->learnt_s = 0.0f;
+    b->blocked_s = b->hold_torque = 0.0f;
+    b->learn_ticks = lround((double)learn_s / (double)dt);  /* a whole count: ends on the Python's tick */
+    b->learnt_ticks = 0;
 }
 
 float wl_balance_point_update(wl_balance_point_t *b, float lean_hold_torque, float speed, bool standing) {
     if (fabsf(speed) > b->still) b->blocked_s = b->settle;
     b->blocked_s = wl_maxf(0.0f, b->blocked_s - b->dt);
+    float tau = b->learnt_ticks < b->learn_ticks ? b->tau_learn : b->tau;
+    /* the start-up window runs on once begun (controller/estimate.py BalancePointObserver) */
+    if ((standing || b->learnt_ticks > 0) && b->learnt_ticks < b->learn_ticks) b->learnt_ticks++;
     if (!standing || b->blocked_s > 0.0f) return b->hold_torque;
-    float tau = b->learnt_s < b->learn_s ? b->tau_learn : b->tau;
-    b->learnt_s += b->dt;
     b->hold_torque += (lean_hold_torque - b->hold_torque) * wl_minf(1.0f, b->dt / tau);
     return b->hold_torque;
 }

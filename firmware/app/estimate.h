@@ -23,7 +23,8 @@ typedef struct {
 
 typedef struct {
     float dt, tau_learn, learn_s, tau, still, settle;
-    float blocked_s, hold_torque, learnt_s;
+    float blocked_s, hold_torque;
+    long learn_ticks, learnt_ticks;  /* the start-up window, counted from the first standing tick */
 } wl_balance_point_t;
 
 typedef struct {

@@ -202,6 +202,8 @@ wl_jump_cmd_t wl_jump_step(wl_jump_t *j, const float lengths[2], bool touching, 
     cmd.has_leg_length = spec->leg_length > 0.0f;
     cmd.leg_length = spec->leg_length;
     cmd.hip_torque_limit = spec->hip_limit;
+    /* a forward jump retracts with the holding PD (controller/jump.py JumpSequencer.step) */
+    cmd.tuck = j->phase == WL_JUMP_RETRACT && !j->forward;
     if (!j->forward && (spec->thrust || spec->airborne)) {
         if (j->hold.active) {
             cmd.hold = j->hold;

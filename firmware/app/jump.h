@@ -25,6 +25,7 @@ typedef struct {
     float leg_force;        /* N per leg */
     float hip_torque_limit; /* N m */
     wl_stance_hold_t hold;
+    bool tuck;              /* in the air, the retraction's stiffer leg PD (in place, RETRACT) */
 } wl_jump_cmd_t;
 
 typedef struct {
