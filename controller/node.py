@@ -284,7 +284,8 @@ class Controller:
         last = self.last
         steady = not self._jump_forward or (last is not None and (
             abs(last.chassis.speed_m_s - P.JUMP_FORWARD_SPEED) < P.JUMP_RUN_UP_SPEED_TOL
-            and all(abs(theta) < P.JUMP_RUN_UP_THETA_TOL for theta in last.leg_angles_rad())))
+            and all(abs(theta - last.chassis.balance_theta_rad) < P.JUMP_RUN_UP_THETA_TOL
+                    for theta in last.leg_angles_rad())))
         angles = last.leg_angles_rad() if last is not None else (0.0, 0.0)
         pitch = last.chassis.pitch_rad if last is not None else 0.0
         jc = self.jump.step(lengths, touching, steady, angles, pitch)
