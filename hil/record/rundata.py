@@ -116,7 +116,7 @@ def _program_frames(reader: TraceReader, channels: dict, dbs: dict) -> dict:
         if len(mine):
             wire = np.asarray(wire_ns_batch([_Wire(int(ids[i]), bool(extended[i]), columns.data[i]) for i in mine.tolist()],
                                             1_000_000), dtype=np.int64)
-            windows, held = np.unique(t_ns[mine] // LOAD_WINDOW_NS, return_inverse=True)
+            _, held = np.unique(t_ns[mine] // LOAD_WINDOW_NS, return_inverse=True)
             load[role] = float(np.bincount(held, weights=wire).max()) / LOAD_WINDOW_NS
             # a device: a CyberGear by its motor id, a standard frame by its id; sorted (device, extended)
             device = (np.where(extended[mine], ids[mine] & _CG_MOTOR, ids[mine]) << 1) | extended[mine]

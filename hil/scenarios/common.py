@@ -110,7 +110,7 @@ def tracks(field: str, target: float, t0: float, t1: float, tol: float, unit: st
 
     def fn(run: RunData):
         values = run.window(field, t0, t1)
-        offset = _window_mean(run, field, level) if level else 0.0
+        offset = float(np.mean(run.window(field, *level))) if level else 0.0
         change = values - offset
         mean, worst = float(np.mean(change)), float(np.max(np.abs(change - target)))
         what = f"{field} {mean * scale:.2f} {unit}"
@@ -127,17 +127,10 @@ def level_within(field: str, t0: float, t1: float, tol: float) -> Check:
     """Mean |field| (rad) over [t0, t1), where the robot is asked to stand level, below ``tol``."""
 
     def fn(run: RunData):
-        mean = _window_mean(run, field, (t0, t1))
+        mean = float(np.mean(run.window(field, t0, t1)))
         return abs(mean) < tol, f"{field} {mean / DEG:.2f} deg over {t0:g}-{t1:g} s (limit {tol / DEG:g})"
 
     return Check(f"level: |{field}| < {tol / DEG:g} deg over {t0:g}-{t1:g} s", fn)
-
-
-def _window_mean(run: RunData, field: str, window: tuple[float, float]) -> float:
-    values = run.window(field, *window)
-    if not len(values):
-        raise NotJudged(f"no {field} samples in {window[0]:g}-{window[1]:g} s")
-    return float(np.mean(values))
 
 
 def no_deadline_miss() -> Check:

@@ -45,11 +45,11 @@ def both_wheels_down(t0: float, t1: float, min_n: float = 1.0) -> Check:
     heavy hip armature mid-turn, the 10 ms mean there 16-19 N): that is the solver, not a lift."""
 
     def fn(run: RunData):
+        t = run.state["t"]
+        samples = max(1, int(round(LOAD_MEAN_S / float(np.median(np.diff(t)))))) if len(t) > 1 else 1
         lows = []
         for leg in ("left", "right"):
-            t = run.state["t"]
             force = run.window(f"{leg}_normal_force", t0, t1)
-            samples = max(1, int(round(LOAD_MEAN_S / float(np.median(np.diff(t)))))) if len(t) > 1 else 1
             mean = np.convolve(force, np.ones(samples) / samples, mode="valid") if len(force) >= samples else force
             lows.append((float(np.min(mean)), float(np.min(force))))
         low, least = min(m for m, _ in lows), min(x for _, x in lows)
