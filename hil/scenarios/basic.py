@@ -67,13 +67,21 @@ def yaw_reaches(target_rad: float, tol_rad: float, after_s: float) -> Check:
     return Check(f"yaw within {tol_rad / DEG:g} deg of {target_rad / DEG:g}", fn)
 
 
-def legs_track(target: float, t0: float, t1: float, limit: float = 0.01) -> Check:
-    def fn(run: RunData):
-        worst = max(float(np.max(np.abs(run.window(f"{leg}_leg_length", t0, t1) - target)))
-                    for leg in ("left", "right"))
-        return worst < limit, f"leg length error {worst * 1000:.1f} mm at {target:g} m over {t0:g}-{t1:g} s"
+def height_tracks(target: float, t0: float, t1: float, limit: float = 0.01) -> Check:
+    """The body's height, the mean of both legs' true lengths, within ``limit`` (m) of ``target``.
 
-    return Check(f"legs at {target:g} m within {limit * 100:g} cm", fn)
+    The legs' difference is not this check's: the roll levelling sets it from the IMU, and an
+    IMU mounted 1.5 deg rolled (the tolerance box's edge) levels the body by a leg difference
+    of ~8 mm across the 0.315 m between the wheels that nothing on the robot can see. At the
+    shortest leg (0.12 m) the lower leg stays at the limit and the other takes the whole
+    difference, so judging each leg judged the IMU's mounting (docs/measurements.md, 2026-12-06)."""
+
+    def fn(run: RunData):
+        height = 0.5 * (run.window("left_leg_length", t0, t1) + run.window("right_leg_length", t0, t1))
+        worst = float(np.max(np.abs(height - target)))
+        return worst < limit, f"height error {worst * 1000:.1f} mm at {target:g} m over {t0:g}-{t1:g} s"
+
+    return Check(f"height (the legs' mean) at {target:g} m within {limit * 100:g} cm", fn)
 
 
 def upright_by(t_s: float, target_leg: float) -> Check:
@@ -111,6 +119,6 @@ SCENARIOS = (
              checks=(yaw_reaches(math.pi / 2, 5 * DEG, 4.0), drift_below(0.10), no_deadline_miss())),
     Scenario("height", "leg length 0.12 -> 0.25 -> 0.17 m while balancing", 10.0, standing(),
              timeline=(stand(0.0, 0.12), remote(3.5, LegLength=0.25), remote(7.0, LegLength=0.17)),
-             checks=(legs_track(0.12, 2.5, 3.5), legs_track(0.25, 6.0, 7.0), legs_track(0.17, 9.0, 10.0),
+             checks=(height_tracks(0.12, 2.5, 3.5), height_tracks(0.25, 6.0, 7.0), height_tracks(0.17, 9.0, 10.0),
                      pitch_below(5 * DEG, 1.0), no_deadline_miss())),
 )
