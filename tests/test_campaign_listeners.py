@@ -89,3 +89,13 @@ def test_the_dashboard_is_loopback_unless_a_host_is_named(text, address):
 def test_a_bad_dashboard_address_is_a_one_line_error(text):
     with pytest.raises(ValueError, match="--dashboard"):
         execution.dashboard_address(text)
+
+
+def test_without_a_dashboard_the_schedulers_http_server_takes_a_free_loopback_port():
+    """Dask puts the scheduler's HTTP server (health, metrics) on 8787 and warns "Port 8787 is
+    already in use" when a second campaign runs: without a dashboard it asks for a free port."""
+    options = execution.cluster_options(2, True, None)
+    assert options["scheduler_kwargs"] == {"dashboard": False, "dashboard_address": "127.0.0.1:0"}
+    assert options["host"] == "127.0.0.1" and options["n_workers"] == 2 and options["threads_per_worker"] == 1
+    asked = execution.cluster_options(1, True, "127.0.0.1:8787")
+    assert "scheduler_kwargs" not in asked and asked["dashboard_address"] == "127.0.0.1:8787"

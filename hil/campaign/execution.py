@@ -154,6 +154,25 @@ def dashboard_address(text: str | None) -> str | None:
     return f"{host or LOOPBACK}:{port}"
 
 
+def cluster_options(workers: int | None, processes: bool, dashboard: str | None) -> dict:
+    """``LocalCluster``'s keyword arguments: ``workers`` single-thread workers (default one per core),
+    every listener on loopback, and the dashboard at ``dashboard`` (``dashboard_address``'s value;
+    None: no dashboard).
+
+    One worker per core, one thread each, their BLAS pools at one thread (WORKER_ENV): a run is
+    one thread of Python and MuJoCo, more would oversubscribe. Without a dashboard the scheduler
+    still serves its health and metrics routes over HTTP; Dask puts that server on port 8787 and,
+    with a second campaign running, warns that the port is taken: it goes to a free port instead.
+    """
+    options = dict(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1, processes=processes,
+                   dashboard_address=dashboard, memory_limit=0, silence_logs=logging.ERROR)
+    if dashboard is None:
+        options["scheduler_kwargs"] = {"dashboard": False, "dashboard_address": f"{LOOPBACK}:0"}
+    if processes:
+        options.update(host=LOOPBACK, env=WORKER_ENV)
+    return options
+
+
 class Engine:
     """A Dask client: a local cluster of ``workers`` single-thread processes, or ``address``'s cluster.
 
@@ -173,12 +192,7 @@ class Engine:
             try:
                 # Every listener on loopback: the scheduler, the workers and their nannies, and
                 # the dashboard only when asked for (Dask's default serves it on all interfaces).
-                # One worker per core, one thread each, their BLAS pools at one thread
-                # (WORKER_ENV): a run is one thread of Python and MuJoCo, more would oversubscribe.
-                self.cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1,
-                                            processes=processes, dashboard_address=dashboard,
-                                            memory_limit=0, silence_logs=logging.ERROR,
-                                            **({"host": LOOPBACK, "env": WORKER_ENV} if processes else {}))
+                self.cluster = LocalCluster(**cluster_options(workers, processes, dashboard))
             finally:
                 signal.signal(signal.SIGINT, previous)
             self.client = Client(self.cluster)
