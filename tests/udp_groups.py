@@ -1,0 +1,59 @@
+"""A udp_multicast group (and its ports) that no other test on this machine uses while it holds it.
+
+python-can's ``udp_multicast`` bus binds ``("", port)`` with SO_REUSEADDR/SO_REUSEPORT and joins
+a group, so two runs on one group and port hear each other's frames and neither fails cleanly:
+a run reads the other's commands, its program gets two SYNCs a tick. Drawing the group at random
+per worker (a pid-seeded start in one range, as ``test_programs`` did) let the two xdist workers
+of one session, or the workers of two sessions on one shared machine, walk onto the same group.
+
+Here a worker starts at its own offset (``PYTEST_XDIST_WORKER``'s number), so the workers of one
+session do not even contend, and a group is held by an exclusive ``flock`` on a file named after
+it in the machine's temporary folder: another session's worker, or a second claim in this
+process, finds it taken and moves on. The kernel drops the lock when the file is closed or the
+process dies, so a killed test leaves nothing held.
+"""
+from __future__ import annotations
+
+import fcntl
+import os
+import re
+import tempfile
+from contextlib import contextmanager
+from pathlib import Path
+
+FIRST, LAST, STRIDE = 100, 254, 2  # groups PREFIX.FIRST ... PREFIX.LAST, a pair (base, base + 1) per claim
+WORKER_SPACING = 8  # pairs between two workers' starting points (a file's claims in one session fit in it)
+
+
+def worker_number(worker: str | None = None) -> int:
+    """0 for ``gw0`` or no xdist, N for ``gwN``."""
+    worker = os.environ.get("PYTEST_XDIST_WORKER", "") if worker is None else worker
+    match = re.fullmatch(r"gw(\d+)", worker)
+    return int(match.group(1)) if match else 0
+
+
+def candidates(worker: str | None = None) -> list[int]:
+    """Every pair's base, starting at this worker's offset and wrapping round."""
+    bases = list(range(FIRST, LAST, STRIDE))
+    start = (worker_number(worker) * WORKER_SPACING) % len(bases)
+    return bases[start:] + bases[:start]
+
+
+@contextmanager
+def claimed_pair(prefix: str, worker: str | None = None, folder: Path | None = None):
+    """Yield the base N of a pair of groups ``PREFIX.N`` and ``PREFIX.N+1`` held for the block."""
+    folder = Path(tempfile.gettempdir()) / "wheelleg-hil-udp-groups" if folder is None else folder
+    folder.mkdir(parents=True, exist_ok=True)
+    for base in candidates(worker):
+        lock = open(folder / f"{prefix}.{base}", "a")  # noqa: SIM115 (held open for the block)
+        try:
+            fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            lock.close()
+            continue
+        try:
+            yield base
+        finally:
+            lock.close()
+        return
+    raise RuntimeError(f"every udp_multicast group {prefix}.{FIRST}-{LAST} is held by another test")
