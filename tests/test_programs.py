@@ -228,7 +228,7 @@ def udp_pair():
     (tests/udp_groups.py: per xdist worker, then held by a lock; a pid-seeded draw let two workers
     share one)."""
     pytest.importorskip("msgpack")
-    with claimed_pair("239.74.164") as base:
+    with claimed_pair() as base:
         port = 43300 + 2 * base  # the program opens port and port + 1: a pair's ports are its own too
         yield ["-i", "udp_multicast", "-c", f"239.74.164.{base}", "-c", f"239.74.164.{base + 1}",
                "--bus-kwargs", f"port={port}"], port

@@ -18,23 +18,23 @@ def test_two_workers_of_a_session_start_apart():
 
 
 def test_a_held_group_is_not_given_again_until_it_is_released(tmp_path):
-    with claimed_pair("239.1.2", "gw0", tmp_path) as first:
-        with claimed_pair("239.1.2", "gw0", tmp_path) as second:  # same worker, same start: the next pair
+    with claimed_pair("gw0", tmp_path) as first:
+        with claimed_pair("gw0", tmp_path) as second:  # same worker, same start: the next pair
             assert second != first
-    with claimed_pair("239.1.2", "gw0", tmp_path) as again:
+    with claimed_pair("gw0", tmp_path) as again:
         assert again == first
 
 
 def test_a_group_held_by_another_process_is_passed_over(tmp_path):
     """Another session's worker on the same machine (same worker name, so the same start)."""
     code = ("import sys, udp_groups\n"
-            f"with udp_groups.claimed_pair('239.1.2', 'gw1', udp_groups.Path({str(tmp_path)!r})) as base:\n"
+            f"with udp_groups.claimed_pair('gw1', udp_groups.Path({str(tmp_path)!r})) as base:\n"
             "    print(base, flush=True); sys.stdin.read()\n")
     other = subprocess.Popen([sys.executable, "-c", code], cwd=HERE, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
                              text=True)
     try:
         theirs = int(other.stdout.readline())
-        with claimed_pair("239.1.2", "gw1", tmp_path) as ours:
+        with claimed_pair("gw1", tmp_path) as ours:
             assert ours != theirs
     finally:
         other.communicate("")

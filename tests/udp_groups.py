@@ -1,4 +1,4 @@
-"""A udp_multicast group (and its ports) that no other test on this machine uses while it holds it.
+"""A udp_multicast pair number (its groups and ports) that no other test on this machine uses while it holds it.
 
 python-can's ``udp_multicast`` bus binds ``("", port)`` with SO_REUSEADDR/SO_REUSEPORT and joins
 a group, so two runs on one group and port hear each other's frames and neither fails cleanly:
@@ -11,6 +11,11 @@ session do not even contend, and a group is held by an exclusive ``flock`` on a 
 it in the machine's temporary folder: another session's worker, or a second claim in this
 process, finds it taken and moves on. The kernel drops the lock when the file is closed or the
 process dies, so a killed test leaves nothing held.
+
+The lock is the number's, not a group's: python-can binds ``("", port)`` and Linux hands such a
+socket every group's datagrams to that port that any socket on the host joined, so the ports
+must be as unique as the groups. Callers make both from the number (``PREFIX.N``, ``PREFIX.N+1``,
+a port from N), so one number is one test's groups and ports whatever its prefix.
 """
 from __future__ import annotations
 
@@ -21,7 +26,7 @@ import tempfile
 from contextlib import contextmanager
 from pathlib import Path
 
-FIRST, LAST, STRIDE = 100, 254, 2  # groups PREFIX.FIRST ... PREFIX.LAST, a pair (base, base + 1) per claim
+FIRST, LAST, STRIDE = 100, 254, 2  # pair numbers: groups PREFIX.N and PREFIX.N+1 for N in FIRST..LAST-2
 WORKER_SPACING = 8  # pairs between two workers' starting points (a file's claims in one session fit in it)
 
 
@@ -40,12 +45,12 @@ def candidates(worker: str | None = None) -> list[int]:
 
 
 @contextmanager
-def claimed_pair(prefix: str, worker: str | None = None, folder: Path | None = None):
-    """Yield the base N of a pair of groups ``PREFIX.N`` and ``PREFIX.N+1`` held for the block."""
+def claimed_pair(worker: str | None = None, folder: Path | None = None):
+    """Yield a pair number N held for the block (the caller's groups ``PREFIX.N``, ``PREFIX.N+1``)."""
     folder = Path(tempfile.gettempdir()) / "wheelleg-hil-udp-groups" if folder is None else folder
     folder.mkdir(parents=True, exist_ok=True)
     for base in candidates(worker):
-        lock = open(folder / f"{prefix}.{base}", "a")  # noqa: SIM115 (held open for the block)
+        lock = open(folder / f"pair-{base}", "a")  # noqa: SIM115 (held open for the block)
         try:
             fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
@@ -56,4 +61,4 @@ def claimed_pair(prefix: str, worker: str | None = None, folder: Path | None = N
         finally:
             lock.close()
         return
-    raise RuntimeError(f"every udp_multicast group {prefix}.{FIRST}-{LAST} is held by another test")
+    raise RuntimeError(f"every udp_multicast pair number {FIRST}-{LAST} is held by another test")
