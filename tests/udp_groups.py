@@ -7,8 +7,8 @@ per worker (a pid-seeded start in one range, as ``test_programs`` did) let the t
 of one session, or the workers of two sessions on one shared machine, walk onto the same group.
 
 Here a worker starts at its own offset (``PYTEST_XDIST_WORKER``'s number), so the workers of one
-session do not even contend, and a group is held by an exclusive ``flock`` on a file named after
-it in the machine's temporary folder: another session's worker, or a second claim in this
+session do not even contend, and a pair is held by an exclusive ``flock`` on a file named after
+its number in the machine's temporary folder: another session's worker, or a second claim in this
 process, finds it taken and moves on. The kernel drops the lock when the file is closed or the
 process dies, so a killed test leaves nothing held.
 
