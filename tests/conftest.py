@@ -2,12 +2,20 @@
 from __future__ import annotations
 
 import os
+import sys
 import uuid
 
 import can
 import pytest
 
+import bytecode_cache
 import throwaway_venv
+
+# Bytecode under the temporary folder when the shell forbids it beside the sources (tests/bytecode_cache.py):
+# set here, before the test modules are collected (pytest rewrites and caches them as Python does)
+_PREFIX = bytecode_cache.outside_the_tree(os.environ)
+if _PREFIX is not None:
+    sys.pycache_prefix, sys.dont_write_bytecode = _PREFIX, False
 
 # As `wheelleg` itself does (hil/cli.py): no test renders, and without this MuJoCo loads an OpenGL
 # back end (glfw) on import, 0.1-0.2 s in each xdist worker and in each process a test starts

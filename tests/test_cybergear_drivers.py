@@ -108,7 +108,8 @@ def test_python_cybergear_drives_every_command(emulator, capsys):
         motor.stop_polling()
         capsys.readouterr()
         motor.fetch_parameter_table()
-        time.sleep(1.0)
+        # the table's 84 entries arrive as a burst of frames: wait for them, not a second
+        eventually(lambda: len(motor._parameters_table) >= 84, what="the parameter table")
         motor.print_parameter_table()
         table = dict(line.split(": ", 1) for line in capsys.readouterr().out.splitlines())
         assert table["app_code_name"] == "dog_motor" and table["can_id"] == "1"

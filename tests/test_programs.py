@@ -2,8 +2,6 @@
 buses, and the bad ones (no ABI, another ABI version, silent, flooding, dying mid-run), each a
 clear one-line error or a failed check with the trace kept; the program's record in the trace;
 commands judged from the bus when no heartbeat is seen; the NOT REAL TIME verdict."""
-import os
-import random
 import shutil
 import subprocess
 import sys
@@ -25,6 +23,7 @@ from wheelleg.hil.run.loop_timing import bus_timing
 from wheelleg.hil.run.rig import RunOutcome
 from wheelleg.hil.run.scenario import CheckResult, RunData
 from wheelleg.hil.scenarios.common import no_deadline_miss
+from udp_groups import claimed_pair
 
 FIXTURES = Path(__file__).resolve().parent / "fixtures"
 VARIANTS = {"zero": [], "silent": ["-DSILENT"], "flood": ["-DFLOOD"], "abi1": ["-DABI_VERSION_1"], "noabi": ["-DNO_ABI"]}
@@ -223,24 +222,24 @@ def _exited_run():
 
 
 # -- a command on the buses -----------------------------------------------------------------------
-_GROUPS = iter(range(random.Random(os.getpid()).randrange(0, 70) * 2 + 100, 256, 2))  # a pair per test
-
-
-def _udp(tmp_path) -> list[str]:
-    """Bus flags of a udp_multicast pair of this test's own (groups and ports no other test here uses)."""
+@pytest.fixture
+def udp_pair():
+    """Bus flags and first port of a udp_multicast pair no other test on the machine uses meanwhile
+    (tests/udp_groups.py: per xdist worker, then held by a lock; a pid-seeded draw let two workers
+    share one)."""
     pytest.importorskip("msgpack")
-    base = next(_GROUPS)
-    port = 43300 + 2 * base
-    return ["-i", "udp_multicast", "-c", f"239.74.164.{base}", "-c", f"239.74.164.{base + 1}",
-            "--bus-kwargs", f"port={port}"], port
+    with claimed_pair() as base:
+        port = 43300 + 2 * base  # the program opens port and port + 1: a pair's ports are its own too
+        yield ["-i", "udp_multicast", "-c", f"239.74.164.{base}", "-c", f"239.74.164.{base + 1}",
+               "--bus-kwargs", f"port={port}"], port
 
 
 def _fixture_command(port: int, *extra: str) -> str:
     return f"{sys.executable} {FIXTURES / 'sync_program.py'} {{interface}} {port} {{can1}} {{can2}} {' '.join(extra)}"
 
 
-def test_a_command_answers_sync_in_lockstep(tmp_path, capsys):
-    bus, port = _udp(tmp_path)
+def test_a_command_answers_sync_in_lockstep(tmp_path, udp_pair, capsys):
+    bus, port = udp_pair
     rc = _run(tmp_path, *bus, "--program", _fixture_command(port), duration="0.6")
     out = capsys.readouterr().out
     assert "[PASS] no controller deadline miss: 0 deadline misses" in out, out
@@ -255,8 +254,8 @@ def test_a_command_answers_sync_in_lockstep(tmp_path, capsys):
     assert log == (tmp_path / "in-process" / "balance.log").read_text()
 
 
-def test_a_command_that_dies_mid_run_fails_with_its_status_and_output(tmp_path, capsys):
-    bus, port = _udp(tmp_path)
+def test_a_command_that_dies_mid_run_fails_with_its_status_and_output(tmp_path, udp_pair, capsys):
+    bus, port = udp_pair
     assert _run(tmp_path, *bus, "--program", _fixture_command(port, "--exit-after", "50", "--status", "3"),
                 duration="1.0") == 1
     out = capsys.readouterr().out
@@ -265,19 +264,19 @@ def test_a_command_that_dies_mid_run_fails_with_its_status_and_output(tmp_path, 
     assert not open_recording(tmp_path / "balance.mcap").truncated  # closed and indexed
 
 
-def test_a_command_that_ignores_sync_is_told_to_run_in_real_time(tmp_path, monkeypatch):
+def test_a_command_that_ignores_sync_is_told_to_run_in_real_time(tmp_path, udp_pair, monkeypatch):
     from wheelleg.hil.program import process
     monkeypatch.setattr(process, "START_S", 1.0)
-    bus, port = _udp(tmp_path)
+    bus, port = udp_pair
     with pytest.raises(SystemExit, match="answers SYNC with the heartbeat.*--realtime"):
         _run(tmp_path, *bus, "--program", f"{sys.executable} -c 'import time; time.sleep(30)'")
     assert not open_recording(tmp_path / "balance.mcap").truncated
 
 
-def test_lockstep_waits_for_a_program_the_machine_stalled(tmp_path, capsys):
+def test_lockstep_waits_for_a_program_the_machine_stalled(tmp_path, udp_pair, capsys):
     """A program that answered its last tick gets ``patience_s`` for the next: a loaded machine
     (user-mode-linux on a busy host) that does not run it for longer than ``deadline_s`` is no miss."""
-    bus, port = _udp(tmp_path)
+    bus, port = udp_pair
     _run(tmp_path, *bus, "--program", _fixture_command(port, "--stall-at", "50", "--stall-s", "1.0"), duration="0.3")
     out = capsys.readouterr().out
     assert "[PASS] no controller deadline miss: 0 deadline misses" in out, out
@@ -287,11 +286,11 @@ def test_lockstep_waits_for_a_program_the_machine_stalled(tmp_path, capsys):
     assert log == (tmp_path / "in-process" / "balance.log").read_text()  # as if nothing had stalled
 
 
-def test_lockstep_reports_a_program_that_went_silent(tmp_path, capsys, monkeypatch):
+def test_lockstep_reports_a_program_that_went_silent(tmp_path, udp_pair, capsys, monkeypatch):
     """Silent for ``patience_s``, a tick is a deadline miss, and so is each one after it stays silent."""
     from wheelleg.hil.run import schedule
     monkeypatch.setattr(schedule, "PATIENCE_S", 1.0)
-    bus, port = _udp(tmp_path)
+    bus, port = udp_pair
     _run(tmp_path, *bus, "--program", _fixture_command(port, "--silent-after", "146"), duration="0.3")
     out = capsys.readouterr().out
     assert "[FAIL] no controller deadline miss: 4 deadline misses" in out, out
@@ -347,10 +346,10 @@ def test_the_pytest_plugin_runs_a_program(rig_run, libs):
     assert any(c.name.startswith("the program sent commands") and c.passed for c in run.checks)
 
 
-def test_a_free_running_command_that_hangs_fails_the_deadline_check_from_the_bus(tmp_path, capsys):
+def test_a_free_running_command_that_hangs_fails_the_deadline_check_from_the_bus(tmp_path, udp_pair, capsys):
     """Real time, no heartbeat the rig can see: the deadline check reads the program's commands on
     the bus, so a program that stops sending fails it (before, it passed whatever happened)."""
-    bus, port = _udp(tmp_path)
+    bus, port = udp_pair
     _run(tmp_path, *bus, "--realtime", "--program", _fixture_command(port, "--free-run", "--silent-after", "100"),
          duration="1.5")
     out = capsys.readouterr().out
@@ -376,11 +375,11 @@ def test_an_external_controller_in_real_time_is_judged_from_the_bus(tmp_path):
         rig.close()
 
 
-def test_a_free_running_command_that_sends_nothing_is_given_up_on(tmp_path, monkeypatch):
+def test_a_free_running_command_that_sends_nothing_is_given_up_on(tmp_path, udp_pair, monkeypatch):
     from wheelleg.hil.program import process
 
     monkeypatch.setattr(process, "START_S", 1.0)
-    bus, port = _udp(tmp_path)
+    bus, port = udp_pair
     with pytest.raises(SystemExit, match="the program sent nothing in 1 s"):
         _run(tmp_path, *bus, "--realtime", "--program", f"{sys.executable} -c 'import time; time.sleep(30)'")
     assert not open_recording(tmp_path / "balance.mcap").truncated  # the trace closed and indexed

@@ -19,8 +19,17 @@ from wheelleg.hil.bus.transport import FrameQueue, open_bus
 from wheelleg.hil.cli import build_parser, main
 from wheelleg.hil.commands import emulate
 from wheelleg.hil.run.rig import Rig, RigConfig
+from udp_groups import claimed_pair
 
 REPO = Path(__file__).resolve().parent.parent
+
+
+@pytest.fixture
+def groups():
+    """Two udp_multicast groups and a port (CAN2 takes the next) no other test on this machine uses
+    meanwhile (tests/udp_groups.py: fixed groups met another session's run of this file)."""
+    with claimed_pair() as n:
+        yield f"239.74.163.{n}", f"239.74.163.{n + 1}", 43300 + 2 * n
 
 
 def _udp_pair(config: RigConfig):
@@ -114,12 +123,12 @@ def test_frame_queue_wakes_a_blocked_reader_and_times_out_when_empty():
     assert (q.qsize(), q.pop(), q.get(), q.empty()) == (2, 1, 2, True)
 
 
-def test_udp_multicast_buses_do_not_cross():
+def test_udp_multicast_buses_do_not_cross(groups):
     """Two groups on one UDP port are one bus; CAN2 takes the next port, so a frame on CAN1 stays there."""
-    config = RigConfig(interface="udp_multicast", channels=("239.74.163.2", "239.74.163.3"),
-                       bus_kwargs={"port": 43213})
+    first, second, port = groups
+    config = RigConfig(interface="udp_multicast", channels=(first, second), bus_kwargs={"port": port})
     can1, can2 = _udp_pair(config)
-    listener = can.Bus(interface="udp_multicast", channel="239.74.163.2", port=43213, receive_own_messages=False)
+    listener = can.Bus(interface="udp_multicast", channel=first, port=port, receive_own_messages=False)
     try:
         can1.send(can.Message(arbitration_id=0x201, data=b"\x01", is_extended_id=False))
         got = listener.recv(2.0)
@@ -162,13 +171,13 @@ def test_a_silent_external_controller_is_given_up_on(tmp_path, monkeypatch):
     assert (tmp_path / "balance.mcap").stat().st_size > 0  # the trace is closed and kept
 
 
-def test_a_udp_multicast_run_logs_the_bytes_of_a_virtual_run(tmp_path):
+def test_a_udp_multicast_run_logs_the_bytes_of_a_virtual_run(tmp_path, groups):
     """No crossing, no own echo: the same frames, order and times as on the in-process bus."""
     pytest.importorskip("msgpack")
-    groups = ("239.74.163.4", "239.74.163.5")
+    *groups, port = groups
     common = ["run", "balance", "--duration", "0.2", "--no-plot", "-q"]
     try:
-        main([*common, "-i", "udp_multicast", "-c", groups[0], "-c", groups[1], "--bus-kwargs", "port=43223",
+        main([*common, "-i", "udp_multicast", "-c", groups[0], "-c", groups[1], "--bus-kwargs", f"port={port}",
               "--out", str(tmp_path / "udp")])
     except SystemExit as exc:
         pytest.skip(f"udp_multicast unavailable here: {exc.code}")
@@ -178,11 +187,12 @@ def test_a_udp_multicast_run_logs_the_bytes_of_a_virtual_run(tmp_path):
     assert udp == (tmp_path / "virtual" / "balance.log").read_text()
 
 
-def test_emulated_devices_on_udp_multicast_do_not_hear_their_own_frames(capsys):
+def test_emulated_devices_on_udp_multicast_do_not_hear_their_own_frames(capsys, groups):
     """An IMU alone on a group: every frame it sends comes back to its socket; none may count as heard."""
     pytest.importorskip("msgpack")
-    args = build_parser().parse_args(["emulate", "imu", "-i", "udp_multicast", "-c", "239.74.163.6",
-                                      "--bus-kwargs", "port=43233"])
+    group, _, port = groups
+    args = build_parser().parse_args(["emulate", "imu", "-i", "udp_multicast", "-c", group,
+                                      "--bus-kwargs", f"port={port}"])
     stop, result = threading.Event(), {}
     thread = threading.Thread(target=lambda: result.update(rc=emulate.run(args, stop)))
     thread.start()
@@ -197,12 +207,13 @@ def test_emulated_devices_on_udp_multicast_do_not_hear_their_own_frames(capsys):
     assert int(counts[2]) > 50 and int(counts[1]) == 0
 
 
-def test_the_controller_on_udp_multicast_does_not_hear_its_own_frames(tmp_path):
+def test_the_controller_on_udp_multicast_does_not_hear_its_own_frames(tmp_path, groups):
     """Alone on two groups, the free-running controller logs what it sends (T) and hears nothing (R)."""
     pytest.importorskip("msgpack")
+    first, second, port = groups
     log = tmp_path / "robot.log"
     proc = subprocess.Popen([sys.executable, "-m", "wheelleg.controller", "-i", "udp_multicast",
-                             "-c", "239.74.163.7", "-c", "239.74.163.8", "--bus-kwargs", "port=43243",
+                             "-c", first, "-c", second, "--bus-kwargs", f"port={port}",
                              "--log", str(log)], stderr=subprocess.PIPE, text=True, cwd=REPO)
     deadline = time.monotonic() + 20.0
     while time.monotonic() < deadline and proc.poll() is None and " T\n" not in _text(log):
