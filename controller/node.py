@@ -194,7 +194,7 @@ class Controller:
     def _stand_up_inputs(self, att: Attitude, fallen: bool) -> tuple[bool, bool]:
         """(stood up, fallen) while standing up, from the last run tick's legs."""
         if self.recovery.active:  # righting itself from lying: only a second tumble counts
-            return False, abs(att.pitch) > P.RECOVERY_FALL_PITCH or abs(att.roll) > P.FALL_ROLL
+            return False, not posture.recoverable(att.roll, att.pitch, -1.0, P.RECOVERY_FALL_PITCH, P.FALL_ROLL)
         if self.last is None:
             return False, fallen
         left, right = self.last.leg_lengths_m()
@@ -254,9 +254,9 @@ class Controller:
         return cmd
 
     def _lying(self) -> bool:
-        """Past the fall limit on pitch, not on its side: stand-up starts with a recovery."""
+        """On its nose or tail past the fall limit, not on its side or back: stand-up starts with a recovery."""
         att = self.chassis.attitude(self.bus)
-        return abs(att.pitch) > P.FALL_PITCH and abs(att.roll) < P.FALL_ROLL
+        return posture.recoverable(att.roll, att.pitch, P.FALL_PITCH, P.RECOVERY_FALL_PITCH, P.FALL_ROLL)
 
     def _recovery_command(self, cmd: Command) -> None:
         """Fill ``cmd`` from the recovery table's phase (controller/recovery.py)."""

@@ -330,4 +330,7 @@ RECOVERY_TUCK_TIMEOUT = 1.0  # s
 # rises faster takes the set point with it (recovery.next_pitch_ref): `fall` is level ~0.5 s after TILT_UP begins
 RECOVERY_PITCH_RATE = 0.5
 RECOVERY_TILT_TIMEOUT = 4.0  # s
-RECOVERY_FALL_PITCH = 1.3  # rad, while recovering only a body past this has fallen again
+# rad from upright (posture.tilt_from_upright): while recovering only a body past this has fallen
+# again. Past 90 deg: `fall` (seed 1, Python) ends standing on its nose, the body vertical with both
+# wheels loaded, and stands up from there; beyond ~95 deg it is going over onto its back.
+RECOVERY_FALL_PITCH = 1.65

@@ -35,6 +35,27 @@ def _height_in(row: tuple[float, float, float], point: tuple) -> float:
     return row[0] * x + row[1] * y + row[2] * z
 
 
+def side_tilt(roll: float, pitch: float) -> float:
+    """rad: the body's lean onto its side, how far its left axis rises out of the horizontal,
+    asin(cos(pitch) sin(roll)) (the world-z row of R). Defined at any pitch: lying on its nose
+    or tail at 90 deg the ZYX roll may take any value (gimbal lock), its side tilt is ~0."""
+    return math.asin(max(-1.0, min(1.0, math.cos(pitch) * math.sin(roll))))
+
+
+def tilt_from_upright(roll: float, pitch: float) -> float:
+    """rad in [0, pi]: the angle between the body's up axis and the world's, acos(cos(pitch) cos(roll));
+    on its back ~pi (the ZYX pitch never passes 90 deg: beyond it the roll flips to +-pi)."""
+    return math.acos(max(-1.0, min(1.0, math.cos(pitch) * math.cos(roll))))
+
+
+def recoverable(roll: float, pitch: float, fallen_rad: float, beyond_rad: float, side_rad: float) -> bool:
+    """Lying where the recovery stand can right it (controller/recovery.py): tilted from upright
+    past ``fallen_rad`` and up to ``beyond_rad`` (on its nose or tail, not its back), its side
+    tilt within ``side_rad`` (not on its side)."""
+    tilt = tilt_from_upright(roll, pitch)
+    return fallen_rad < tilt <= beyond_rad and abs(side_tilt(roll, pitch)) < side_rad
+
+
 def axle_in_body(side_y: float, L0: float, phi0: float) -> tuple:
     """Wheel axle C (m, body frame) of the leg in the plane y = side_y, from the
     virtual leg (L0 m, phi0 rad in the five-bar frame: x_fb backward, y_fb down)."""

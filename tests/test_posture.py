@@ -51,3 +51,26 @@ def test_the_lowest_corner_is_the_least_of_all_eight_bit_for_bit():
         row = posture._height_row(roll, pitch)
         least = min(posture._height_in(row, corner) for corner in corners)
         assert posture._height_in(row, posture._lowest_corner(row)) == least
+
+
+def test_the_side_tilt_is_defined_lying_on_the_nose_where_the_euler_roll_is_not():
+    """At 90 deg of pitch the ZYX roll may read anything (gimbal lock): `fall` on seed 1 ended
+    standing on its nose with both wheels down and the roll test called it on its side."""
+    from wheelleg.controller.posture import side_tilt, tilt_from_upright
+    assert side_tilt(2.9, math.pi / 2) == pytest.approx(0.0, abs=1e-9)
+    assert side_tilt(0.3, 0.0) == pytest.approx(0.3)
+    assert tilt_from_upright(math.pi, 0.0) == pytest.approx(math.pi)
+    assert tilt_from_upright(0.2, 0.0) == pytest.approx(0.2)
+
+
+@pytest.mark.parametrize("roll, pitch, expected", [
+    (2.9, math.pi / 2, True),  # standing on its nose, the roll arbitrary
+    (0.0, -1.0, True),  # on its tail
+    (3.1, 0.1, False),  # on its back
+    (1.5, 0.5, False),  # on its side
+    (0.0, 0.3, False),  # upright enough: no recovery
+])
+def test_recoverable_lying_is_on_the_nose_or_tail_only(roll, pitch, expected):
+    from wheelleg.controller import params as P
+    from wheelleg.controller.posture import recoverable
+    assert recoverable(roll, pitch, P.FALL_PITCH, P.RECOVERY_FALL_PITCH, P.FALL_ROLL) is expected

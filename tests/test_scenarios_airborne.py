@@ -60,6 +60,16 @@ def test_stands_up_after_a_fall_on_operator_command(rig_run):
     assert A.first_mode(run, A.BALANCE, t_up) is not None and A.first_mode(run, A.FALLEN, t_up) is None
 
 
+def test_standing_on_its_nose_at_90_deg_it_stands_up(rig_run):
+    """Seed 1's tumble (Python program) ends with the body vertical on its nose, both wheels on the
+    floor. There the ZYX roll is singular: it read ~2.9 rad and the program took the robot for lying
+    on its side and stayed FALLEN. Judged by the side tilt (posture.side_tilt), it recovers."""
+    run = rig_run("fall", seed=1)
+    lying, pose = A.lying(run, 3.0)
+    assert lying and "90 deg" in pose, pose
+    run.assert_passed()
+
+
 # -- the checks themselves, on synthetic runs -----------------------------------------
 def _run(modes, hip_tau, n_per=10, **state) -> RunData:
     """Heartbeat modes in blocks of ``n_per`` ticks (2 ms), one hip torque per tick."""

@@ -109,7 +109,7 @@ static bool body_down(const wl_attitude_t *att) {
 
 static bool lying(void) {
     wl_attitude_t att = wl_chassis_attitude(&s.chassis, &s.bus);
-    return fabsf(att.pitch) > WL_P_FALL_PITCH && fabsf(att.roll) < WL_P_FALL_ROLL;
+    return wl_recoverable(att.roll, att.pitch, WL_P_FALL_PITCH, WL_P_RECOVERY_FALL_PITCH, WL_P_FALL_ROLL);
 }
 
 static wl_mode_inputs_t mode_inputs(int64_t now) {
@@ -130,7 +130,7 @@ static wl_mode_inputs_t mode_inputs(int64_t now) {
     bool stood = false;
     if (s.mode == WL_MODE_STAND_UP) {
         if (wl_recovery_active(&s.recovery)) {  /* righting itself: only a second tumble counts */
-            fallen = fabsf(att.pitch) > WL_P_RECOVERY_FALL_PITCH || fabsf(att.roll) > WL_P_FALL_ROLL;
+            fallen = !wl_recoverable(att.roll, att.pitch, -1.0f, WL_P_RECOVERY_FALL_PITCH, WL_P_FALL_ROLL);
         } else if (s.last.valid) {
             stood = fabsf(0.5f * (s.last.L0[0] + s.last.L0[1]) - op->leg_length) < 0.01f && fabsf(att.pitch) < 0.1f;
             fallen = fallen || fabsf(s.last.theta[0]) > WL_P_FALL_THETA || fabsf(s.last.theta[1]) > WL_P_FALL_THETA;

@@ -64,6 +64,19 @@ bool wl_contact_update(wl_contact_t *c, float fn_left, float fn_right, bool trus
     return c->airborne;
 }
 
+float wl_side_tilt(float roll, float pitch) {
+    return asinf(wl_clamp(cosf(pitch) * sinf(roll), 1.0f));
+}
+
+float wl_tilt_from_upright(float roll, float pitch) {
+    return acosf(wl_clamp(cosf(pitch) * cosf(roll), 1.0f));
+}
+
+bool wl_recoverable(float roll, float pitch, float fallen_rad, float beyond_rad, float side_rad) {
+    float tilt = wl_tilt_from_upright(roll, pitch);
+    return tilt > fallen_rad && tilt <= beyond_rad && fabsf(wl_side_tilt(roll, pitch)) < side_rad;
+}
+
 float wl_body_clearance(float roll, float pitch, const float side_y[2], const float L0[2], const float phi0[2]) {
     float row[3] = {-sinf(pitch), cosf(pitch) * sinf(roll), cosf(pitch) * cosf(roll)};
     float ground = INFINITY;

@@ -31,5 +31,13 @@ bool wl_contact_update(wl_contact_t *c, float fn_left, float fn_right, bool trus
 /* Height (m) of the body box's lowest corner above the ground under the lower wheel;
    side_y, L0, phi0 of each leg (m, m, rad in the five-bar frame) */
 float wl_body_clearance(float roll, float pitch, const float side_y[2], const float L0[2], const float phi0[2]);
+/* rad: the body's lean onto its side, asin(cos(pitch) sin(roll)); defined at any pitch (the ZYX roll
+ * is not at 90 deg of pitch). posture.side_tilt. */
+float wl_side_tilt(float roll, float pitch);
+/* rad in [0, pi]: the body's up axis from the world's, acos(cos(pitch) cos(roll)). posture.tilt_from_upright. */
+float wl_tilt_from_upright(float roll, float pitch);
+/* lying where the recovery stand can right it: tilted past fallen_rad up to beyond_rad, side tilt
+ * within side_rad. posture.recoverable. */
+bool wl_recoverable(float roll, float pitch, float fallen_rad, float beyond_rad, float side_rad);
 
 #endif

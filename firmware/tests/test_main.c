@@ -12,6 +12,7 @@
 #include "fivebar.h"
 #include "lqr.h"
 #include "modes.h"
+#include "support.h"
 #include "vectors.h"
 #include "wl_config.h"
 #include "wl_lockstep.h"
@@ -164,6 +165,22 @@ static void test_modes(void) {
     check(wl_next_mode(WL_MODE_IDLE, &in) == WL_MODE_IDLE, "no rise while fallen", 0, 0);
 }
 
+/* lying on its nose at 90 deg the ZYX roll can be anything: the side tilt is ~0 there */
+static void test_lying(void) {
+    close_to("side tilt at 90 deg of pitch, roll 2.9", wl_side_tilt(2.9f, 1.5707963f), 0.0, 1e-5);
+    close_to("side tilt level, roll 0.3", wl_side_tilt(0.3f, 0.0f), 0.3, 1e-5);
+    close_to("tilt on its back", wl_tilt_from_upright(3.14159265f, 0.0f), 3.14159265, 1e-5);
+    close_to("tilt on its nose", wl_tilt_from_upright(0.0f, 1.2f), 1.2, 1e-5);
+    check(wl_recoverable(2.9f, 1.5707963f, WL_P_FALL_PITCH, WL_P_RECOVERY_FALL_PITCH, WL_P_FALL_ROLL),
+          "recoverable standing on its nose", 0, 1);
+    check(!wl_recoverable(3.1f, 0.1f, WL_P_FALL_PITCH, WL_P_RECOVERY_FALL_PITCH, WL_P_FALL_ROLL),
+          "not recoverable on its back", 0, 1);
+    check(!wl_recoverable(1.5f, 0.5f, WL_P_FALL_PITCH, WL_P_RECOVERY_FALL_PITCH, WL_P_FALL_ROLL),
+          "not recoverable on its side", 0, 1);
+    check(!wl_recoverable(0.0f, 0.3f, WL_P_FALL_PITCH, WL_P_RECOVERY_FALL_PITCH, WL_P_FALL_ROLL),
+          "not lying when upright", 0, 1);
+}
+
 static void test_detect(void) {
     int64_t seen[WL_N_DEVICES];
     for (int i = 0; i < WL_N_DEVICES; i++) seen[i] = 1000000;
@@ -204,6 +221,7 @@ int main(void) {
     test_lqr();
     test_codecs();
     test_modes();
+    test_lying();
     test_detect();
     test_lockstep();
     printf("%d checks, %d failures\n", checks, failures);
