@@ -392,9 +392,6 @@ class JumpSequencer:
         hold = None
         if not self.forward and (spec.force or spec.airborne):
             hold = self.hold or StanceHold((0.0, 0.0), pitch_rad)
-        elif self.forward and self.phase == Phase.FLIGHT and not rising:
-            reach = -P.JUMP_LAND_REACH
-            hold = StanceHold((reach, reach), pitch_rad)
         force = None
         if spec.force is not None:
             force = spec.force(JumpView(self.elapsed_s, pick(lengths), touching, thrust=self.thrust, rate_m_s=rate))

@@ -267,10 +267,6 @@ wl_jump_cmd_t wl_jump_step(wl_jump_t *j, const float lengths[2], bool touching, 
             cmd.hold.axle_offset[0] = cmd.hold.axle_offset[1] = 0.0f;
             cmd.hold.pitch = pitch;
         }
-    } else if (j->forward && j->phase == WL_JUMP_FLIGHT && !up) {
-        cmd.hold.active = true;  /* coming down: the wheels reach ahead of the hips */
-        cmd.hold.axle_offset[0] = cmd.hold.axle_offset[1] = -WL_P_JUMP_LAND_REACH;
-        cmd.hold.pitch = pitch;
     }
     if (spec->thrust) {
         float carried = WL_P_LEG_GRAVITY_FF, amplitude;
