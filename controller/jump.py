@@ -5,15 +5,18 @@ it ends (its exit condition, or its timeout, each naming the next phase).
 ``JumpSequencer.step`` is called once per tick in Mode.JUMP with what the
 controller measured; it returns the phase's ``JumpCommand``. The off-ground
 check (the support force) is not consulted in SQUAT and THRUST, where the
-legs' own pushing makes Fn meaningless; FLIGHT ends on touchdown (either
-leg's Fn above ``P.FN_ON``), so a thrust too weak to leave the ground just
-lands at once.
+legs' own pushing makes Fn meaningless. From the thrust's end the legs stay
+tucked until the top of the jump its lengthening rate predicts (``apex_delay``);
+FLIGHT ends on touchdown past that top: either leg's Fn above ``P.FN_ON`` with
+a leg pushed in (shortening faster than ``P.JUMP_TOUCHDOWN_RATE``), as the
+in-air PD braking the legs reads as Fn too.
 
 JumpForward is the same table with a forward speed set point held from the
 squat to the landing, so the robot carries momentum onto a step; its squat
-also waits for a steady run-up (at speed, legs upright): a thrust while the
-robot still leans into its acceleration throws the legs back and, in the
-air, swinging them upright pitches the body nose down.
+also waits for a steady run-up (at speed, the legs' lean no longer swinging:
+``JumpSequencer._settled``): a thrust while the robot still leans into its
+acceleration throws the legs back and, in the air, swinging them upright
+pitches the body nose down.
 
 The thrust is sized for the robot as it stands, not as the constants believe it:
 ``StanceWeight`` averages the legs' support force while balancing (the push each
@@ -42,7 +45,7 @@ class Phase(enum.IntEnum):
     SQUAT = 0  # legs to the squat length, balancing on the wheels
     THRUST = 1  # open-loop push along the legs, decaying towards full stretch
     RETRACT = 2  # pull the wheels up towards the body (leg PD, damped: no slam on the stop)
-    FLIGHT = 3  # legs held vertical at the landing length until touchdown
+    FLIGHT = 3  # tucked until the predicted top, then legs vertical at the landing length until touchdown
     LAND = 4  # balancing again, legs absorb from where they touched down
     DONE = 5
 
@@ -94,7 +97,7 @@ class JumpView:
     elapsed_s: float  # s in this phase
     leg_length: float  # m, the longer leg in THRUST, the shorter one in every other phase
     touching: bool  # either leg's Fn above P.FN_ON this tick
-    steady: bool = True  # a forward jump's run-up: at its speed with the legs upright
+    steady: bool = True  # a forward jump's run-up: at its speed, the legs' lean settled
     thrust: Thrust | None = None  # THRUST's push (None: sized for the believed weight)
     rate_m_s: float = 0.0  # m/s, the legs' mean lengthening rate (THRUST's tracking)
     rising: bool = False  # in the air before the apex predicted from the take-off (``apex_delay``)

@@ -302,13 +302,17 @@ JUMP_RETRACT_TIMEOUT = 0.15  # s
 # 20). Measured (`wheelleg run jump`, that draw's plant): 1000 N/m, 40 N s/m within 100 N
 # reaches 0.14 m in 0.11 s (nominal) and 0.12 s (the draw), the legs' shortest 0.121 m
 # (stop 0.105), the draw clearing 22.5 cm, nominal 26.0 (27.2 before; firmware 25.4, 26.5); 1500/50/150 cleared
-# 23.0 but came to 0.115 m of the stop. Not in a forward jump (jump.JumpSequencer.step).
+# 23.0 but came to 0.115 m of the stop. Held through FLIGHT until the jump's top (jump.apex_delay).
 JUMP_RETRACT_KP = 1000.0  # N/m
 JUMP_RETRACT_KD = 40.0  # N s/m
 JUMP_RETRACT_FORCE_LIMIT = 100.0  # N
 JUMP_LAND_LENGTH = 0.18  # m, legs held here in flight: stroke to absorb the landing
 JUMP_FLIGHT_MIN_S = 0.05  # s, ignore the retraction's own Fn transient
-JUMP_TOUCHDOWN_RATE = 0.2  # m/s, a leg shortening faster than this with Fn up: the ground pushed it in
+# m/s, past the top a touchdown is Fn above FN_ON with a leg shortening faster than this (the
+# ground pushing it in): the in-air PD braking the legs also reads as Fn (seed 5150 sample 0's
+# FLIGHT ended on its 0.05 s minimum), but lengthens them or holds them; a landing from the
+# top of a jump pushes them in at 1-2 m/s
+JUMP_TOUCHDOWN_RATE = 0.2
 JUMP_FLIGHT_TIMEOUT = 1.0  # s
 JUMP_LAND_TIME = 0.4  # s balancing before the jump counts as done
 JUMP_FORWARD_SPEED = 0.8  # m/s held from squat to landing by JumpForward
