@@ -282,7 +282,7 @@ def test_a_forward_jump_takes_off_before_the_step_with_the_com_off(rig_run):
     run-up counted as steady only with the legs within 0.05 rad of upright, while at this
     plant's balance point they stand 0.06-0.08 rad off it: it never thrust and drove into
     the step's face. Judged from the balance point's lean, it takes off before the edge
-    at its run-up's speed (it still lands short of the top here: docs/control.md, jumps)."""
+    at its run-up's speed (docs/control.md, jumps)."""
     plant = {"battery_resistance_ohm": 0.0616526, "body_mass_scale": 0.988367, "com_x_m": -0.00998359,
              "com_y_m": 0.00820728, "com_z_m": 0.00411555, "command_delay_s": 0.000630702,
              "feedback_delay_s": 0.000411194, "friction": 0.755276, "hip_armature": 0.00731904,
