@@ -5,15 +5,18 @@ it ends (its exit condition, or its timeout, each naming the next phase).
 ``JumpSequencer.step`` is called once per tick in Mode.JUMP with what the
 controller measured; it returns the phase's ``JumpCommand``. The off-ground
 check (the support force) is not consulted in SQUAT and THRUST, where the
-legs' own pushing makes Fn meaningless; FLIGHT ends on touchdown (either
-leg's Fn above ``P.FN_ON``), so a thrust too weak to leave the ground just
-lands at once.
+legs' own pushing makes Fn meaningless. From the thrust's end the legs stay
+tucked until the top of the jump its lengthening rate predicts (``apex_delay``);
+FLIGHT ends on touchdown past that top: either leg's Fn above ``P.FN_ON`` with
+a leg pushed in (shortening faster than ``P.JUMP_TOUCHDOWN_RATE``), as the
+in-air PD braking the legs reads as Fn too.
 
 JumpForward is the same table with a forward speed set point held from the
 squat to the landing, so the robot carries momentum onto a step; its squat
-also waits for a steady run-up (at speed, legs upright): a thrust while the
-robot still leans into its acceleration throws the legs back and, in the
-air, swinging them upright pitches the body nose down.
+also waits for a steady run-up (at speed, the legs' lean no longer swinging:
+``JumpSequencer._settled``): a thrust while the robot still leans into its
+acceleration throws the legs back and, in the air, swinging them upright
+pitches the body nose down.
 
 The thrust is sized for the robot as it stands, not as the constants believe it:
 ``StanceWeight`` averages the legs' support force while balancing (the push each
@@ -42,7 +45,7 @@ class Phase(enum.IntEnum):
     SQUAT = 0  # legs to the squat length, balancing on the wheels
     THRUST = 1  # open-loop push along the legs, decaying towards full stretch
     RETRACT = 2  # pull the wheels up towards the body (leg PD, damped: no slam on the stop)
-    FLIGHT = 3  # legs held vertical at the landing length until touchdown
+    FLIGHT = 3  # tucked until the predicted top, then legs vertical at the landing length until touchdown
     LAND = 4  # balancing again, legs absorb from where they touched down
     DONE = 5
 
@@ -94,9 +97,11 @@ class JumpView:
     elapsed_s: float  # s in this phase
     leg_length: float  # m, the longer leg in THRUST, the shorter one in every other phase
     touching: bool  # either leg's Fn above P.FN_ON this tick
-    steady: bool = True  # a forward jump's run-up: at its speed with the legs upright
+    steady: bool = True  # a forward jump's run-up: at its speed, the legs' lean settled
     thrust: Thrust | None = None  # THRUST's push (None: sized for the believed weight)
     rate_m_s: float = 0.0  # m/s, the legs' mean lengthening rate (THRUST's tracking)
+    rising: bool = False  # in the air before the apex predicted from the take-off (``apex_delay``)
+    pressed_m_s: float = 0.0  # m/s, how fast the faster-shortening leg shortens (> 0: pushed in)
 
 
 @dataclass(frozen=True)
@@ -240,6 +245,18 @@ class StanceWeight:
         return P.LEG_GRAVITY_FF if self.filter.value is None else self.filter.value
 
 
+def apex_delay(rate_m_s: float, carried_n: float) -> float:
+    """Time (s) from the thrust's end to the top of the jump, from the legs' lengthening
+    rate as the thrust ended (m/s: the body's speed up, the wheels still on the ground) and
+    the weight they carried (N per leg): leaving the ground the body drags the axle's mass
+    (fivebar.MASS_AT_AXLE) from rest, v (m / (m + m_axle)) after it, then it decelerates at
+    g. 0 for a legs' rate that is no number or not upwards (a thrust that did not push)."""
+    if not (math.isfinite(rate_m_s) and rate_m_s > 0.0):
+        return 0.0
+    m = max(carried_n, 1e-3) / C.GRAVITY
+    return rate_m_s * m / (m + fivebar.MASS_AT_AXLE) / C.GRAVITY
+
+
 def _thrust_force(view: JumpView) -> float:
     return tracked_thrust_force(view.thrust or plan_thrust(P.LEG_GRAVITY_FF), view.leg_length, view.rate_m_s)
 
@@ -268,7 +285,8 @@ PHASES: dict = {
                              lambda v: v.leg_length < P.JUMP_RETRACT_LENGTH,
                              Phase.FLIGHT, P.JUMP_RETRACT_TIMEOUT, Phase.FLIGHT),
     Phase.FLIGHT: PhaseSpec(True, P.JUMP_LAND_LENGTH, None, P.HIP_TORQUE_LIMIT,
-                            lambda v: v.touching and v.elapsed_s > P.JUMP_FLIGHT_MIN_S,
+                            lambda v: (v.touching and v.elapsed_s > P.JUMP_FLIGHT_MIN_S and not v.rising
+                                       and v.pressed_m_s > P.JUMP_TOUCHDOWN_RATE),
                             Phase.LAND, P.JUMP_FLIGHT_TIMEOUT, Phase.LAND),
     Phase.LAND: PhaseSpec(False, None, None, P.HIP_TORQUE_LIMIT,
                           lambda v: False, Phase.DONE, P.JUMP_LAND_TIME, Phase.DONE),
@@ -307,6 +325,23 @@ class JumpSequencer:
         self.thrust: Thrust | None = None  # this jump's push, sized on entering THRUST
         self.hold: StanceHold | None = None  # where the hips stood as THRUST began
         self.mean_length_m = math.nan  # m, the legs' mean length a tick ago (their rate)
+        self.lengths_m = (math.nan, math.nan)  # m, both legs' lengths a tick ago
+        self.mean_angle_rad = math.nan  # rad, the legs' mean angle a tick ago
+        self.swing = LowPass(P.JUMP_RUN_UP_SWING_TAU, dt_s)  # rad/s, the legs' mean angle rate
+        self.settled_s = 0.0  # s the legs' swing has stayed within P.JUMP_RUN_UP_SWING_TOL
+        self.apex_s = 0.0  # s from the thrust's end to the predicted top of the jump (``apex_delay``)
+        self.air_s = 0.0  # s since the thrust ended
+
+    def _settled(self, angles: tuple[float, float]) -> bool:
+        """Whether the legs' lean has stopped swinging: the rate (rad/s) of their mean angle,
+        low-passed over P.JUMP_RUN_UP_SWING_TAU, within P.JUMP_RUN_UP_SWING_TOL for
+        P.JUMP_RUN_UP_SETTLE_S (a swing's turning point passes through a zero rate)."""
+        mean = 0.5 * (angles[0] + angles[1])
+        rate = (mean - self.mean_angle_rad) / self.dt if math.isfinite(self.mean_angle_rad) else 0.0
+        self.mean_angle_rad = mean
+        swing = self.swing(rate)
+        self.settled_s = self.settled_s + self.dt if abs(swing) < P.JUMP_RUN_UP_SWING_TOL else 0.0
+        return self.settled_s >= P.JUMP_RUN_UP_SETTLE_S
 
     def observe_stance(self, fn_left_n: float, fn_right_n: float) -> None:
         """Each tick balancing on the ground: the legs' support forces (N), for the thrust's size."""
@@ -315,6 +350,7 @@ class JumpSequencer:
     def start(self, forward: bool = False) -> None:
         self.phase, self.elapsed_s, self.forward, self.entered = Phase.SQUAT, 0.0, forward, Phase.SQUAT
         self.thrust = self.hold = None  # sized and taken anew on entering THRUST
+        self.apex_s = self.air_s = self.settled_s = 0.0
 
     @property
     def done(self) -> bool:
@@ -329,7 +365,13 @@ class JumpSequencer:
         mean_length = 0.5 * (lengths[0] + lengths[1])
         rate = (mean_length - self.mean_length_m) / self.dt if math.isfinite(self.mean_length_m) else 0.0
         self.mean_length_m = mean_length
-        view = JumpView(self.elapsed_s, pick(lengths), touching, steady)
+        pressed = max((old - new) / self.dt for old, new in zip(self.lengths_m, lengths)) \
+            if all(math.isfinite(old) for old in self.lengths_m) else 0.0
+        self.lengths_m = tuple(lengths)
+        settled = self._settled(angles)  # fed every tick: the run-up's swing filter stays current
+        steady = steady and (settled or not self.forward)
+        rising = self.phase in (Phase.RETRACT, Phase.FLIGHT) and self.air_s < self.apex_s
+        view = JumpView(self.elapsed_s, pick(lengths), touching, steady, rising=rising, pressed_m_s=pressed)
         new = next_phase(self.phase, view)
         self.entered = new if new != self.phase else None
         if self.entered is not None:
@@ -337,21 +379,28 @@ class JumpSequencer:
         if self.entered == Phase.THRUST:
             self.thrust = plan_thrust(self.stance.carried_n)
             self.hold = StanceHold(tuple(n * math.sin(a) for n, a in zip(lengths, angles)), pitch_rad)
+        if self.entered == Phase.RETRACT:
+            carried = self.thrust.carried_n if self.thrust is not None else P.LEG_GRAVITY_FF
+            self.apex_s, self.air_s = apex_delay(rate, carried), 0.0
         self.elapsed_s += self.dt
+        self.air_s += self.dt
+        rising = self.phase in (Phase.RETRACT, Phase.FLIGHT) and self.air_s < self.apex_s
         if self.phase == Phase.DONE:
             return JumpCommand(Phase.DONE, False, None, None, P.HIP_TORQUE_LIMIT)
         spec = PHASES[self.phase]
-        # in place, pushing and in the air: the legs at the lean that stood the axles under
-        # the CoM. Not in a forward jump: its lean is the run-up's, and the LQR keeps its
-        # speed; held, the wheels trailed under the body and the step climbed fell from
-        # 0.1875 m to 0.1625 m (python -m tools.limits --only jump-step)
+        # pushing, the hips over the ground point they stood on (StanceHold), a forward jump too:
+        # pushed along the run-up's lean, draws with the CoM off took off spinning nose down at
+        # 2.7-3.4 rad/s and landed pitched 0.5-0.7 rad (seed 5150 samples 5, 9). In the air only
+        # in place: a forward jump's lean is the run-up's, and held in the air the wheels trailed
+        # under the body (the step climbed fell from 0.1875 m to 0.1625 m, tools.limits)
         hold = None
-        if not self.forward and (spec.force or spec.airborne):
+        if (not self.forward and (spec.force or spec.airborne)) or (self.forward and spec.force):
             hold = self.hold or StanceHold((0.0, 0.0), pitch_rad)
         force = None
         if spec.force is not None:
             force = spec.force(JumpView(self.elapsed_s, pick(lengths), touching, thrust=self.thrust, rate_m_s=rate))
-        # a forward jump retracts with the holding PD: tucked at once, FLIGHT put the legs back out
-        # to P.JUMP_LAND_LENGTH 40 ms sooner and nominal `jump-step` landed 12.7 cm past the edge, not 21.7
-        tuck = self.phase == Phase.RETRACT and not self.forward
-        return JumpCommand(self.phase, spec.airborne, spec.leg_length, force, spec.hip_torque_limit, hold, tuck)
+        # the legs stay tucked (the retraction's stiff PD at its target) until the top of the
+        # jump, the wheels as high as they go while the robot rises; then out to the landing length
+        tuck = self.phase == Phase.RETRACT or (self.phase == Phase.FLIGHT and rising)
+        length = P.JUMP_RETRACT_TARGET if tuck else spec.leg_length
+        return JumpCommand(self.phase, spec.airborne, length, force, spec.hip_torque_limit, hold, tuck)

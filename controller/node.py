@@ -283,9 +283,7 @@ class Controller:
         touching = max(self.fn.values()) > P.FN_ON
         last = self.last
         steady = not self._jump_forward or (last is not None and (
-            abs(last.chassis.speed_m_s - P.JUMP_FORWARD_SPEED) < P.JUMP_RUN_UP_SPEED_TOL
-            and all(abs(theta - last.chassis.balance_theta_rad) < P.JUMP_RUN_UP_THETA_TOL
-                    for theta in last.leg_angles_rad())))
+            abs(last.chassis.speed_m_s - P.JUMP_FORWARD_SPEED) < P.JUMP_RUN_UP_SPEED_TOL))
         angles = last.leg_angles_rad() if last is not None else (0.0, 0.0)
         pitch = last.chassis.pitch_rad if last is not None else 0.0
         jc = self.jump.step(lengths, touching, steady, angles, pitch)

@@ -302,21 +302,35 @@ JUMP_RETRACT_TIMEOUT = 0.15  # s
 # 20). Measured (`wheelleg run jump`, that draw's plant): 1000 N/m, 40 N s/m within 100 N
 # reaches 0.14 m in 0.11 s (nominal) and 0.12 s (the draw), the legs' shortest 0.121 m
 # (stop 0.105), the draw clearing 22.5 cm, nominal 26.0 (27.2 before; firmware 25.4, 26.5); 1500/50/150 cleared
-# 23.0 but came to 0.115 m of the stop. Not in a forward jump (jump.JumpSequencer.step).
+# 23.0 but came to 0.115 m of the stop. Held through FLIGHT until the jump's top (jump.apex_delay).
 JUMP_RETRACT_KP = 1000.0  # N/m
 JUMP_RETRACT_KD = 40.0  # N s/m
 JUMP_RETRACT_FORCE_LIMIT = 100.0  # N
 JUMP_LAND_LENGTH = 0.18  # m, legs held here in flight: stroke to absorb the landing
 JUMP_FLIGHT_MIN_S = 0.05  # s, ignore the retraction's own Fn transient
+# m/s, past the top a touchdown is Fn above FN_ON with a leg shortening faster than this (the
+# ground pushing it in): the in-air PD braking the legs also reads as Fn (seed 5150 sample 0's
+# FLIGHT ended on its 0.05 s minimum), but lengthens them or holds them; a landing from the
+# top of a jump pushes them in at 1-2 m/s
+JUMP_TOUCHDOWN_RATE = 0.2
 JUMP_FLIGHT_TIMEOUT = 1.0  # s
 JUMP_LAND_TIME = 0.4  # s balancing before the jump counts as done
 JUMP_FORWARD_SPEED = 0.8  # m/s held from squat to landing by JumpForward
 JUMP_RUN_UP_SPEED_TOL = 0.1  # m/s, a forward jump thrusts only at its speed ...
-# rad, ... with the legs at the balance point's lean (no acceleration's lean left). From
-# upright before: with the CoM off (the sourced box) the legs stand 0.05-0.08 rad off
-# upright at the balance point, the run-up never counted as steady, and the robot drove
-# into the step's face instead of jumping (seed 5150: 9 of 10 jump-step draws)
-JUMP_RUN_UP_THETA_TOL = 0.05
+# ... with the legs' lean settled (no acceleration's lean left): the rate of their mean angle,
+# low-passed over JUMP_RUN_UP_SWING_TAU, within JUMP_RUN_UP_SWING_TOL for JUMP_RUN_UP_SETTLE_S
+# (a swing's turning point passes through a zero rate: the hold). Judged against the balance
+# point's lean before (within 0.05 rad): that lean is the standing hold torque over the arm at
+# the squat's length, and the squat shortens the arm: seed 5150 sample 8's lean grew 0.056 ->
+# 0.142 rad while its legs settled at 0.08-0.10, so the run-up never counted as steady and the
+# robot drove into the step's face. The rate needs no model: it settled there at 1.65 s.
+# 0.3 rad/s over 0.05 s for 0.1 s: the run-ups of seeds 5150 and 3141 (20 draws) settle
+# 0.44-0.54 m on; 0.2 rad/s: 0.48-0.58 m and two never (the speed hovers at its tolerance's
+# edge, noise resets the hold), their wheels struck the step's face; over 0.1 s with 0.35-0.4
+# rad/s, or held 0.05 s, it fired at a swing's turning point 0.1 m on
+JUMP_RUN_UP_SWING_TOL = 0.3  # rad/s
+JUMP_RUN_UP_SWING_TAU = 0.05  # s
+JUMP_RUN_UP_SETTLE_S = 0.1  # s
 BODY_GROUND_CLEARANCE = 0.01  # m, body box this close to the floor under the wheels: on the ground,
 #                               fallen (controller/posture.py); standing it is ~0.2 m clear
 FALL_PITCH_AIR = 1.2  # rad, in JUMP/AIRBORNE: the body swings more in the air, a tumble is past this

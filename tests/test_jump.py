@@ -9,6 +9,7 @@ from wheelleg.controller import params as P
 from wheelleg.controller.jump import (PHASES, JumpSequencer, JumpView, Phase, StanceWeight, Thrust, hold_leg_angle,
                                       next_phase, plan_thrust, push_limit, stroke_work, takeoff_work,
                                       planned_rate, thrust_amplitude, thrust_force, tracked_thrust_force)
+from wheelleg.controller.jump import apex_delay as jump_apex_delay
 from wheelleg.controller.modes import Inputs, Mode, Switch, next_mode
 
 DT = P.CONTROL_PERIOD
@@ -29,7 +30,9 @@ def test_phase_exits():
     assert next_phase(Phase.THRUST, JumpView(0.05, P.JUMP_THRUST_END_LENGTH + 0.001, True)) == Phase.RETRACT
     assert next_phase(Phase.RETRACT, JumpView(0.05, P.JUMP_RETRACT_LENGTH - 0.001, False)) == Phase.FLIGHT
     assert next_phase(Phase.FLIGHT, JumpView(0.2, 0.18, False)) == Phase.FLIGHT
-    assert next_phase(Phase.FLIGHT, JumpView(0.2, 0.18, True)) == Phase.LAND
+    assert next_phase(Phase.FLIGHT, JumpView(0.2, 0.18, True)) == Phase.FLIGHT  # Fn up, the leg not pushed in
+    assert next_phase(Phase.FLIGHT, JumpView(0.2, 0.18, True, pressed_m_s=0.5)) == Phase.LAND
+    assert next_phase(Phase.FLIGHT, JumpView(0.2, 0.18, True, rising=True, pressed_m_s=0.5)) == Phase.FLIGHT
     assert next_phase(Phase.LAND, JumpView(P.JUMP_LAND_TIME, 0.17, True)) == Phase.DONE
 
 
@@ -49,14 +52,19 @@ def test_sequencer_runs_a_whole_jump_and_commands_each_phase():
             length, touching = length - 0.004, False
         elif cmd.phase == Phase.FLIGHT and seq.elapsed_s > 0.2:
             touching = True
+            length -= 0.002  # the ground pushes the legs in
+        if cmd.phase == Phase.FLIGHT:
+            seen[Phase.FLIGHT, cmd.tuck] = cmd
         if seq.done:
             break
-    assert seq.done and list(seen) == [Phase.SQUAT, Phase.THRUST, Phase.RETRACT, Phase.FLIGHT, Phase.LAND, Phase.DONE]
+    assert seq.done and [p for p in seen if isinstance(p, Phase)] == [Phase.SQUAT, Phase.THRUST, Phase.RETRACT,
+                                                                      Phase.FLIGHT, Phase.LAND, Phase.DONE]
     assert not seen[Phase.SQUAT].airborne and seen[Phase.SQUAT].leg_length == P.JUMP_SQUAT_LENGTH
     assert seen[Phase.THRUST].leg_force > 5 * P.LEG_GRAVITY_FF  # full push at the bottom of the stroke
     assert seen[Phase.THRUST].hip_torque_limit > P.HIP_TORQUE_LIMIT
-    assert seen[Phase.RETRACT].airborne and seen[Phase.RETRACT].leg_length < seen[Phase.FLIGHT].leg_length
-    assert seen[Phase.FLIGHT].airborne and seen[Phase.FLIGHT].leg_length == P.JUMP_LAND_LENGTH
+    assert seen[Phase.RETRACT].airborne and seen[Phase.RETRACT].leg_length < P.JUMP_LAND_LENGTH
+    assert seen[Phase.FLIGHT, True].airborne and seen[Phase.FLIGHT, True].leg_length == P.JUMP_RETRACT_TARGET
+    assert seen[Phase.FLIGHT, False].airborne and seen[Phase.FLIGHT, False].leg_length == P.JUMP_LAND_LENGTH
     assert not seen[Phase.LAND].airborne
 
 
@@ -195,7 +203,25 @@ def test_the_sequencer_pushes_harder_after_standing_heavier_and_holds_the_lean_i
     hold = heavy.stance_hold
     assert hold.axle_offset_m == pytest.approx((0.125 * math.sin(0.1), 0.127 * math.sin(0.12)))
     assert hold.pitch_rad == 0.03
-    assert _thrust_command(NOMINAL_CARRIED_N + axle_weight, forward=True).stance_hold is None
+    # a forward jump pushes over the same ground point too (seed 5150 samples 5 and 9 took off
+    # spinning nose down, pushed along the run-up's lean), but holds no lean in the air
+    assert _thrust_command(NOMINAL_CARRIED_N + axle_weight, forward=True).stance_hold == hold
+
+
+def test_a_forward_jump_holds_the_hips_over_their_ground_point_only_while_it_pushes():
+    seq = JumpSequencer(DT)
+    seq.start(forward=True)
+    length, held = 0.125, {}
+    for _ in range(round(3.0 / DT)):
+        cmd = seq.step((length, length), seq.phase in (Phase.SQUAT, Phase.THRUST), True, (0.1, 0.1), 0.0)
+        held.setdefault(cmd.phase, cmd.stance_hold is not None)
+        if cmd.phase == Phase.THRUST:
+            length += 0.005
+        elif cmd.phase == Phase.RETRACT:
+            length -= 0.004
+        if cmd.phase == Phase.FLIGHT:
+            break
+    assert held == {Phase.SQUAT: False, Phase.THRUST: True, Phase.RETRACT: False, Phase.FLIGHT: False}
 
 
 def test_the_thrust_pushes_harder_only_while_the_legs_lag_its_plan():
@@ -219,3 +245,70 @@ def test_the_planned_rate_is_the_bodys_speed_from_the_pushs_work():
     mass = thrust.carried_n / C.GRAVITY
     end = planned_rate(thrust, P.JUMP_THRUST_END_LENGTH)
     assert 0.5 * mass * end ** 2 == pytest.approx(takeoff_work(thrust.carried_n), rel=1e-6)
+
+
+def _to_flight(seq: JumpSequencer, rate_m_s: float) -> int:
+    """Run ``seq`` (started) through SQUAT, a THRUST lengthening at ``rate_m_s`` (m/s) and
+    RETRACT into FLIGHT; the ticks from the thrust's end."""
+    length, ticks = 0.125, 0
+    while seq.phase != Phase.FLIGHT:
+        if seq.phase == Phase.THRUST:
+            length += rate_m_s * DT
+        elif seq.phase == Phase.RETRACT:
+            length, ticks = length - 0.004, ticks + 1
+        seq.step((length, length), seq.phase in (Phase.SQUAT, Phase.THRUST))
+    return ticks
+
+
+@pytest.mark.parametrize("forward", [False, True])
+def test_the_legs_stay_tucked_and_no_touchdown_counts_until_the_predicted_top(forward):
+    """Heavy hip rotors rise 13-16 cm (seed 3141): FLIGHT put the legs back out at once and,
+    the in-air PD braking them, Fn read as support after its 0.05 s minimum. Tucked until the
+    top the thrust's rate predicts, and only a leg the ground pushes in counts as touchdown."""
+    seq = JumpSequencer(DT)
+    seq.start(forward=forward)
+    for _ in range(round(P.JUMP_RUN_UP_SETTLE_S / DT) + 100):  # the run-up settles (legs still)
+        seq.step((0.125, 0.125), True, angles=(0.09, 0.09))
+        if seq.phase != Phase.SQUAT:
+            break
+    ticks = _to_flight(seq, 2.5)
+    carried = seq.thrust.carried_n
+    top_s = jump_apex_delay(2.5, carried)
+    assert 0.1 < top_s < 0.25
+    length = 0.14
+    while (ticks + 1) * DT < top_s - 2 * DT:  # rising: Fn up and the legs pressed in, but still in the air
+        cmd = seq.step((length, length), True)
+        length -= 0.002
+        ticks += 1
+        assert cmd.phase == Phase.FLIGHT and cmd.tuck and cmd.leg_length == P.JUMP_RETRACT_TARGET
+    for _ in range(10):
+        seq.step((length, length), False)
+    cmd = seq.step((length, length), True)  # past the top: Fn up, the legs not pushed in (the PD braking)
+    assert cmd.phase == Phase.FLIGHT and not cmd.tuck and cmd.leg_length == P.JUMP_LAND_LENGTH
+    for _ in range(3):
+        length -= 0.002  # the ground pushes a leg in: 1 m/s
+        cmd = seq.step((length, length + 0.002), True)
+    assert cmd.phase == Phase.LAND
+
+
+def test_the_run_up_is_steady_once_the_legs_stop_swinging_wherever_they_lean():
+    """Seed 5150 sample 8: the balance point's lean grew 0.056 -> 0.142 rad as the squat
+    shortened the legs, which settled at 0.08-0.10 rad: judged against it, the run-up was never
+    steady. Judged by the legs' own swing: a lean still swinging (here 0.3 rad at 1 Hz, at speed)
+    thrusts only on the squat's timeout; one that stands still thrusts after JUMP_RUN_UP_SETTLE_S."""
+    seq = JumpSequencer(DT)
+    seq.start(forward=True)
+    for k in range(round(1.0 / DT)):
+        lean = 0.09 + 0.3 * math.sin(2 * math.pi * k * DT)
+        seq.step((0.115, 0.115), True, steady=True, angles=(lean, lean))
+        assert seq.phase == Phase.SQUAT
+    for k in range(round((P.JUMP_RUN_UP_SETTLE_S + 0.3) / DT)):
+        seq.step((0.115, 0.115), True, steady=True, angles=(0.09, 0.12))
+    assert seq.phase == Phase.THRUST
+    # in place the legs' swing does not hold the thrust back
+    seq = JumpSequencer(DT)
+    seq.start()
+    for k in range(round((P.JUMP_SQUAT_MIN_S + 0.02) / DT)):
+        lean = 0.3 * math.sin(2 * math.pi * k * DT)
+        seq.step((0.115, 0.115), True, angles=(lean, lean))
+    assert seq.phase == Phase.THRUST

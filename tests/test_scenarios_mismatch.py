@@ -282,7 +282,7 @@ def test_a_forward_jump_takes_off_before_the_step_with_the_com_off(rig_run):
     run-up counted as steady only with the legs within 0.05 rad of upright, while at this
     plant's balance point they stand 0.06-0.08 rad off it: it never thrust and drove into
     the step's face. Judged from the balance point's lean, it takes off before the edge
-    at its run-up's speed (it still lands short of the top here: docs/control.md, jumps)."""
+    at its run-up's speed (docs/control.md, jumps)."""
     plant = {"battery_resistance_ohm": 0.0616526, "body_mass_scale": 0.988367, "com_x_m": -0.00998359,
              "com_y_m": 0.00820728, "com_z_m": 0.00411555, "command_delay_s": 0.000630702,
              "feedback_delay_s": 0.000411194, "friction": 0.755276, "hip_armature": 0.00731904,
@@ -301,3 +301,47 @@ def test_a_forward_jump_takes_off_before_the_step_with_the_com_off(rig_run):
     flight = max(spans, key=lambda span: span[1] - span[0])  # not a wheel's bounce
     vx = float(run.state["vx"][np.searchsorted(run.state["t"], flight[0])])
     assert vx > 0.5, f"took off at {vx:.2f} m/s: from a standstill at the step's face, not from the run-up"
+
+
+def test_a_forward_jump_whose_squat_shifts_the_balance_lean_still_thrusts_and_lands_on_top(rig_run):
+    """Sourced draw (`wheelleg campaign jump-step --preset tolerance --seed 5150`, sample 8): as the
+    squat shortened the legs the balance point's lean grew 0.056 -> 0.142 rad while the legs
+    settled at 0.08-0.10 rad; judged against it the run-up was never steady, the robot drove
+    into the step's face and thrust there on the squat's timeout. Judged by the legs' own swing
+    it thrusts on the run-up and ends on top (docs/control.md, jumps)."""
+    plant = {"battery_resistance_ohm": 0.0901071, "body_mass_scale": 0.970331, "com_x_m": -0.0104824,
+             "com_y_m": 0.00865843, "com_z_m": -0.0075288, "command_delay_s": 0.000274625,
+             "feedback_delay_s": 0.000903381, "friction": 0.80507, "hip_armature": 0.00214787,
+             "hip_damping": 0.00365778, "hip_frictionloss_left": 0.417108, "hip_frictionloss_right": 0.26321,
+             "hip_kt_scale_left": 1.00448, "hip_kt_scale_right": 0.910043, "hip_torque_lag_s": 0.00258434,
+             "hip_zero_offset_left_front": -0.0059449, "hip_zero_offset_left_rear": 0.0020629,
+             "hip_zero_offset_right_front": 0.0146338, "hip_zero_offset_right_rear": 0.00154632,
+             "imu_gyro_bias_x": -0.000495509, "imu_gyro_bias_y": -0.0104836, "imu_gyro_bias_z": 0.0100099,
+             "imu_noise_scale": 1.02899, "imu_tilt_pitch_deg": 0.870377, "imu_tilt_roll_deg": 1.11435,
+             "inertia_scale": 0.989881, "supply_voltage_v": 23.8287, "wheel_damping": 0.00408855,
+             "wheel_frictionloss_left": 0.136155, "wheel_frictionloss_right": 0.119233,
+             "wheel_kt_scale_left": 0.952814, "wheel_kt_scale_right": 1.00695, "wheel_radius_scale": 0.96992,
+             "wheel_torque_lag_s": 0.000729727}
+    rig_run("jump-step", seed=347332347, plant=plant).assert_passed()
+
+
+def test_a_forward_jump_on_heavy_hip_rotors_keeps_its_wheels_up_and_lands_on_top(rig_run):
+    """Sourced draw (seed 5150, sample 0: hips reflecting 0.0114 kg m^2, 22.2 V): it rose 0.46 m
+    instead of 0.54 with the legs still 0.20 m long as FLIGHT began; braking them, the in-air PD
+    read as support after FLIGHT's 0.05 s minimum and LAND balanced in the air, the wheels
+    coming down on the step's edge. Tucked until the top the thrust's rate predicts and landing
+    only on a leg the ground pushes in, it ends on top."""
+    plant = {"battery_resistance_ohm": 0.0306151, "body_mass_scale": 0.960355, "com_x_m": -0.00698299,
+             "com_y_m": 0.00180893, "com_z_m": -0.00602245, "command_delay_s": 0.000800946,
+             "feedback_delay_s": 0.000304582, "friction": 0.78687, "hip_armature": 0.0114078,
+             "hip_damping": 0.00317062, "hip_frictionloss_left": 0.330405, "hip_frictionloss_right": 0.191774,
+             "hip_kt_scale_left": 0.969792, "hip_kt_scale_right": 0.969415, "hip_torque_lag_s": 0.00241683,
+             "hip_zero_offset_left_front": -0.00378891, "hip_zero_offset_left_rear": 0.0157222,
+             "hip_zero_offset_right_front": 0.019101, "hip_zero_offset_right_rear": -0.0123481,
+             "imu_gyro_bias_x": -0.00136894, "imu_gyro_bias_y": 0.00812802, "imu_gyro_bias_z": -0.00170936,
+             "imu_noise_scale": 1.76067, "imu_tilt_pitch_deg": -1.29297, "imu_tilt_roll_deg": -0.151069,
+             "inertia_scale": 0.998169, "supply_voltage_v": 22.1989, "wheel_damping": 0.00319344,
+             "wheel_frictionloss_left": 0.151316, "wheel_frictionloss_right": 0.145833,
+             "wheel_kt_scale_left": 0.923121, "wheel_kt_scale_right": 0.935155, "wheel_radius_scale": 0.996389,
+             "wheel_torque_lag_s": 0.000994426}
+    rig_run("jump-step", seed=235674219, plant=plant).assert_passed()

@@ -176,9 +176,7 @@ static void jump_command(wl_chassis_cmd_t *cmd) {
     leg_lengths(WL_P_LEG_LENGTH_NOMINAL, lengths);
     bool touching = wl_maxf(s.fn[0], s.fn[1]) > WL_P_FN_ON;
     bool steady = !s.jump_forward
-                  || (s.last.valid && fabsf(s.last.speed - WL_P_JUMP_FORWARD_SPEED) < WL_P_JUMP_RUN_UP_SPEED_TOL
-                      && fabsf(s.last.theta[0] - s.last.balance_theta) < WL_P_JUMP_RUN_UP_THETA_TOL
-                      && fabsf(s.last.theta[1] - s.last.balance_theta) < WL_P_JUMP_RUN_UP_THETA_TOL);
+                  || (s.last.valid && fabsf(s.last.speed - WL_P_JUMP_FORWARD_SPEED) < WL_P_JUMP_RUN_UP_SPEED_TOL);
     if (s.last.valid) {
         angles[0] = s.last.theta[0];
         angles[1] = s.last.theta[1];

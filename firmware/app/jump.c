@@ -114,6 +114,10 @@ void wl_jump_init(wl_jump_t *j, double period_s) {
     wl_lowpass_init(&j->stance, WL_P_JUMP_WEIGHT_TAU, dt);
     j->has_thrust = false;
     j->mean_length = NAN;
+    j->lengths[0] = j->lengths[1] = NAN;
+    j->mean_angle = NAN;
+    wl_lowpass_init(&j->swing, WL_P_JUMP_RUN_UP_SWING_TAU, dt);
+    j->settled_s = j->apex_s = j->air_s = 0.0;
     j->hold.active = false;
 }
 
@@ -128,6 +132,7 @@ void wl_jump_start(wl_jump_t *j, bool forward) {
     j->entered = WL_JUMP_SQUAT;
     j->has_thrust = false;
     j->hold.active = false;
+    j->apex_s = j->air_s = j->settled_s = 0.0;
 }
 
 bool wl_jump_done(const wl_jump_t *j) { return j->phase == WL_JUMP_DONE; }
@@ -151,21 +156,61 @@ static const phase_spec_t PHASES[] = {
     [WL_JUMP_LAND] = {false, -1.0f, false, WL_P_HIP_TORQUE_LIMIT, WL_JUMP_DONE, WL_P_JUMP_LAND_TIME_D},
 };
 
-static bool phase_done(wl_jump_phase_t phase, double elapsed, float length, bool touching, bool steady) {
+/* what a phase's exit looks at this tick (jump.JumpView) */
+typedef struct {
+    double elapsed;
+    float length;
+    bool touching, steady, rising;
+    float pressed;  /* m/s, how fast the faster-shortening leg shortens */
+} jump_view_t;
+
+static bool phase_done(wl_jump_phase_t phase, const jump_view_t *v) {
     switch (phase) {
-    case WL_JUMP_SQUAT: return length < WL_P_JUMP_SQUAT_DONE_LENGTH && elapsed > WL_P_JUMP_SQUAT_MIN_S_D && steady;
-    case WL_JUMP_THRUST: return length > WL_P_JUMP_THRUST_END_LENGTH;
-    case WL_JUMP_RETRACT: return length < WL_P_JUMP_RETRACT_LENGTH;
-    case WL_JUMP_FLIGHT: return touching && elapsed > WL_P_JUMP_FLIGHT_MIN_S_D;
+    case WL_JUMP_SQUAT: return v->length < WL_P_JUMP_SQUAT_DONE_LENGTH && v->elapsed > WL_P_JUMP_SQUAT_MIN_S_D && v->steady;
+    case WL_JUMP_THRUST: return v->length > WL_P_JUMP_THRUST_END_LENGTH;
+    case WL_JUMP_RETRACT: return v->length < WL_P_JUMP_RETRACT_LENGTH;
+    case WL_JUMP_FLIGHT:
+        return v->touching && v->elapsed > WL_P_JUMP_FLIGHT_MIN_S_D && !v->rising && v->pressed > WL_P_JUMP_TOUCHDOWN_RATE;
     default: return false;
     }
 }
 
-static wl_jump_phase_t next_phase(wl_jump_phase_t phase, double elapsed, float length, bool touching, bool steady) {
+static wl_jump_phase_t next_phase(wl_jump_phase_t phase, const jump_view_t *v) {
     if (phase == WL_JUMP_DONE) return phase;
-    if (phase_done(phase, elapsed, length, touching, steady)) return PHASES[phase].then;
+    if (phase_done(phase, v)) return PHASES[phase].then;
+    double elapsed = v->elapsed;
     if (elapsed >= PHASES[phase].timeout_s) return PHASES[phase].then;  /* every timeout goes on to the next */
     return phase;
+}
+
+float wl_jump_apex_delay(float rate_m_s, float carried_n) {
+    if (!(isfinite(rate_m_s) && rate_m_s > 0.0f)) return 0.0f;
+    float m = wl_maxf(carried_n, 1e-3f) / WL_C_GRAVITY;
+    return rate_m_s * m / (m + WL_MASS_AT_AXLE) / WL_C_GRAVITY;
+}
+
+/* the legs' lean has stopped swinging (jump.JumpSequencer._settled) */
+static bool run_up_settled(wl_jump_t *j, const float angles[2]) {
+    float mean = 0.5f * (angles[0] + angles[1]);
+    float rate = isfinite(j->mean_angle) ? (mean - j->mean_angle) / j->dt : 0.0f;
+    j->mean_angle = mean;
+    float swing = wl_lowpass(&j->swing, rate);
+    j->settled_s = fabsf(swing) < WL_P_JUMP_RUN_UP_SWING_TOL ? j->settled_s + j->dt_d : 0.0;
+    return j->settled_s >= WL_P_JUMP_RUN_UP_SETTLE_S_D;
+}
+
+/* how fast the faster-shortening leg shortens (m/s); 0 before two ticks */
+static float pressed_rate(wl_jump_t *j, const float lengths[2]) {
+    float pressed = 0.0f;
+    if (isfinite(j->lengths[0]) && isfinite(j->lengths[1]))
+        pressed = wl_maxf((j->lengths[0] - lengths[0]) / j->dt, (j->lengths[1] - lengths[1]) / j->dt);
+    j->lengths[0] = lengths[0];
+    j->lengths[1] = lengths[1];
+    return pressed;
+}
+
+static bool rising(const wl_jump_t *j) {
+    return (j->phase == WL_JUMP_RETRACT || j->phase == WL_JUMP_FLIGHT) && j->air_s < j->apex_s;
 }
 
 wl_jump_cmd_t wl_jump_step(wl_jump_t *j, const float lengths[2], bool touching, bool steady, const float angles[2],
@@ -175,7 +220,10 @@ wl_jump_cmd_t wl_jump_step(wl_jump_t *j, const float lengths[2], bool touching, 
     float mean_length = 0.5f * (lengths[0] + lengths[1]);
     float rate = isfinite(j->mean_length) ? (mean_length - j->mean_length) / j->dt : 0.0f;
     j->mean_length = mean_length;
-    wl_jump_phase_t next = next_phase(j->phase, j->elapsed_s, pick, touching, steady);
+    float pressed = pressed_rate(j, lengths);
+    bool settled = run_up_settled(j, angles);  /* fed every tick: the swing filter stays current */
+    jump_view_t view = {j->elapsed_s, pick, touching, steady && (settled || !j->forward), rising(j), pressed};
+    wl_jump_phase_t next = next_phase(j->phase, &view);
     j->entered = next != j->phase ? (int)next : WL_PHASE_NONE;
     if (j->entered != WL_PHASE_NONE) {
         j->phase = next;
@@ -192,7 +240,13 @@ wl_jump_cmd_t wl_jump_step(wl_jump_t *j, const float lengths[2], bool touching, 
         for (int i = 0; i < 2; i++) j->hold.axle_offset[i] = lengths[i] * sinf(angles[i]);
         j->hold.pitch = pitch;
     }
+    if (j->entered == WL_JUMP_RETRACT) {
+        j->apex_s = wl_jump_apex_delay(rate, j->has_thrust ? j->carried_n : WL_P_LEG_GRAVITY_FF);
+        j->air_s = 0.0;
+    }
     j->elapsed_s += j->dt_d;
+    j->air_s += j->dt_d;
+    bool up = rising(j);
     wl_jump_cmd_t cmd = {0};
     cmd.phase = j->phase;
     cmd.hip_torque_limit = WL_P_HIP_TORQUE_LIMIT;
@@ -202,9 +256,11 @@ wl_jump_cmd_t wl_jump_step(wl_jump_t *j, const float lengths[2], bool touching, 
     cmd.has_leg_length = spec->leg_length > 0.0f;
     cmd.leg_length = spec->leg_length;
     cmd.hip_torque_limit = spec->hip_limit;
-    /* a forward jump retracts with the holding PD (controller/jump.py JumpSequencer.step) */
-    cmd.tuck = j->phase == WL_JUMP_RETRACT && !j->forward;
-    if (!j->forward && (spec->thrust || spec->airborne)) {
+    /* the legs stay tucked until the top of the jump (controller/jump.py JumpSequencer.step) */
+    cmd.tuck = j->phase == WL_JUMP_RETRACT || (j->phase == WL_JUMP_FLIGHT && up);
+    if (cmd.tuck) cmd.leg_length = WL_P_JUMP_RETRACT_TARGET;
+    /* pushing, the hips over their start point (a forward jump too); in the air in place only */
+    if ((!j->forward && (spec->thrust || spec->airborne)) || (j->forward && spec->thrust)) {
         if (j->hold.active) {
             cmd.hold = j->hold;
         } else {

@@ -39,6 +39,12 @@ typedef struct {
     bool has_thrust;
     float carried_n, amplitude_n;
     float mean_length;               /* m, the legs' mean length a tick ago (their rate); NaN before */
+    float lengths[2];                /* m, both legs' lengths a tick ago (their shortening); NaN before */
+    float mean_angle;                /* rad, the legs' mean angle a tick ago (the run-up's swing); NaN before */
+    wl_lowpass_t swing;              /* rad/s, the legs' mean angle rate, low-passed */
+    double settled_s;                /* s the swing has stayed within WL_P_JUMP_RUN_UP_SWING_TOL */
+    double apex_s;                   /* s from the thrust's end to the predicted top (jump.apex_delay) */
+    double air_s;                    /* s since the thrust ended */
     wl_stance_hold_t hold;
 } wl_jump_t;
 
@@ -50,6 +56,8 @@ wl_jump_cmd_t wl_jump_step(wl_jump_t *j, const float lengths[2], bool touching, 
                            float pitch);
 /* (theta, rate) keeping a hip over its start point (jump.hold_leg_angle) */
 void wl_hold_leg_angle(float offset, float length, float rate, float *theta, float *dtheta);
+/* s from the thrust's end to the top of the jump (jump.apex_delay) */
+float wl_jump_apex_delay(float rate_m_s, float carried_n);
 /* the thrust's sizing (exposed for the tests) */
 float wl_jump_thrust_amplitude(float carried_n, float start_m);
 
