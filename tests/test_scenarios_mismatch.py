@@ -84,6 +84,37 @@ def test_a_sprint_on_the_flattest_battery_of_the_box_stays_up(rig_run):
     rig_run("sprint", plant={"supply_voltage_v": 21.0, "battery_resistance_ohm": 0.108}).assert_passed()
 
 
+# seed 5150's sample 22 of the sourced box (`wheelleg campaign sprint --preset tolerance --samples 30
+# --seed 5150`): its fall needs the whole draw (21.1 V through 0.1 ohm with the body x1.14 and its
+# CoM 1.8 cm forward alone hold up: the wheels' kt 3-8 % low and their friction take the rest)
+SAMPLE_22 = {"battery_resistance_ohm": 0.0993348, "body_mass_scale": 1.14059, "com_x_m": 0.0182425,
+             "com_y_m": -0.00726451, "com_z_m": -0.00362421, "command_delay_s": 0.000776875,
+             "feedback_delay_s": 0.000343611, "friction": 0.896147, "hip_armature": 0.0121668,
+             "hip_damping": 0.00274602, "hip_frictionloss_left": 0.386324,
+             "hip_frictionloss_right": 0.429662, "hip_kt_scale_left": 0.997181,
+             "hip_kt_scale_right": 0.973464, "hip_torque_lag_s": 0.000268073,
+             "hip_zero_offset_left_front": 0.0165703, "hip_zero_offset_left_rear": 0.0050533,
+             "hip_zero_offset_right_front": -0.0135017, "hip_zero_offset_right_rear": 0.00626788,
+             "imu_gyro_bias_x": -0.00499537, "imu_gyro_bias_y": 0.0174146, "imu_gyro_bias_z": -0.013225,
+             "imu_noise_scale": 1.95766, "imu_tilt_pitch_deg": -0.0869811, "imu_tilt_roll_deg": 0.942629,
+             "inertia_scale": 0.700549, "supply_voltage_v": 21.1154, "wheel_damping": 0.00292685,
+             "wheel_frictionloss_left": 0.133765, "wheel_frictionloss_right": 0.0864922,
+             "wheel_kt_scale_left": 0.968296, "wheel_kt_scale_right": 0.915795,
+             "wheel_radius_scale": 0.994824, "wheel_torque_lag_s": 0.000338532}
+
+
+def test_a_sprint_with_a_heavy_body_on_a_flat_battery_stays_up(rig_run):
+    """Issue 27: the drives top out near 2.2 m/s (21.1 V sagging to ~20.9 under load: 482 rpm x
+    20.9 / 24 = 44 rad/s); easing onto 2 m/s at 2.5 m/s^3 the wheels overtook to 2.2 m/s, at
+    their no-load speed, and the robot tipped forward and fell at 2.96 s (the LQR asked up to
+    4.5 N m forward that the back-EMF left no room for). Easing at 2 m/s^3
+    (params.SPEED_EASE_JERK_TOP) they peak at 2.19 and it stays up. Whether it holds 2 m/s
+    within 0.1 is not asked here: it overshoots by 0.11 m/s (docs/measurements.md, 2026-12-06)."""
+    run = rig_run("sprint", seed=1698128908, plant=SAMPLE_22)  # the draw's noise seed too
+    upright = [c for c in run.checks if c.name.startswith(("stays up", "never tips"))]
+    assert len(upright) == 2 and all(c.passed for c in upright), run.describe()
+
+
 @pytest.mark.parametrize("com_x_m", [0.02, -0.02])
 def test_jump_with_the_com_2cm_off_lands_upright(rig_run, com_x_m):
     rig_run("jump", plant={"com_x_m": com_x_m}).assert_passed()
