@@ -143,7 +143,7 @@ BLOCKED_LAG = 0.25
 # m/s: cruising, the axles (the ground speed the LQR sees) this far behind the set point are held
 # back too. The body's lag builds up only as the legs tip over the stopped wheels (80 ms after the
 # wall's impact in `wall` with friction 0.5); the axles' drops to <= 0 within 20 ms of it. Cruising
-# elsewhere it stays far above: nominal `bump` >= 0.37 of 0.4 m/s over its bump (lag <= 0.03)
+# at nominal the axles lag at most: step-down 0.27 (3 ticks of its landing), bump and turn-fast 0.16
 BLOCKED_AXLE_LAG = 0.35
 # s the command must stop asking that way before it is followed again: the one tick of BALANCE
 # (speed 0) after a wheel's hop off the wall (AIRBORNE) is no release
