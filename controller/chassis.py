@@ -212,7 +212,7 @@ class ChassisController:
         mean_length = 0.5 * (legs["left"].L0 + legs["right"].L0)
         self.balance_theta = lqr.balance_lean(self.balance_point.hold_torque, mean_length, P.BALANCE_LEAN_LIMIT,
                                               self.weight_ratio())
-        self._track_references(cmd, att)
+        self._track_references(cmd, att, speed)
         standing = self._trim(speed, cmd, mean_length)
         out = Output(legs=legs)
         wheel_t, tp = {}, {}
@@ -314,19 +314,22 @@ class ChassisController:
             self.leg_integral[leg] = 0.0
 
     # -- pieces ----------------------------------------------------------------
-    def _blocked_target(self, target: float) -> float:
+    def _blocked_target(self, target: float, speed: float) -> float:
         """The speed (m/s) to head for instead of ``target``: 0 while the robot is held back
-        that way (docs/control.md, collisions).
+        that way (docs/control.md, collisions); ``speed``: the ground speed (m/s) this tick.
 
         Cruising, the body (the IMU's speed, which a wheel bouncing off the obstacle does not
         fool) more than BLOCKED_LAG behind the set point is held back: a wall, a kerb. Pushing
         on, the LQR's speed term asks the wheels for a lean into it (at the wheel's 5.5 N m
         travel limit 0.22 rad), and a heavier body or a slipping wheel goes over the wall.
+        The axles more than BLOCKED_AXLE_LAG behind it are held back too: they stop at the
+        impact, the body's lag builds up only as the legs tip over them (tens of ms later).
         The set point and the spot are then where the robot is (standing, it pushes nothing)
         and stay so until the command stops asking to go that way."""
-        if self.travel is Travel.CRUISING and \
-                (self.speed_ref - self.slip.speed_m_s) * math.copysign(1.0, self.speed_ref) > P.BLOCKED_LAG:
-            self.blocked = math.copysign(1.0, self.speed_ref)
+        way = math.copysign(1.0, self.speed_ref)
+        if self.travel is Travel.CRUISING and ((self.speed_ref - self.slip.speed_m_s) * way > P.BLOCKED_LAG
+                                               or (self.speed_ref - speed) * way > P.BLOCKED_AXLE_LAG):
+            self.blocked = way
             self.speed_ref = self.accel_ref = 0.0
             self.x_ref = self.x
         if target * self.blocked > 0.0:
@@ -339,8 +342,10 @@ class ChassisController:
             self.blocked = 0.0
         return target
 
-    def _track_references(self, cmd: Command, att: Attitude) -> None:
-        target = self._blocked_target(clamp(cmd.speed, P.SPEED_LIMIT))
+    def _track_references(self, cmd: Command, att: Attitude, speed: float) -> None:
+        """Slew the speed, position, heading, lean and leg-length set points one tick;
+        ``speed``: the ground speed (m/s) this tick."""
+        target = self._blocked_target(clamp(cmd.speed, P.SPEED_LIMIT), speed)
         self.speed_ref, self.accel_ref = motion.speed_set_point(self.speed_ref, self.accel_ref, target, self.dt)
         self.travel = motion.travel_phase(self.speed_ref, self.accel_ref)
         self.x_ref += self.speed_ref * self.dt

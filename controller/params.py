@@ -145,6 +145,11 @@ YAW_RATE_LIMIT = 4.0  # rad/s
 # m/s: cruising, the body (the IMU's speed) this far behind the set point is held back. Cruising,
 # nominal drive, sprint and bump lag < 0.01 m/s, turn-fast 0.13 (its heading swings); the wall 0.4+
 BLOCKED_LAG = 0.25
+# m/s: cruising, the axles (the ground speed the LQR sees) this far behind the set point are held
+# back too. The body's lag builds up only as the legs tip over the stopped wheels (80 ms after the
+# wall's impact in `wall` with friction 0.5); the axles' drops to <= 0 within 20 ms of it. Cruising
+# at nominal the axles lag at most: step-down 0.27 (3 ticks of its landing), bump and turn-fast 0.16
+BLOCKED_AXLE_LAG = 0.35
 # s the command must stop asking that way before it is followed again: the one tick of BALANCE
 # (speed 0) after a wheel's hop off the wall (AIRBORNE) is no release
 BLOCKED_RELEASE_S = 0.1

@@ -248,6 +248,30 @@ def test_driving_into_a_wall_stops_pushing_and_stays_up(rig_run):
     assert lean < 0.3, f"the legs leaned {lean:.2f} rad into the wall: still pushing on it"
 
 
+def test_a_wall_is_seen_at_the_impact_by_the_axles(rig_run):
+    """Sourced tolerance draw (`wheelleg campaign wall --preset tolerance --samples 30 --seed 5150`,
+    sample 17: CoM 1.7 cm forward, body 12 % heavier): the body's lag behind the set point built
+    up only as the legs tipped over the stopped wheels, and the reaction fired 100 ms after the
+    impact (1.63 s), the LQR meanwhile asking 12-21 N m forward (sent as 5.5) and spinning the
+    wheels up the wall's face; the robot fell at 2.5 s. The axles' lag sees the impact within
+    20 ms (docs/control.md, collisions)."""
+    plant = {"battery_resistance_ohm": 0.0440336, "body_mass_scale": 1.12014, "com_x_m": 0.0174166,
+             "com_y_m": 0.00088483, "com_z_m": -0.0128233, "command_delay_s": 5.04736e-05,
+             "feedback_delay_s": 0.000219358, "friction": 0.725803, "hip_armature": 0.0049033,
+             "hip_damping": 0.00388348, "hip_frictionloss_left": 0.25947, "hip_frictionloss_right": 0.30075,
+             "hip_kt_scale_left": 0.904858, "hip_kt_scale_right": 0.997153, "hip_torque_lag_s": 0.00225449,
+             "hip_zero_offset_left_front": -0.00547652, "hip_zero_offset_left_rear": -0.00613276,
+             "hip_zero_offset_right_front": 0.0128325, "hip_zero_offset_right_rear": 0.00896249,
+             "imu_gyro_bias_x": -0.0125556, "imu_gyro_bias_y": 0.00183471, "imu_gyro_bias_z": 0.0119365,
+             "imu_noise_scale": 1.65911, "imu_tilt_pitch_deg": 0.282625, "imu_tilt_roll_deg": -0.135733,
+             "inertia_scale": 1.00957, "supply_voltage_v": 22.42, "wheel_damping": 0.00490323,
+             "wheel_frictionloss_left": 0.158335, "wheel_frictionloss_right": 0.15198,
+             "wheel_kt_scale_left": 0.923432, "wheel_kt_scale_right": 0.939905, "wheel_radius_scale": 1.00195,
+             "wheel_torque_lag_s": 0.000225602}
+    run = rig_run("wall", seed=646301842, plant=plant)
+    run.assert_passed()
+
+
 # sourced tolerance draw (`wheelleg campaign ... push --preset tolerance --samples 10 --seed 3142`, sample 3):
 # a slippery floor (friction 0.56) and a light, low-inertia body
 _SLIPPERY_PUSH = {

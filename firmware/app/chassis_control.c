@@ -94,12 +94,14 @@ static float roll_set_point(const wl_chassis_t *c, const wl_chassis_cmd_t *cmd) 
 
 /* The speed to head for instead of target: 0 while the robot is held back that way
  * (controller/chassis.py _blocked_target). Cruising, the body (the IMU's speed) more than
- * BLOCKED_LAG behind the set point is held back: the set point and the spot become where the
- * robot is until the command has not asked that way for BLOCKED_RELEASE_S. */
-static float blocked_target(wl_chassis_t *c, float target) {
-    if (c->travel == WL_TRAVEL_CRUISING &&
-        (c->speed_ref - c->slip.speed) * copysignf(1.0f, c->speed_ref) > WL_P_BLOCKED_LAG) {
-        c->blocked = copysignf(1.0f, c->speed_ref);
+ * BLOCKED_LAG or the axles (speed, the ground speed) more than BLOCKED_AXLE_LAG behind the set
+ * point is held back: the set point and the spot become where the robot is until the command has
+ * not asked that way for BLOCKED_RELEASE_S. */
+static float blocked_target(wl_chassis_t *c, float target, float speed) {
+    float way = copysignf(1.0f, c->speed_ref);
+    if (c->travel == WL_TRAVEL_CRUISING && ((c->speed_ref - c->slip.speed) * way > WL_P_BLOCKED_LAG ||
+                                            (c->speed_ref - speed) * way > WL_P_BLOCKED_AXLE_LAG)) {
+        c->blocked = way;
         c->speed_ref = c->accel_ref = 0.0f;
         c->x_ref = c->x;
     }
@@ -112,8 +114,8 @@ static float blocked_target(wl_chassis_t *c, float target) {
     return target;
 }
 
-static void track_references(wl_chassis_t *c, const wl_chassis_cmd_t *cmd) {
-    float target = blocked_target(c, wl_clamp(cmd->speed, WL_P_SPEED_LIMIT));
+static void track_references(wl_chassis_t *c, const wl_chassis_cmd_t *cmd, float speed) {
+    float target = blocked_target(c, wl_clamp(cmd->speed, WL_P_SPEED_LIMIT), speed);
     wl_speed_set_point(&c->speed_ref, &c->accel_ref, target, c->dt);
     c->travel = wl_travel_phase(c->speed_ref, c->accel_ref);
     c->x_ref += c->speed_ref * c->dt;
@@ -339,7 +341,7 @@ void wl_chassis_step(wl_chassis_t *c, const wl_chassis_cmd_t *cmd, const wl_sens
     float mean_length = 0.5f * (legs[0].L0 + legs[1].L0);
     c->balance_theta = wl_lqr_balance_lean(c->balance_point.hold_torque, mean_length, WL_P_BALANCE_LEAN_LIMIT,
                                            weight_ratio(c));
-    track_references(c, cmd);
+    track_references(c, cmd, speed);
     bool standing = trim(c, speed, cmd, mean_length);
     float wheel_limit = c->blocked != 0.0f ? WL_P_BLOCKED_WHEEL_TORQUE : WL_P_WHEEL_TORQUE_LIMIT;
     for (int leg = 0; leg < 2; leg++) {
