@@ -107,7 +107,7 @@ SPEED_EASE_JERK = 5.0
 # overtake by 0.19 m/s and the same draws pass. From SPEED_EASE_TOP_FROM (m/s, the target's
 # size) the easing jerk falls linearly to SPEED_EASE_JERK_TOP at SPEED_LIMIT; below it, and
 # every stop, are as before (drive, turn-fast at 1.5 m/s, the forward jump's 0.8 m/s run-up).
-# 2 m/s^3 (issue 27, 2026-12-06): a heavy body (x1.14, CoM 1.8 cm forward) on 21.1 V through
+# 2 m/s^3 (2026-12-06): a heavy body (x1.14, CoM 1.8 cm forward) on 21.1 V through
 # 0.1 ohm tops out at 2.20 m/s; at 2.5 its wheels overtook onto that and it fell forward
 # (seed 5150's sample 22); at 2 they peak at 2.19 and it stands. A thin margin: the set point
 # cannot know the top speed before the wheels reach it (docs/control.md), and slower easing

@@ -104,7 +104,7 @@ SAMPLE_22 = {"battery_resistance_ohm": 0.0993348, "body_mass_scale": 1.14059, "c
 
 
 def test_a_sprint_with_a_heavy_body_on_a_flat_battery_stays_up(rig_run):
-    """Issue 27: the drives top out near 2.2 m/s (21.1 V sagging to ~20.9 under load: 482 rpm x
+    """The drives top out near 2.2 m/s (21.1 V sagging to ~20.9 under load: 482 rpm x
     20.9 / 24 = 44 rad/s); easing onto 2 m/s at 2.5 m/s^3 the wheels overtook to 2.2 m/s, at
     their no-load speed, and the robot tipped forward and fell at 2.96 s (the LQR asked up to
     4.5 N m forward that the back-EMF left no room for). Easing at 2 m/s^3
