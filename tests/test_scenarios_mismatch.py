@@ -301,3 +301,29 @@ def test_a_forward_jump_takes_off_before_the_step_with_the_com_off(rig_run):
     flight = max(spans, key=lambda span: span[1] - span[0])  # not a wheel's bounce
     vx = float(run.state["vx"][np.searchsorted(run.state["t"], flight[0])])
     assert vx > 0.5, f"took off at {vx:.2f} m/s: from a standstill at the step's face, not from the run-up"
+
+
+# sample 7 of `wheelleg campaign pose --preset tolerance --seed 5150`: both hips' dry friction near the
+# sourced box's top (0.42, 0.43 N m), the CyberGears' current loop at 0.85 ms
+_STIFF_HIPS_SEED = 323217902
+_STIFF_HIPS = {
+    "battery_resistance_ohm": 0.105654, "body_mass_scale": 1.11092, "com_x_m": -0.00574217, "com_y_m": -0.00507693,
+    "com_z_m": 0.0140264, "command_delay_s": 0.00074525, "feedback_delay_s": 0.000645372, "friction": 0.597244,
+    "hip_armature": 0.00548625, "hip_damping": 0.00495338, "hip_frictionloss_left": 0.421996,
+    "hip_frictionloss_right": 0.430767, "hip_kt_scale_left": 0.941166, "hip_kt_scale_right": 0.901111,
+    "hip_torque_lag_s": 0.000848509, "hip_zero_offset_left_front": 0.0139262, "hip_zero_offset_left_rear": -0.0190735,
+    "hip_zero_offset_right_front": 0.0195894, "hip_zero_offset_right_rear": 0.0150233, "imu_gyro_bias_x": -0.0167928,
+    "imu_gyro_bias_y": 0.0154629, "imu_gyro_bias_z": 0.0131838, "imu_noise_scale": 1.50744,
+    "imu_tilt_pitch_deg": -0.105859, "imu_tilt_roll_deg": 1.17571, "inertia_scale": 1.13693,
+    "supply_voltage_v": 24.6108, "wheel_damping": 0.0048557, "wheel_frictionloss_left": 0.0861873,
+    "wheel_frictionloss_right": 0.110555, "wheel_kt_scale_left": 0.997272, "wheel_kt_scale_right": 0.957268,
+    "wheel_radius_scale": 0.98763, "wheel_torque_lag_s": 0.000424562}
+
+
+def test_pose_holds_its_pitch_on_stiff_hips(rig_run):
+    """Stuck by the hips' dry friction, the legs held the body where it stood when the LQR's
+    Tp fell within the friction (~0.85 N m a leg, ~2 deg of its pitch gain) and carried it
+    as they leaned back: the +0.1 rad pose ended at 4.30 deg (worst error 2.15, limit 1)
+    and the -0.1 rad one at -6.42 (1.36). The hips' dither (params.HIP_DITHER) breaks the
+    stiction every tick: the scenario's own checks pass (docs/control.md, friction)."""
+    rig_run("pose", seed=_STIFF_HIPS_SEED, plant=_STIFF_HIPS).assert_passed()
