@@ -164,9 +164,9 @@ HIP_FRICTION_BAND = 1.0
 # N m, the torque asked beyond the hold (mapped onto the joint) that takes the full friction
 # at rest: the LQR's corrections standing are a few tenths of a N m
 HIP_FRICTION_TORQUE_BAND = 0.2
-# N m at each hip joint: a dither flipped every 2 ms tick (chassis._hips), front joint +,
-# rear joint - (its reaction on the body cancels), while balancing on the ground (BALANCE,
-# MOVE). The hips' dry friction (CyberGear not published; its successors RS00/RS02/RS05 fit
+# N m at each hip joint: a dither flipped every 2 ms tick (chassis._hips), both joints of a
+# leg the same way, the two legs opposite (their reactions on the body cancel), while
+# balancing on the ground (BALANCE, MOVE). The hips' dry friction (CyberGear not published; its successors RS00/RS02/RS05 fit
 # 0.16-0.38 N m, the sourced box 0.15-0.435) held the legs stuck to the body within ~2 deg
 # of a pitch set point (`pose` 4/10 on the tolerance box, seed 5150). Broken every half
 # period, the stiction no longer holds the leg's slow swing. Its size: it must exceed the

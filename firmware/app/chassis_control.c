@@ -243,8 +243,9 @@ static float coulomb_feed_forward(float speed, float move) {
 
 /* VMC: the leg's push and torque to its two hip shafts, plus the hips' friction feed-forward;
  * tp_move: the share of tp that moves the leg (beyond the balance point's hold torque);
- * dither (N m): + on the front joint, - on the rear, flipped every tick by the caller: it breaks
- * the joints' stiction each half period and its reaction on the body cancels (chassis._hips) */
+ * dither (N m): on both joints the same way, flipped every tick and opposite on the other leg
+ * by the caller: it breaks the joints' stiction each half period and the two legs' reactions
+ * on the body cancel (chassis._hips) */
 static void hips(wl_chassis_out_t *out, int leg, const wl_leg_state_t *s, float force, float tp, float tp_move,
                  float dither) {
     float t1, t4, m1, m4;
@@ -253,7 +254,7 @@ static void hips(wl_chassis_out_t *out, int leg, const wl_leg_state_t *s, float 
     t1 += coulomb_feed_forward(s->dphi1, m1);
     t4 += coulomb_feed_forward(s->dphi4, m4);
     t1 += dither;
-    t4 -= dither;
+    t4 += dither;
     int front = wl_joint_of(leg, 0), rear = wl_joint_of(leg, 1);
     out->hip_torque[front] = (float)WL_JOINTS[front].sign * t1;
     out->hip_torque[rear] = (float)WL_JOINTS[rear].sign * t4;
@@ -372,7 +373,7 @@ void wl_chassis_step(wl_chassis_t *c, const wl_chassis_cmd_t *cmd, const wl_sens
         float sign = leg == WL_LEFT ? 1.0f : -1.0f;
         float push = cmd->has_leg_force ? cmd->leg_force : leg_force(c, &legs[leg], leg);
         hips(out, leg, &legs[leg], push + sign * roll_f, out->tp[leg], out->tp[leg] - c->balance_point.hold_torque,
-             dither);
+             sign * dither);
         int w = wl_wheel_of(leg);
         out->wheel_torque[w] = (float)WL_WHEELS[w].forward_sign * wl_clamp(out->wheel_t[leg], wheel_limit);
     }
