@@ -216,8 +216,11 @@ class ChassisController:
         self._track_references(cmd, att)
         standing = self._trim(speed, cmd, mean_length)
         self.dither_sign = -self.dither_sign
-        # balancing on the ground only: a jump's push or a stand-up asks the hips' whole torque
-        dither = self.dither_sign * P.HIP_DITHER if cmd.trim else 0.0  # N m, the left leg's (_hips)
+        # standing still on its spot only (``_trim``'s settled standing: not jumping, standing
+        # up, driving or walking back from a push) and with the wheels' grip: on a slippery
+        # floor the legs' swing spun the wheels and a pushed robot ended 1.49 m off its spot
+        hold_still = standing and not self.slip.slipping
+        dither = self.dither_sign * P.HIP_DITHER if hold_still else 0.0  # N m (_hips)
         out = Output(legs=legs)
         wheel_t, tp = {}, {}
         wheel_limit = P.BLOCKED_WHEEL_TORQUE if self.blocked else P.WHEEL_TORQUE_LIMIT
@@ -239,7 +242,7 @@ class ChassisController:
         for leg, sign in (("left", 1.0), ("right", -1.0)):
             push = self._leg_force(legs[leg], leg) if cmd.leg_force is None else cmd.leg_force
             force = push + sign * roll_f
-            self._hips(out, leg, legs[leg], force, tp[leg], tp[leg] - self.balance_point.hold_torque, sign * dither)
+            self._hips(out, leg, legs[leg], force, tp[leg], tp[leg] - self.balance_point.hold_torque, dither)
             wheel = LEG_WHEEL[leg]
             out.wheel_torque[wheel.esc_id] = wheel.forward_sign * clamp(wheel_t[leg], wheel_limit)
         self._limit_hips(out, cmd.hip_torque_limit)
@@ -505,21 +508,21 @@ class ChassisController:
         """Joint torques for push ``force`` (N) and ``tp`` (N m) on ``leg``, plus the hips' dry
         friction added back (friction.py) in the direction each joint turns or, at rest, is
         asked to turn by ``tp_move`` (N m: the share of ``tp`` that moves the leg, beyond holding it),
-        plus ``dither`` (N m) on both joints the same way.
+        plus ``dither`` (N m) on the front joint and minus it on the rear.
 
-        The dither (HIP_DITHER, its sign flipped every tick, opposite on the two legs) breaks
-        the joints' stiction each half period, so the leg follows the LQR's Tp however little
-        it asks beyond holding it, instead of sticking within the friction's dead band
-        (docs/control.md, friction). It swings the leg about the hip; opposite on the two
-        legs, their reactions on the body cancel (it pitches nothing). On the two joints of
-        one leg the other way (front +, rear -) it worked the legs' length instead and the
-        wheels' load dipped from 23 N to 4 N every tick (nominal `jump` failed its 5 N)."""
+        The dither (HIP_DITHER, its sign flipped every tick) breaks the joints' stiction each
+        half period, so the leg follows the LQR's Tp however little it asks beyond holding
+        it, instead of sticking within the friction's dead band (docs/control.md, friction).
+        Opposite on the two joints (in the same angle sense) its reaction on the body cancels
+        (it pitches nothing) and it works the leg's length, not its swing. The same way on
+        both joints (swinging the legs, the two legs opposite) it pushed the wheels along the
+        floor: on a slippery one (friction 0.3) a pushed robot ended 1.49 m off its spot."""
         t1, t4 = fivebar.joint_torques(state.kin, force, tp)
         m1, m4 = fivebar.joint_torques(state.kin, 0.0, tp_move)
         t1 += friction.coulomb_feed_forward(state.dphi1, m1, C.HIP_FRICTION, P.HIP_FRICTION_BAND, P.HIP_FRICTION_TORQUE_BAND)
         t4 += friction.coulomb_feed_forward(state.dphi4, m4, C.HIP_FRICTION, P.HIP_FRICTION_BAND, P.HIP_FRICTION_TORQUE_BAND)
         t1 += dither
-        t4 += dither
+        t4 -= dither
         front, rear = C.LEG_JOINTS[leg]
         out.hip_torque[front.motor_id] = front.sign * t1
         out.hip_torque[rear.motor_id] = rear.sign * t4

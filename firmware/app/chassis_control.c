@@ -243,9 +243,8 @@ static float coulomb_feed_forward(float speed, float move) {
 
 /* VMC: the leg's push and torque to its two hip shafts, plus the hips' friction feed-forward;
  * tp_move: the share of tp that moves the leg (beyond the balance point's hold torque);
- * dither (N m): on both joints the same way, flipped every tick and opposite on the other leg
- * by the caller: it breaks the joints' stiction each half period and the two legs' reactions
- * on the body cancel (chassis._hips) */
+ * dither (N m): + on the front joint, - on the rear, flipped every tick by the caller: it breaks
+ * the joints' stiction each half period; its reaction on the body cancels (chassis._hips) */
 static void hips(wl_chassis_out_t *out, int leg, const wl_leg_state_t *s, float force, float tp, float tp_move,
                  float dither) {
     float t1, t4, m1, m4;
@@ -254,7 +253,7 @@ static void hips(wl_chassis_out_t *out, int leg, const wl_leg_state_t *s, float 
     t1 += coulomb_feed_forward(s->dphi1, m1);
     t4 += coulomb_feed_forward(s->dphi4, m4);
     t1 += dither;
-    t4 += dither;
+    t4 -= dither;
     int front = wl_joint_of(leg, 0), rear = wl_joint_of(leg, 1);
     out->hip_torque[front] = (float)WL_JOINTS[front].sign * t1;
     out->hip_torque[rear] = (float)WL_JOINTS[rear].sign * t4;
@@ -349,8 +348,8 @@ void wl_chassis_step(wl_chassis_t *c, const wl_chassis_cmd_t *cmd, const wl_sens
     track_references(c, cmd);
     bool standing = trim(c, speed, cmd, mean_length);
     c->dither_sign = -c->dither_sign;
-    /* balancing on the ground only: a jump's push or a stand-up asks the hips' whole torque */
-    float dither = cmd->trim ? c->dither_sign * WL_P_HIP_DITHER : 0.0f;
+    /* standing still on its spot only (trim's settled standing) and with the wheels' grip */
+    float dither = standing && !c->slip.slipping ? c->dither_sign * WL_P_HIP_DITHER : 0.0f;
     float wheel_limit = c->blocked != 0.0f ? WL_P_BLOCKED_WHEEL_TORQUE : WL_P_WHEEL_TORQUE_LIMIT;
     for (int leg = 0; leg < 2; leg++) {
         lqr_leg(c, &legs[leg], leg, speed, att, cmd, mean_length, &out->wheel_t[leg], &out->tp[leg]);
@@ -373,7 +372,7 @@ void wl_chassis_step(wl_chassis_t *c, const wl_chassis_cmd_t *cmd, const wl_sens
         float sign = leg == WL_LEFT ? 1.0f : -1.0f;
         float push = cmd->has_leg_force ? cmd->leg_force : leg_force(c, &legs[leg], leg);
         hips(out, leg, &legs[leg], push + sign * roll_f, out->tp[leg], out->tp[leg] - c->balance_point.hold_torque,
-             sign * dither);
+             dither);
         int w = wl_wheel_of(leg);
         out->wheel_torque[w] = (float)WL_WHEELS[w].forward_sign * wl_clamp(out->wheel_t[leg], wheel_limit);
     }
