@@ -141,6 +141,7 @@ class ChassisController:
         self.leg_integral = {leg: 0.0 for leg in LEGS}  # N
         self.x_integral = 0.0  # m s, integral of the position error (the LQR's ix state)
         self.dither_sign = 1.0  # +1/-1, flipped every tick on the ground: the hips' dither (_hips)
+        self.dither_size = 0.0  # N m, the dither's amplitude, slewed on and off (HIP_DITHER_RAMP_S)
         self.trim_hold_s = 0.0  # s left before the integral may move again after a stop (TRIM_SETTLE_S)
         self.u_prev = {leg: (0.0, 0.0) for leg in LEGS}  # (T, Tp) N m sent last period (the LQR's delay states)
         self.gyro = estimate.GyroBiasObserver(dt, P.GYRO_BIAS_OMEGA, P.GYRO_BIAS_LIMIT)
@@ -217,10 +218,13 @@ class ChassisController:
         standing = self._trim(speed, cmd, mean_length)
         self.dither_sign = -self.dither_sign
         # standing still on its spot only (``_trim``'s settled standing: not jumping, standing
-        # up, driving or walking back from a push) and with the wheels' grip: on a slippery
-        # floor the legs' swing spun the wheels and a pushed robot ended 1.49 m off its spot
-        hold_still = standing and not self.slip.slipping
-        dither = self.dither_sign * P.HIP_DITHER if hold_still else 0.0  # N m (_hips)
+        # up, driving or walking back from a push), where the friction's dead band is what
+        # is left, and with the wheels' grip (the slip observer's): no shaking of wheels that slip
+        # slewed, not stepped: no torque step, and a tick where Python and C decide apart
+        # (a threshold's float rounding) differs by one slew step, not the whole dither
+        target = P.HIP_DITHER if standing and not self.slip.slipping else 0.0
+        self.dither_size += clamp(target - self.dither_size, P.HIP_DITHER / P.HIP_DITHER_RAMP_S * self.dt)
+        dither = self.dither_sign * self.dither_size  # N m (_hips)
         out = Output(legs=legs)
         wheel_t, tp = {}, {}
         wheel_limit = P.BLOCKED_WHEEL_TORQUE if self.blocked else P.WHEEL_TORQUE_LIMIT

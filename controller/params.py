@@ -178,6 +178,10 @@ HIP_FRICTION_TORQUE_BAND = 0.2
 # 1.1 N m: the friction of the whole box up to a 2.4 ms lag. Measured (docs/measurements.md,
 # 2026-12-06); with longer lags the -0.1 rad pose still ends ~1 deg past its set point.
 HIP_DITHER = 1.1
+# s to slew the dither's amplitude on or off: stepped, a tick where Python and C judged the
+# robot's standing apart (a threshold's rounding) differed by the whole dither (4.6 % of full
+# scale in nominal `push`)
+HIP_DITHER_RAMP_S = 0.1
 
 # --- torque limits ----------------------------------------------------------------
 HIP_TORQUE_LIMIT = 10.0  # N m, normal clamp below the CyberGear's 12 (docs/control.md)

@@ -348,8 +348,11 @@ void wl_chassis_step(wl_chassis_t *c, const wl_chassis_cmd_t *cmd, const wl_sens
     track_references(c, cmd);
     bool standing = trim(c, speed, cmd, mean_length);
     c->dither_sign = -c->dither_sign;
-    /* standing still on its spot only (trim's settled standing) and with the wheels' grip */
-    float dither = standing && !c->slip.slipping ? c->dither_sign * WL_P_HIP_DITHER : 0.0f;
+    /* standing still on its spot only (trim's settled standing) and with the wheels' grip;
+     * slewed on and off (chassis.step) */
+    float target = standing && !c->slip.slipping ? WL_P_HIP_DITHER : 0.0f;
+    c->dither_size += wl_clamp(target - c->dither_size, WL_P_HIP_DITHER / WL_P_HIP_DITHER_RAMP_S * c->dt);
+    float dither = c->dither_sign * c->dither_size;
     float wheel_limit = c->blocked != 0.0f ? WL_P_BLOCKED_WHEEL_TORQUE : WL_P_WHEEL_TORQUE_LIMIT;
     for (int leg = 0; leg < 2; leg++) {
         lqr_leg(c, &legs[leg], leg, speed, att, cmd, mean_length, &out->wheel_t[leg], &out->tp[leg]);
