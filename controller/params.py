@@ -171,8 +171,8 @@ HIP_FRICTION_TORQUE_BAND = 0.2
 # body within ~2 deg of a pitch set point (`pose` 4/10 on the tolerance box, seed 5150).
 # Broken every half period, the stiction no longer holds. Its size, between two bounds:
 # - the friction after the current loop's first-order lag: a square wave of half period
-#   T = 2 ms peaks at A tanh(T / (2 tau)), 0.354 A at the box's 2.7 ms, 0.62 A at 1.2 ms;
-#   to break 0.435 N m, A >= 1.23 at 2.7 ms, 0.70 at 1.2 ms;
+#   T = 2 ms peaks at A tanh(T / (2 tau)), 0.354 A at the box's 2.7 ms, 0.68 A at 1.2 ms;
+#   to break 0.435 N m, A >= 1.23 at 2.7 ms, 0.64 at 1.2 ms;
 # - the wheels' load: it works the legs' length, and 1.5 N m dipped the wheels' 23 N to
 #   4 N every tick (nominal `jump` failed its 5 N); 1.1 to 8.3 N, 0.8 to 11.6 N.
 # 1.1 N m: the friction of the whole box up to a 2.4 ms lag. Measured (docs/measurements.md,
