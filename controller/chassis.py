@@ -140,6 +140,8 @@ class ChassisController:
         self.lean = 0.0  # rad, roll set point into a turn, lagging the command (TURN_LEAN_TAU)
         self.leg_integral = {leg: 0.0 for leg in LEGS}  # N
         self.x_integral = 0.0  # m s, integral of the position error (the LQR's ix state)
+        self.dither_sign = 1.0  # +1/-1, flipped every tick on the ground: the hips' dither (_hips)
+        self.dither_size = 0.0  # N m, the dither's amplitude, slewed on and off (HIP_DITHER_RAMP_S)
         self.trim_hold_s = 0.0  # s left before the integral may move again after a stop (TRIM_SETTLE_S)
         self.u_prev = {leg: (0.0, 0.0) for leg in LEGS}  # (T, Tp) N m sent last period (the LQR's delay states)
         self.gyro = estimate.GyroBiasObserver(dt, P.GYRO_BIAS_OMEGA, P.GYRO_BIAS_LIMIT)
@@ -214,6 +216,15 @@ class ChassisController:
                                               self.weight_ratio())
         self._track_references(cmd, att, speed)
         standing = self._trim(speed, cmd, mean_length)
+        self.dither_sign = -self.dither_sign
+        # standing still on its spot only (``_trim``'s settled standing: not jumping, standing
+        # up, driving or walking back from a push), where the friction's dead band is what
+        # is left, and with the wheels' grip (the slip observer's): no shaking of wheels that slip
+        # slewed, not stepped: no torque step, and a tick where Python and C decide apart
+        # (a threshold's float rounding) differs by one slew step, not the whole dither
+        target = P.HIP_DITHER if standing and not self.slip.slipping else 0.0
+        self.dither_size += clamp(target - self.dither_size, P.HIP_DITHER / P.HIP_DITHER_RAMP_S * self.dt)
+        dither = self.dither_sign * self.dither_size  # N m (_hips)
         out = Output(legs=legs)
         wheel_t, tp = {}, {}
         wheel_limit = P.BLOCKED_WHEEL_TORQUE if self.blocked else P.WHEEL_TORQUE_LIMIT
@@ -235,7 +246,7 @@ class ChassisController:
         for leg, sign in (("left", 1.0), ("right", -1.0)):
             push = self._leg_force(legs[leg], leg) if cmd.leg_force is None else cmd.leg_force
             force = push + sign * roll_f
-            self._hips(out, leg, legs[leg], force, tp[leg], tp[leg] - self.balance_point.hold_torque)
+            self._hips(out, leg, legs[leg], force, tp[leg], tp[leg] - self.balance_point.hold_torque, dither)
             wheel = LEG_WHEEL[leg]
             out.wheel_torque[wheel.esc_id] = wheel.forward_sign * clamp(wheel_t[leg], wheel_limit)
         self._limit_hips(out, cmd.hip_torque_limit)
@@ -501,14 +512,26 @@ class ChassisController:
         pid = P.LEG_KP * err - P.LEG_KD * leg.dL0 + self.leg_integral[name]
         return clamp(pid, P.LEG_FORCE_LIMIT) + P.LEG_GRAVITY_FF * math.cos(leg.theta)
 
-    def _hips(self, out: Output, leg: str, state: LegState, force: float, tp: float, tp_move: float) -> None:
+    def _hips(self, out: Output, leg: str, state: LegState, force: float, tp: float, tp_move: float,
+              dither: float = 0.0) -> None:
         """Joint torques for push ``force`` (N) and ``tp`` (N m) on ``leg``, plus the hips' dry
         friction added back (friction.py) in the direction each joint turns or, at rest, is
-        asked to turn by ``tp_move`` (N m: the share of ``tp`` that moves the leg, beyond holding it)."""
+        asked to turn by ``tp_move`` (N m: the share of ``tp`` that moves the leg, beyond holding it),
+        plus ``dither`` (N m) on the front joint and minus it on the rear.
+
+        The dither (HIP_DITHER, its sign flipped every tick) breaks the joints' stiction each
+        half period, so the leg follows the LQR's Tp however little it asks beyond holding
+        it, instead of sticking within the friction's dead band (docs/control.md, friction).
+        Opposite on the two joints (in the same angle sense) its reaction on the body cancels
+        (it pitches nothing) and it works the leg's length, not its swing. The same way on
+        both joints (swinging the legs, the two legs opposite) it pushed the wheels along the
+        floor: on a slippery one (friction 0.3) a pushed robot ended 1.49 m off its spot."""
         t1, t4 = fivebar.joint_torques(state.kin, force, tp)
         m1, m4 = fivebar.joint_torques(state.kin, 0.0, tp_move)
         t1 += friction.coulomb_feed_forward(state.dphi1, m1, C.HIP_FRICTION, P.HIP_FRICTION_BAND, P.HIP_FRICTION_TORQUE_BAND)
         t4 += friction.coulomb_feed_forward(state.dphi4, m4, C.HIP_FRICTION, P.HIP_FRICTION_BAND, P.HIP_FRICTION_TORQUE_BAND)
+        t1 += dither
+        t4 -= dither
         front, rear = C.LEG_JOINTS[leg]
         out.hip_torque[front.motor_id] = front.sign * t1
         out.hip_torque[rear.motor_id] = rear.sign * t4

@@ -174,6 +174,24 @@ HIP_FRICTION_BAND = 1.0
 # N m, the torque asked beyond the hold (mapped onto the joint) that takes the full friction
 # at rest: the LQR's corrections standing are a few tenths of a N m
 HIP_FRICTION_TORQUE_BAND = 0.2
+# N m at each hip joint: a dither flipped every 2 ms tick (chassis._hips), front joint +,
+# rear joint - (its reaction on the body cancels), while standing still on its spot with
+# the wheels' grip. The hips' dry friction (CyberGear not published; its successors
+# RS00/RS02/RS05 fit 0.16-0.38 N m, the sourced box 0.15-0.435) held the legs stuck to the
+# body within ~2 deg of a pitch set point (`pose` 4/10 on the tolerance box, seed 5150).
+# Broken every half period, the stiction no longer holds. Its size, between two bounds:
+# - the friction after the current loop's first-order lag: a square wave of half period
+#   T = 2 ms peaks at A tanh(T / (2 tau)), 0.354 A at the box's 2.7 ms, 0.68 A at 1.2 ms;
+#   to break 0.435 N m, A >= 1.23 at 2.7 ms, 0.64 at 1.2 ms;
+# - the wheels' load: it works the legs' length, and 1.5 N m dipped the wheels' 23 N to
+#   4 N every tick (nominal `jump` failed its 5 N); 1.1 to 8.3 N, 0.8 to 11.6 N.
+# 1.1 N m: the friction of the whole box up to a 2.4 ms lag. Measured (docs/measurements.md,
+# 2026-12-06); with longer lags the -0.1 rad pose still ends ~1 deg past its set point.
+HIP_DITHER = 1.1
+# s to slew the dither's amplitude on or off: stepped, a tick where Python and C judged the
+# robot's standing apart (a threshold's rounding) differed by the whole dither (4.6 % of full
+# scale in nominal `push`)
+HIP_DITHER_RAMP_S = 0.1
 
 # --- torque limits ----------------------------------------------------------------
 HIP_TORQUE_LIMIT = 10.0  # N m, normal clamp below the CyberGear's 12 (docs/control.md)

@@ -400,3 +400,29 @@ def test_a_forward_jump_on_heavy_hip_rotors_keeps_its_wheels_up_and_lands_on_top
              "wheel_kt_scale_left": 0.923121, "wheel_kt_scale_right": 0.935155, "wheel_radius_scale": 0.996389,
              "wheel_torque_lag_s": 0.000994426}
     rig_run("jump-step", seed=235674219, plant=plant).assert_passed()
+
+
+# sample 4 of `wheelleg campaign pose --preset tolerance --seed 5150`: stiff hips (0.33, 0.39 N m of dry
+# friction), the CyberGears' current loop at 1.7 ms
+_STIFF_HIPS_SEED = 1440715349
+_STIFF_HIPS = {
+    "battery_resistance_ohm": 0.0847716, "body_mass_scale": 1.00986, "com_x_m": 0.0109995, "com_y_m": -0.00882282,
+    "com_z_m": -0.00909053, "command_delay_s": 0.000338526, "feedback_delay_s": 0.000716216, "friction": 0.650273,
+    "hip_armature": 0.00293652, "hip_damping": 0.00448535, "hip_frictionloss_left": 0.325754,
+    "hip_frictionloss_right": 0.392434, "hip_kt_scale_left": 0.976047, "hip_kt_scale_right": 0.967828,
+    "hip_torque_lag_s": 0.00167153, "hip_zero_offset_left_front": -0.00259311, "hip_zero_offset_left_rear": -0.00511448,
+    "hip_zero_offset_right_front": 0.0101485, "hip_zero_offset_right_rear": -0.0072531, "imu_gyro_bias_x": -0.00775313,
+    "imu_gyro_bias_y": -0.00476568, "imu_gyro_bias_z": -0.0114495, "imu_noise_scale": 1.12437,
+    "imu_tilt_pitch_deg": 0.616249, "imu_tilt_roll_deg": 0.930051, "inertia_scale": 0.943398,
+    "supply_voltage_v": 23.1197, "wheel_damping": 0.00228815, "wheel_frictionloss_left": 0.151886,
+    "wheel_frictionloss_right": 0.0866284, "wheel_kt_scale_left": 0.939904, "wheel_kt_scale_right": 0.989142,
+    "wheel_radius_scale": 0.972426, "wheel_torque_lag_s": 0.000668806}
+
+
+def test_pose_holds_its_pitch_on_stiff_hips(rig_run):
+    """Stuck by the hips' dry friction, the legs held the body where it stood when the LQR's
+    Tp fell within the friction (~0.7 N m a leg here, ~1.6 deg of its pitch gain) and
+    carried it as they leaned back: the +0.1 rad pose ended at 6.66 deg (worst error 1.06,
+    limit 1) and the -0.1 rad one at -4.64 (2.33). The hips' dither (params.HIP_DITHER)
+    breaks the stiction every tick: the scenario's own checks pass (docs/control.md, friction)."""
+    rig_run("pose", seed=_STIFF_HIPS_SEED, plant=_STIFF_HIPS).assert_passed()

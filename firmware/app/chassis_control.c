@@ -16,6 +16,7 @@ void wl_chassis_init(wl_chassis_t *c, double period_s) {
     c->dt = dt;
     c->dt_d = period_s;
     c->travel = WL_TRAVEL_STANDING;
+    c->dither_sign = 1.0f;
     c->leg_ref[0] = c->leg_ref[1] = WL_P_LEG_LENGTH_NOMINAL;
     wl_gyro_bias_init(&c->gyro, dt, WL_P_GYRO_BIAS_OMEGA, WL_P_GYRO_BIAS_LIMIT);
     wl_slip_init(&c->slip, dt, WL_P_SLIP_GAIN, WL_P_SLIP_ON, WL_P_SLIP_GRIP_WINDOW, WL_P_SLIP_GRIP_TOL);
@@ -243,13 +244,18 @@ static float coulomb_feed_forward(float speed, float move) {
 }
 
 /* VMC: the leg's push and torque to its two hip shafts, plus the hips' friction feed-forward;
- * tp_move: the share of tp that moves the leg (beyond the balance point's hold torque) */
-static void hips(wl_chassis_out_t *out, int leg, const wl_leg_state_t *s, float force, float tp, float tp_move) {
+ * tp_move: the share of tp that moves the leg (beyond the balance point's hold torque);
+ * dither (N m): + on the front joint, - on the rear, flipped every tick by the caller: it breaks
+ * the joints' stiction each half period; its reaction on the body cancels (chassis._hips) */
+static void hips(wl_chassis_out_t *out, int leg, const wl_leg_state_t *s, float force, float tp, float tp_move,
+                 float dither) {
     float t1, t4, m1, m4;
     wl_fivebar_joint_torques(&s->kin, force, tp, &t1, &t4);
     wl_fivebar_joint_torques(&s->kin, 0.0f, tp_move, &m1, &m4);
     t1 += coulomb_feed_forward(s->dphi1, m1);
     t4 += coulomb_feed_forward(s->dphi4, m4);
+    t1 += dither;
+    t4 -= dither;
     int front = wl_joint_of(leg, 0), rear = wl_joint_of(leg, 1);
     out->hip_torque[front] = (float)WL_JOINTS[front].sign * t1;
     out->hip_torque[rear] = (float)WL_JOINTS[rear].sign * t4;
@@ -312,7 +318,7 @@ static void air_step(wl_chassis_t *c, const wl_sensed_t *s, float speed, const w
         c->u_prev[leg][1] = tp;
         float force = cmd->has_leg_force ? cmd->leg_force
                                          : air_leg_force(c->leg_ref[leg] - l->L0, l->dL0, cmd->air_tuck);
-        hips(out, leg, l, force, tp, tp);
+        hips(out, leg, l, force, tp, tp, 0.0f);
         int w = wl_wheel_of(leg);
         out->wheel_torque[w] = (float)WL_WHEELS[w].forward_sign * out->wheel_t[leg];
     }
@@ -343,6 +349,12 @@ void wl_chassis_step(wl_chassis_t *c, const wl_chassis_cmd_t *cmd, const wl_sens
                                            weight_ratio(c));
     track_references(c, cmd, speed);
     bool standing = trim(c, speed, cmd, mean_length);
+    c->dither_sign = -c->dither_sign;
+    /* standing still on its spot only (trim's settled standing) and with the wheels' grip;
+     * slewed on and off (chassis.step) */
+    float target = standing && !c->slip.slipping ? WL_P_HIP_DITHER : 0.0f;
+    c->dither_size += wl_clamp(target - c->dither_size, WL_P_HIP_DITHER / WL_P_HIP_DITHER_RAMP_S * c->dt);
+    float dither = c->dither_sign * c->dither_size;
     float wheel_limit = c->blocked != 0.0f ? WL_P_BLOCKED_WHEEL_TORQUE : WL_P_WHEEL_TORQUE_LIMIT;
     for (int leg = 0; leg < 2; leg++) {
         lqr_leg(c, &legs[leg], leg, speed, att, cmd, mean_length, &out->wheel_t[leg], &out->tp[leg]);
@@ -364,7 +376,8 @@ void wl_chassis_step(wl_chassis_t *c, const wl_chassis_cmd_t *cmd, const wl_sens
     for (int leg = 0; leg < 2; leg++) {
         float sign = leg == WL_LEFT ? 1.0f : -1.0f;
         float push = cmd->has_leg_force ? cmd->leg_force : leg_force(c, &legs[leg], leg);
-        hips(out, leg, &legs[leg], push + sign * roll_f, out->tp[leg], out->tp[leg] - c->balance_point.hold_torque);
+        hips(out, leg, &legs[leg], push + sign * roll_f, out->tp[leg], out->tp[leg] - c->balance_point.hold_torque,
+             dither);
         int w = wl_wheel_of(leg);
         out->wheel_torque[w] = (float)WL_WHEELS[w].forward_sign * wl_clamp(out->wheel_t[leg], wheel_limit);
     }

@@ -49,6 +49,8 @@ typedef struct {
     float leg_ref[2], leg_integral[2];
     float u_prev[2][2];              /* (T, Tp) per leg, sent last period */
     float balance_theta;
+    float dither_sign;               /* +1/-1, flipped every tick on the ground: the hips' dither */
+    float dither_size;               /* N m, its amplitude, slewed on and off */
     float speed_to_trim_s;
     wl_gyro_bias_t gyro;
     wl_slip_t slip;
