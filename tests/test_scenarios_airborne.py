@@ -1,4 +1,6 @@
 """The airborne scenarios (jump, jump-step, drop, fall, estop, pose), run in the rig."""
+import math
+
 import numpy as np
 import pytest
 
@@ -60,14 +62,28 @@ def test_stands_up_after_a_fall_on_operator_command(rig_run):
     assert A.first_mode(run, A.BALANCE, t_up) is not None and A.first_mode(run, A.FALLEN, t_up) is None
 
 
-def test_standing_on_its_nose_at_90_deg_it_stands_up(rig_run):
-    """Seed 1's tumble (Python program) ends with the body vertical on its nose, both wheels on the
-    floor. There the ZYX roll is singular: it read ~2.9 rad and the program took the robot for lying
-    on its side and stayed FALLEN. Judged by the side tilt (posture.side_tilt), it recovers."""
-    run = rig_run("fall", seed=1)
-    lying, pose = A.lying(run, 3.0)
-    assert lying and "90 deg" in pose, pose
-    run.assert_passed()
+def _quat(roll: float, pitch: float) -> tuple:
+    """(w, x, y, z) of R = Ry(pitch) Rx(roll)."""
+    cr, sr, cp, sp = math.cos(roll / 2), math.sin(roll / 2), math.cos(pitch / 2), math.sin(pitch / 2)
+    return cp * cr, cp * sr, sp * cr, -sp * sr
+
+
+@pytest.mark.parametrize("roll, pitch, lying", [
+    (2.87, math.radians(89.99), True),  # on its nose, body vertical, turned about the vertical: the plant's ZYX roll
+    (0.0, math.radians(50), True),
+    (0.0, math.radians(-50), True),  # on its tail
+    (math.pi, 0.2, False),  # on its back
+    (1.5, 0.3, False),  # on its side
+])
+def test_the_program_takes_standing_on_its_nose_for_lying_where_it_can_recover(roll, pitch, lying):
+    """`fall` on seed 1 (Python program, 2026-12-06) ended with the body vertical on its nose,
+    both wheels on the floor; at 90 deg of pitch the ZYX roll is singular and read ~2.9 rad, so
+    the program took it for lying on its side and stayed FALLEN. Judged by the tilt from upright
+    and the side tilt, it starts the recovery stand (`wheelleg run fall --seed 1` then stood)."""
+    from wheelleg.controller.node import Controller
+    ctl = Controller()
+    ctl.bus.imu.quat = _quat(roll, pitch)
+    assert ctl._lying() is lying
 
 
 # -- the checks themselves, on synthetic runs -----------------------------------------
