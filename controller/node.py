@@ -85,6 +85,7 @@ class Controller:
         self.contact = support.ContactDebounce(period_s)
         self.jump = JumpSequencer(period_s)
         self.recovery = RecoverySequencer(period_s)
+        self._recovery_limit = P.RECOVERY_FALL_PITCH  # rad from upright past which a recovery has fallen again
         self._jump_forward = False  # the jump asked for is JumpForward
         self.reenable = detect.ReenableRequest(P.REENABLE_WINDOW_S)
         self.esc_watch = {w.esc_id: detect.EscWatch(P.ESC_CURRENT_TOLERANCE_A, P.ESC_MISMATCH_S,
@@ -127,6 +128,7 @@ class Controller:
             self.chassis.touchdown(self.bus, keep_spot=True)
         if mode == _STAND_UP and previous != _STAND_UP and self._lying():
             self.recovery.start()
+            self._recovery_limit = self._fallen_again_past()
         elif mode != _STAND_UP:
             self.recovery.stop()
         if enabled and previous not in ENABLED:
@@ -194,7 +196,7 @@ class Controller:
     def _stand_up_inputs(self, att: Attitude, fallen: bool) -> tuple[bool, bool]:
         """(stood up, fallen) while standing up, from the last run tick's legs."""
         if self.recovery.active:  # righting itself from lying: only a second tumble counts
-            return False, not posture.recoverable(att.roll, att.pitch, -1.0, P.RECOVERY_FALL_PITCH, P.FALL_ROLL)
+            return False, not posture.recoverable(att.roll, att.pitch, -1.0, self._recovery_limit, P.FALL_ROLL)
         if self.last is None:
             return False, fallen
         left, right = self.last.leg_lengths_m()
@@ -256,7 +258,13 @@ class Controller:
     def _lying(self) -> bool:
         """On its nose or tail past the fall limit, not on its side or back: stand-up starts with a recovery."""
         att = self.chassis.attitude(self.bus)
-        return posture.recoverable(att.roll, att.pitch, P.FALL_PITCH, P.RECOVERY_FALL_PITCH, P.FALL_ROLL)
+        return posture.recoverable(att.roll, att.pitch, P.FALL_PITCH, P.RECOVERY_LYING_MAX, P.FALL_ROLL)
+
+    def _fallen_again_past(self) -> float:
+        """rad from upright past which the recovery just begun has fallen again: RECOVERY_FALL_PITCH,
+        or a little past where it lies when it starts further over (standing on its nose)."""
+        att = self.chassis.attitude(self.bus)
+        return max(P.RECOVERY_FALL_PITCH, posture.tilt_from_upright(att.roll, att.pitch) + P.RECOVERY_TILT_MARGIN)
 
     def _recovery_command(self, cmd: Command) -> None:
         """Fill ``cmd`` from the recovery table's phase (controller/recovery.py)."""

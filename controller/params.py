@@ -372,7 +372,14 @@ RECOVERY_TUCK_TIMEOUT = 1.0  # s
 # rises faster takes the set point with it (recovery.next_pitch_ref): `fall` is level ~0.5 s after TILT_UP begins
 RECOVERY_PITCH_RATE = 0.5
 RECOVERY_TILT_TIMEOUT = 4.0  # s
-# rad from upright (posture.tilt_from_upright): while recovering only a body past this has fallen
-# again. Past 90 deg: `fall` (seed 1, Python) ends standing on its nose, the body vertical with both
-# wheels loaded, and stands up from there; beyond ~95 deg it is going over onto its back.
-RECOVERY_FALL_PITCH = 1.65
+# rad from upright (posture.tilt_from_upright): while recovering only a body past this has fallen again
+RECOVERY_FALL_PITCH = 1.3
+# rad from upright, the furthest a lying body may be for a recovery to start: `fall` (seed 1, Python
+# program, 2026-12-06) ended standing on its nose, the body vertical with both wheels loaded, and
+# stands up from there; beyond ~95 deg it is going over onto its back
+RECOVERY_LYING_MAX = 1.65
+# rad: a recovery begun further over than RECOVERY_FALL_PITCH has fallen again this far past its
+# start; one begun from the usual ~50 deg keeps RECOVERY_FALL_PITCH, the limit every earlier
+# campaign measured (a tail fall that does not lift and rolls on over onto its back, seed 6160's
+# draws 21 and 25, does so at either limit)
+RECOVERY_TILT_MARGIN = 0.1

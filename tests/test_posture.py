@@ -73,4 +73,4 @@ def test_the_side_tilt_is_defined_lying_on_the_nose_where_the_euler_roll_is_not(
 def test_recoverable_lying_is_on_the_nose_or_tail_only(roll, pitch, expected):
     from wheelleg.controller import params as P
     from wheelleg.controller.posture import recoverable
-    assert recoverable(roll, pitch, P.FALL_PITCH, P.RECOVERY_FALL_PITCH, P.FALL_ROLL) is expected
+    assert recoverable(roll, pitch, P.FALL_PITCH, P.RECOVERY_LYING_MAX, P.FALL_ROLL) is expected

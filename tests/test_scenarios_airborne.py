@@ -86,6 +86,18 @@ def test_the_program_takes_standing_on_its_nose_for_lying_where_it_can_recover(r
     assert ctl._lying() is lying
 
 
+@pytest.mark.parametrize("pitch, limit", [(math.radians(50), 1.3), (math.radians(89.99), math.radians(89.99) + 0.1)])
+def test_a_recovery_has_fallen_again_past_its_limit_or_a_little_past_its_start(pitch, limit):
+    """From a nose-stand the recovery may tilt a little further than it began; from the usual
+    ~50 deg it stops at 1.3 rad as every earlier campaign measured it."""
+    from wheelleg.controller import params as P
+    from wheelleg.controller.node import Controller
+    ctl = Controller()
+    ctl.bus.imu.quat = _quat(0.0, pitch)
+    assert P.RECOVERY_FALL_PITCH == 1.3
+    assert ctl._fallen_again_past() == pytest.approx(limit, abs=1e-6)
+
+
 # -- the checks themselves, on synthetic runs -----------------------------------------
 def _run(modes, hip_tau, n_per=10, **state) -> RunData:
     """Heartbeat modes in blocks of ``n_per`` ticks (2 ms), one hip torque per tick."""

@@ -40,6 +40,7 @@ static struct {
     wl_contact_t contact;
     wl_jump_t jump;
     wl_recovery_t recovery;
+    float recovery_limit;  /* rad from upright past which the recovery has fallen again */
     wl_reenable_t reenable;
     wl_esc_watch_t esc_watch[WL_N_WHEELS];
     /* this tick */
@@ -65,6 +66,7 @@ void chassis_task_init(uint32_t period_us) {
     wl_contact_init(&s.contact, s.dt);
     wl_jump_init(&s.jump, period_s);
     wl_recovery_init(&s.recovery, period_s);
+    s.recovery_limit = WL_P_RECOVERY_FALL_PITCH;
     wl_reenable_init(&s.reenable, (uint32_t)lrintf(WL_P_REENABLE_WINDOW_S * 1e6f));
     for (int i = 0; i < WL_N_WHEELS; i++) wl_esc_watch_init(&s.esc_watch[i], WL_P_ESC_COMMAND_WINDOW);
     hal_can_on_receive(on_frame);
@@ -109,7 +111,14 @@ static bool body_down(const wl_attitude_t *att) {
 
 static bool lying(void) {
     wl_attitude_t att = wl_chassis_attitude(&s.chassis, &s.bus);
-    return wl_recoverable(att.roll, att.pitch, WL_P_FALL_PITCH, WL_P_RECOVERY_FALL_PITCH, WL_P_FALL_ROLL);
+    return wl_recoverable(att.roll, att.pitch, WL_P_FALL_PITCH, WL_P_RECOVERY_LYING_MAX, WL_P_FALL_ROLL);
+}
+
+/* RECOVERY_FALL_PITCH, or a little past where it lies when it starts further over (node._fallen_again_past) */
+static float fallen_again_past(void) {
+    wl_attitude_t att = wl_chassis_attitude(&s.chassis, &s.bus);
+    float start = wl_tilt_from_upright(att.roll, att.pitch) + WL_P_RECOVERY_TILT_MARGIN;
+    return start > WL_P_RECOVERY_FALL_PITCH ? start : WL_P_RECOVERY_FALL_PITCH;
 }
 
 static wl_mode_inputs_t mode_inputs(int64_t now) {
@@ -130,7 +139,7 @@ static wl_mode_inputs_t mode_inputs(int64_t now) {
     bool stood = false;
     if (s.mode == WL_MODE_STAND_UP) {
         if (wl_recovery_active(&s.recovery)) {  /* righting itself: only a second tumble counts */
-            fallen = !wl_recoverable(att.roll, att.pitch, -1.0f, WL_P_RECOVERY_FALL_PITCH, WL_P_FALL_ROLL);
+            fallen = !wl_recoverable(att.roll, att.pitch, -1.0f, s.recovery_limit, WL_P_FALL_ROLL);
         } else if (s.last.valid) {
             stood = fabsf(0.5f * (s.last.L0[0] + s.last.L0[1]) - op->leg_length) < 0.01f && fabsf(att.pitch) < 0.1f;
             fallen = fallen || fabsf(s.last.theta[0]) > WL_P_FALL_THETA || fabsf(s.last.theta[1]) > WL_P_FALL_THETA;
@@ -161,6 +170,7 @@ static void chassis_ctrl_info_get(int64_t now) {
     }
     if (s.mode == WL_MODE_STAND_UP && s.previous != WL_MODE_STAND_UP && lying()) {
         wl_recovery_start(&s.recovery);
+        s.recovery_limit = fallen_again_past();
     } else if (s.mode != WL_MODE_STAND_UP) {
         wl_recovery_stop(&s.recovery);
     }

@@ -212,7 +212,9 @@
 #define WL_P_RECOVERY_PITCH_RATE 0.5f
 #define WL_P_RECOVERY_TILT_TIMEOUT 4.0f
 #define WL_P_RECOVERY_TILT_TIMEOUT_D 4.0
-#define WL_P_RECOVERY_FALL_PITCH 1.65f
+#define WL_P_RECOVERY_FALL_PITCH 1.3f
+#define WL_P_RECOVERY_LYING_MAX 1.65f
+#define WL_P_RECOVERY_TILT_MARGIN 0.1f
 
 /* tables: joints {motor id, leg, hip, sign, stop}, wheels {esc id, leg, forward sign},
  * detect rules {offline after us, warning level, needed for balance} */

@@ -171,13 +171,13 @@ static void test_lying(void) {
     close_to("side tilt level, roll 0.3", wl_side_tilt(0.3f, 0.0f), 0.3, 1e-5);
     close_to("tilt on its back", wl_tilt_from_upright(3.14159265f, 0.0f), 3.14159265, 1e-5);
     close_to("tilt on its nose", wl_tilt_from_upright(0.0f, 1.2f), 1.2, 1e-5);
-    check(wl_recoverable(2.9f, 1.5707963f, WL_P_FALL_PITCH, WL_P_RECOVERY_FALL_PITCH, WL_P_FALL_ROLL),
+    check(wl_recoverable(2.9f, 1.5707963f, WL_P_FALL_PITCH, WL_P_RECOVERY_LYING_MAX, WL_P_FALL_ROLL),
           "recoverable standing on its nose", 0, 1);
-    check(!wl_recoverable(3.1f, 0.1f, WL_P_FALL_PITCH, WL_P_RECOVERY_FALL_PITCH, WL_P_FALL_ROLL),
+    check(!wl_recoverable(3.1f, 0.1f, WL_P_FALL_PITCH, WL_P_RECOVERY_LYING_MAX, WL_P_FALL_ROLL),
           "not recoverable on its back", 0, 1);
-    check(!wl_recoverable(1.5f, 0.5f, WL_P_FALL_PITCH, WL_P_RECOVERY_FALL_PITCH, WL_P_FALL_ROLL),
+    check(!wl_recoverable(1.5f, 0.5f, WL_P_FALL_PITCH, WL_P_RECOVERY_LYING_MAX, WL_P_FALL_ROLL),
           "not recoverable on its side", 0, 1);
-    check(!wl_recoverable(0.0f, 0.3f, WL_P_FALL_PITCH, WL_P_RECOVERY_FALL_PITCH, WL_P_FALL_ROLL),
+    check(!wl_recoverable(0.0f, 0.3f, WL_P_FALL_PITCH, WL_P_RECOVERY_LYING_MAX, WL_P_FALL_ROLL),
           "not lying when upright", 0, 1);
 }
 
