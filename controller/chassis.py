@@ -216,15 +216,7 @@ class ChassisController:
                                               self.weight_ratio())
         self._track_references(cmd, att, speed)
         standing = self._trim(speed, cmd, mean_length)
-        self.dither_sign = -self.dither_sign
-        # standing still on its spot only (``_trim``'s settled standing: not jumping, standing
-        # up, driving or walking back from a push), where the friction's dead band is what
-        # is left, and with the wheels' grip (the slip observer's): no shaking of wheels that slip
-        # slewed, not stepped: no torque step, and a tick where Python and C decide apart
-        # (a threshold's float rounding) differs by one slew step, not the whole dither
-        target = P.HIP_DITHER if standing and not self.slip.slipping else 0.0
-        self.dither_size += clamp(target - self.dither_size, P.HIP_DITHER / P.HIP_DITHER_RAMP_S * self.dt)
-        dither = self.dither_sign * self.dither_size  # N m (_hips)
+        dither = self._dither(standing)
         out = Output(legs=legs)
         wheel_t, tp = {}, {}
         wheel_limit = P.BLOCKED_WHEEL_TORQUE if self.blocked else P.WHEEL_TORQUE_LIMIT
@@ -511,6 +503,19 @@ class ChassisController:
                                          P.LEG_INTEGRAL_LIMIT)
         pid = P.LEG_KP * err - P.LEG_KD * leg.dL0 + self.leg_integral[name]
         return clamp(pid, P.LEG_FORCE_LIMIT) + P.LEG_GRAVITY_FF * math.cos(leg.theta)
+
+    def _dither(self, standing: bool) -> float:
+        """This tick's hips' dither (N m, its sign flipped every tick; ``_hips``).
+
+        On only standing still on its spot (``_trim``'s settled standing: not jumping, standing
+        up, driving or walking back from a push), where the friction's dead band is what is
+        left, and with the wheels' grip (the slip observer's): no shaking of wheels that slip.
+        Slewed, not stepped: no torque step, and a tick where Python and C decide apart (a
+        threshold's float rounding) differs by one slew step, not the whole dither."""
+        self.dither_sign = -self.dither_sign
+        target = P.HIP_DITHER if standing and not self.slip.slipping else 0.0
+        self.dither_size += clamp(target - self.dither_size, P.HIP_DITHER / P.HIP_DITHER_RAMP_S * self.dt)
+        return self.dither_sign * self.dither_size
 
     def _hips(self, out: Output, leg: str, state: LegState, force: float, tp: float, tp_move: float,
               dither: float = 0.0) -> None:
