@@ -394,7 +394,7 @@ class JumpSequencer:
         # in place: a forward jump's lean is the run-up's, and held in the air the wheels trailed
         # under the body (the step climbed fell from 0.1875 m to 0.1625 m, tools.limits)
         hold = None
-        if (not self.forward and (spec.force or spec.airborne)) or (self.forward and spec.force):
+        if spec.force or (spec.airborne and not self.forward):
             hold = self.hold or StanceHold((0.0, 0.0), pitch_rad)
         force = None
         if spec.force is not None:

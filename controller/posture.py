@@ -14,6 +14,7 @@ from __future__ import annotations
 import math
 
 from wheelleg.controller import constants as C
+from wheelleg.controller.bounds import clamp
 
 _HALF = tuple(0.5 * v for v in C.BODY_SIZE)
 
@@ -39,13 +40,13 @@ def side_tilt(roll: float, pitch: float) -> float:
     """rad: the body's lean onto its side, how far its left axis rises out of the horizontal,
     asin(cos(pitch) sin(roll)) (the world-z row of R). Defined at any pitch: lying on its nose
     or tail at 90 deg the ZYX roll may take any value (gimbal lock), its side tilt is ~0."""
-    return math.asin(max(-1.0, min(1.0, math.cos(pitch) * math.sin(roll))))
+    return math.asin(clamp(math.cos(pitch) * math.sin(roll), 1.0))
 
 
 def tilt_from_upright(roll: float, pitch: float) -> float:
     """rad in [0, pi]: the angle between the body's up axis and the world's, acos(cos(pitch) cos(roll));
     on its back ~pi (the ZYX pitch never passes 90 deg: beyond it the roll flips to +-pi)."""
-    return math.acos(max(-1.0, min(1.0, math.cos(pitch) * math.cos(roll))))
+    return math.acos(clamp(math.cos(pitch) * math.cos(roll), 1.0))
 
 
 def recoverable(roll: float, pitch: float, fallen_rad: float, beyond_rad: float, side_rad: float) -> bool:

@@ -260,7 +260,7 @@ wl_jump_cmd_t wl_jump_step(wl_jump_t *j, const float lengths[2], bool touching, 
     cmd.tuck = j->phase == WL_JUMP_RETRACT || (j->phase == WL_JUMP_FLIGHT && up);
     if (cmd.tuck) cmd.leg_length = WL_P_JUMP_RETRACT_TARGET;
     /* pushing, the hips over their start point (a forward jump too); in the air in place only */
-    if ((!j->forward && (spec->thrust || spec->airborne)) || (j->forward && spec->thrust)) {
+    if (spec->thrust || (spec->airborne && !j->forward)) {
         if (j->hold.active) {
             cmd.hold = j->hold;
         } else {
