@@ -19,8 +19,15 @@ hip torque that holds the body there) keeps it to 2.9 cm.
 import numpy as np
 import pytest
 
+from wheelleg.hil.campaign.sampling import campaign_ranges, draw_overrides, run_seed
 from wheelleg.hil.scenarios.airborne import airborne_spans
 from wheelleg.hil.scenarios.basic import forward_position
+
+
+def sourced_draw(campaign_seed: int, sample: int) -> tuple[int, dict]:
+    """(rig seed, plant overrides) of ``sample`` of `wheelleg campaign ... --preset tolerance --seed
+    CAMPAIGN_SEED`: the campaign's own draw, the very run its report's rerun command makes."""
+    return run_seed(campaign_seed, sample), draw_overrides(campaign_seed, sample, campaign_ranges("tolerance", []))
 
 
 @pytest.mark.parametrize("com_x_m", [0.03, -0.03])
@@ -87,20 +94,7 @@ def test_a_sprint_on_the_flattest_battery_of_the_box_stays_up(rig_run):
 # seed 5150's sample 22 of the sourced box (`wheelleg campaign sprint --preset tolerance --samples 30
 # --seed 5150`): its fall needs the whole draw (21.1 V through 0.1 ohm with the body x1.14 and its
 # CoM 1.8 cm forward alone hold up: the wheels' kt 3-8 % low and their friction take the rest)
-SAMPLE_22 = {"battery_resistance_ohm": 0.0993348, "body_mass_scale": 1.14059, "com_x_m": 0.0182425,
-             "com_y_m": -0.00726451, "com_z_m": -0.00362421, "command_delay_s": 0.000776875,
-             "feedback_delay_s": 0.000343611, "friction": 0.896147, "hip_armature": 0.0121668,
-             "hip_damping": 0.00274602, "hip_frictionloss_left": 0.386324,
-             "hip_frictionloss_right": 0.429662, "hip_kt_scale_left": 0.997181,
-             "hip_kt_scale_right": 0.973464, "hip_torque_lag_s": 0.000268073,
-             "hip_zero_offset_left_front": 0.0165703, "hip_zero_offset_left_rear": 0.0050533,
-             "hip_zero_offset_right_front": -0.0135017, "hip_zero_offset_right_rear": 0.00626788,
-             "imu_gyro_bias_x": -0.00499537, "imu_gyro_bias_y": 0.0174146, "imu_gyro_bias_z": -0.013225,
-             "imu_noise_scale": 1.95766, "imu_tilt_pitch_deg": -0.0869811, "imu_tilt_roll_deg": 0.942629,
-             "inertia_scale": 0.700549, "supply_voltage_v": 21.1154, "wheel_damping": 0.00292685,
-             "wheel_frictionloss_left": 0.133765, "wheel_frictionloss_right": 0.0864922,
-             "wheel_kt_scale_left": 0.968296, "wheel_kt_scale_right": 0.915795,
-             "wheel_radius_scale": 0.994824, "wheel_torque_lag_s": 0.000338532}
+SAMPLE_22_SEED, SAMPLE_22 = sourced_draw(5150, 22)
 
 
 def test_a_sprint_with_a_heavy_body_on_a_flat_battery_stays_up(rig_run):
@@ -110,7 +104,7 @@ def test_a_sprint_with_a_heavy_body_on_a_flat_battery_stays_up(rig_run):
     4.5 N m forward that the back-EMF left no room for). Easing at 2 m/s^3
     (params.SPEED_EASE_JERK_TOP) they peak at 2.19 and it stays up. Whether it holds 2 m/s
     within 0.1 is not asked here: it overshoots by 0.11 m/s (docs/measurements.md, 2026-12-06)."""
-    run = rig_run("sprint", seed=1698128908, plant=SAMPLE_22)  # the draw's noise seed too
+    run = rig_run("sprint", seed=SAMPLE_22_SEED, plant=SAMPLE_22)  # the draw's noise seed too
     upright = [c for c in run.checks if c.name.startswith(("stays up", "never tips"))]
     assert len(upright) == 2 and all(c.passed for c in upright), run.describe()
 
@@ -255,20 +249,8 @@ def test_a_wall_is_seen_at_the_impact_by_the_axles(rig_run):
     impact (1.63 s), the LQR meanwhile asking 12-21 N m forward (sent as 5.5) and spinning the
     wheels up the wall's face; the robot fell at 2.5 s. The axles' lag sees the impact within
     20 ms (docs/control.md, collisions)."""
-    plant = {"battery_resistance_ohm": 0.0440336, "body_mass_scale": 1.12014, "com_x_m": 0.0174166,
-             "com_y_m": 0.00088483, "com_z_m": -0.0128233, "command_delay_s": 5.04736e-05,
-             "feedback_delay_s": 0.000219358, "friction": 0.725803, "hip_armature": 0.0049033,
-             "hip_damping": 0.00388348, "hip_frictionloss_left": 0.25947, "hip_frictionloss_right": 0.30075,
-             "hip_kt_scale_left": 0.904858, "hip_kt_scale_right": 0.997153, "hip_torque_lag_s": 0.00225449,
-             "hip_zero_offset_left_front": -0.00547652, "hip_zero_offset_left_rear": -0.00613276,
-             "hip_zero_offset_right_front": 0.0128325, "hip_zero_offset_right_rear": 0.00896249,
-             "imu_gyro_bias_x": -0.0125556, "imu_gyro_bias_y": 0.00183471, "imu_gyro_bias_z": 0.0119365,
-             "imu_noise_scale": 1.65911, "imu_tilt_pitch_deg": 0.282625, "imu_tilt_roll_deg": -0.135733,
-             "inertia_scale": 1.00957, "supply_voltage_v": 22.42, "wheel_damping": 0.00490323,
-             "wheel_frictionloss_left": 0.158335, "wheel_frictionloss_right": 0.15198,
-             "wheel_kt_scale_left": 0.923432, "wheel_kt_scale_right": 0.939905, "wheel_radius_scale": 1.00195,
-             "wheel_torque_lag_s": 0.000225602}
-    run = rig_run("wall", seed=646301842, plant=plant)
+    seed, plant = sourced_draw(5150, 17)
+    run = rig_run("wall", seed=seed, plant=plant)
     run.assert_passed()
 
 
@@ -364,20 +346,8 @@ def test_a_forward_jump_whose_squat_shifts_the_balance_lean_still_thrusts_and_la
     settled at 0.08-0.10 rad; judged against it the run-up was never steady, the robot drove
     into the step's face and thrust there on the squat's timeout. Judged by the legs' own swing
     it thrusts on the run-up and ends on top (docs/control.md, jumps)."""
-    plant = {"battery_resistance_ohm": 0.0901071, "body_mass_scale": 0.970331, "com_x_m": -0.0104824,
-             "com_y_m": 0.00865843, "com_z_m": -0.0075288, "command_delay_s": 0.000274625,
-             "feedback_delay_s": 0.000903381, "friction": 0.80507, "hip_armature": 0.00214787,
-             "hip_damping": 0.00365778, "hip_frictionloss_left": 0.417108, "hip_frictionloss_right": 0.26321,
-             "hip_kt_scale_left": 1.00448, "hip_kt_scale_right": 0.910043, "hip_torque_lag_s": 0.00258434,
-             "hip_zero_offset_left_front": -0.0059449, "hip_zero_offset_left_rear": 0.0020629,
-             "hip_zero_offset_right_front": 0.0146338, "hip_zero_offset_right_rear": 0.00154632,
-             "imu_gyro_bias_x": -0.000495509, "imu_gyro_bias_y": -0.0104836, "imu_gyro_bias_z": 0.0100099,
-             "imu_noise_scale": 1.02899, "imu_tilt_pitch_deg": 0.870377, "imu_tilt_roll_deg": 1.11435,
-             "inertia_scale": 0.989881, "supply_voltage_v": 23.8287, "wheel_damping": 0.00408855,
-             "wheel_frictionloss_left": 0.136155, "wheel_frictionloss_right": 0.119233,
-             "wheel_kt_scale_left": 0.952814, "wheel_kt_scale_right": 1.00695, "wheel_radius_scale": 0.96992,
-             "wheel_torque_lag_s": 0.000729727}
-    rig_run("jump-step", seed=347332347, plant=plant).assert_passed()
+    seed, plant = sourced_draw(5150, 8)
+    rig_run("jump-step", seed=seed, plant=plant).assert_passed()
 
 
 def test_a_forward_jump_on_heavy_hip_rotors_keeps_its_wheels_up_and_lands_on_top(rig_run):
@@ -386,37 +356,13 @@ def test_a_forward_jump_on_heavy_hip_rotors_keeps_its_wheels_up_and_lands_on_top
     read as support after FLIGHT's 0.05 s minimum and LAND balanced in the air, the wheels
     coming down on the step's edge. Tucked until the top the thrust's rate predicts and landing
     only on a leg the ground pushes in, it ends on top."""
-    plant = {"battery_resistance_ohm": 0.0306151, "body_mass_scale": 0.960355, "com_x_m": -0.00698299,
-             "com_y_m": 0.00180893, "com_z_m": -0.00602245, "command_delay_s": 0.000800946,
-             "feedback_delay_s": 0.000304582, "friction": 0.78687, "hip_armature": 0.0114078,
-             "hip_damping": 0.00317062, "hip_frictionloss_left": 0.330405, "hip_frictionloss_right": 0.191774,
-             "hip_kt_scale_left": 0.969792, "hip_kt_scale_right": 0.969415, "hip_torque_lag_s": 0.00241683,
-             "hip_zero_offset_left_front": -0.00378891, "hip_zero_offset_left_rear": 0.0157222,
-             "hip_zero_offset_right_front": 0.019101, "hip_zero_offset_right_rear": -0.0123481,
-             "imu_gyro_bias_x": -0.00136894, "imu_gyro_bias_y": 0.00812802, "imu_gyro_bias_z": -0.00170936,
-             "imu_noise_scale": 1.76067, "imu_tilt_pitch_deg": -1.29297, "imu_tilt_roll_deg": -0.151069,
-             "inertia_scale": 0.998169, "supply_voltage_v": 22.1989, "wheel_damping": 0.00319344,
-             "wheel_frictionloss_left": 0.151316, "wheel_frictionloss_right": 0.145833,
-             "wheel_kt_scale_left": 0.923121, "wheel_kt_scale_right": 0.935155, "wheel_radius_scale": 0.996389,
-             "wheel_torque_lag_s": 0.000994426}
-    rig_run("jump-step", seed=235674219, plant=plant).assert_passed()
+    seed, plant = sourced_draw(5150, 0)
+    rig_run("jump-step", seed=seed, plant=plant).assert_passed()
 
 
 # sample 4 of `wheelleg campaign pose --preset tolerance --seed 5150`: stiff hips (0.33, 0.39 N m of dry
 # friction), the CyberGears' current loop at 1.7 ms
-_STIFF_HIPS_SEED = 1440715349
-_STIFF_HIPS = {
-    "battery_resistance_ohm": 0.0847716, "body_mass_scale": 1.00986, "com_x_m": 0.0109995, "com_y_m": -0.00882282,
-    "com_z_m": -0.00909053, "command_delay_s": 0.000338526, "feedback_delay_s": 0.000716216, "friction": 0.650273,
-    "hip_armature": 0.00293652, "hip_damping": 0.00448535, "hip_frictionloss_left": 0.325754,
-    "hip_frictionloss_right": 0.392434, "hip_kt_scale_left": 0.976047, "hip_kt_scale_right": 0.967828,
-    "hip_torque_lag_s": 0.00167153, "hip_zero_offset_left_front": -0.00259311, "hip_zero_offset_left_rear": -0.00511448,
-    "hip_zero_offset_right_front": 0.0101485, "hip_zero_offset_right_rear": -0.0072531, "imu_gyro_bias_x": -0.00775313,
-    "imu_gyro_bias_y": -0.00476568, "imu_gyro_bias_z": -0.0114495, "imu_noise_scale": 1.12437,
-    "imu_tilt_pitch_deg": 0.616249, "imu_tilt_roll_deg": 0.930051, "inertia_scale": 0.943398,
-    "supply_voltage_v": 23.1197, "wheel_damping": 0.00228815, "wheel_frictionloss_left": 0.151886,
-    "wheel_frictionloss_right": 0.0866284, "wheel_kt_scale_left": 0.939904, "wheel_kt_scale_right": 0.989142,
-    "wheel_radius_scale": 0.972426, "wheel_torque_lag_s": 0.000668806}
+_STIFF_HIPS_SEED, _STIFF_HIPS = sourced_draw(5150, 4)
 
 
 def test_pose_holds_its_pitch_on_stiff_hips(rig_run):
